@@ -1,0 +1,460 @@
+//! The scheduler: runs the planned instances on rayon, upstream first, as many at once as
+//! their dependencies and `--jobs` allow.
+//!
+//! Each instance, once its inputs are settled, is decided again ([`Context::decide`]) with the
+//! digests its upstream just produced: a stage whose upstream reran but produced identical bytes
+//! is found cached (early cutoff). A failed stage skips its dependents; independent branches
+//! finish and are cached.
+
+use std::collections::{BTreeMap, HashMap};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use squeal_cache::{ActionRecord, Digest};
+use squeal_stages::{Artifact, Input, Inputs, Outputs, Params, StageError};
+
+use crate::output;
+use crate::plan::{Context, Decision, ResolvedInputs};
+
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Worker threads; `None` uses every core.
+    pub jobs: Option<usize>,
+    pub out_dir: PathBuf,
+    pub progress: bool,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Status {
+    Ran,
+    Cached,
+    Failed(String),
+    /// Not run because this upstream instance failed or was skipped.
+    Skipped(String),
+}
+
+impl Status {
+    pub fn label(&self) -> &'static str {
+        match self {
+            Status::Ran => "ran",
+            Status::Cached => "cached",
+            Status::Failed(_) => "failed",
+            Status::Skipped(_) => "skipped",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct InstanceReport {
+    pub name: String,
+    pub stage: String,
+    pub kind: String,
+    pub key: Option<Digest>,
+    pub status: Status,
+    pub reasons: Vec<String>,
+    pub wall_s: f64,
+    pub params_json: String,
+    pub outputs: BTreeMap<String, Digest>,
+}
+
+#[derive(Debug, Clone)]
+pub struct RunReport {
+    pub instances: Vec<InstanceReport>,
+    pub wall_s: f64,
+}
+
+impl RunReport {
+    pub fn count(&self, label: &str) -> usize {
+        self.instances
+            .iter()
+            .filter(|report| report.status.label() == label)
+            .count()
+    }
+
+    pub fn succeeded(&self) -> bool {
+        self.count("failed") + self.count("skipped") == 0
+    }
+}
+
+struct Shared {
+    reports: Vec<Option<InstanceReport>>,
+    inputs: Vec<Option<ResolvedInputs>>,
+    pending: Vec<usize>,
+    running: Vec<String>,
+    exports: BTreeMap<String, Digest>,
+}
+
+struct Executor<'a> {
+    context: &'a Context<'a>,
+    options: &'a RunOptions,
+    dependents: Vec<Vec<usize>>,
+    shared: Mutex<Shared>,
+    /// Artifacts decoded or produced during this run, so consumers need not read them back.
+    memo: Mutex<HashMap<Digest, Arc<Artifact>>>,
+    progress: ProgressBar,
+}
+
+const EXPORTS_FILE: &str = ".squeal-exports.json";
+
+/// Runs every instance of the context and writes the outputs, the manifest and the record.
+pub fn run(
+    context: &Context,
+    options: &RunOptions,
+    record_path: &Path,
+) -> std::io::Result<RunReport> {
+    let started = Instant::now();
+    let n_instances = context.instances.list.len();
+    let mut dependents = vec![Vec::new(); n_instances];
+    let mut pending = vec![0; n_instances];
+    for (idx, instance) in context.instances.list.iter().enumerate() {
+        let mut upstream: Vec<usize> = instance
+            .inputs
+            .iter()
+            .flat_map(|input| input.from.iter().copied())
+            .collect();
+        upstream.sort_unstable();
+        upstream.dedup();
+        pending[idx] = upstream.len();
+        for up in upstream {
+            dependents[up].push(idx);
+        }
+    }
+    let exports_path = options.out_dir.join(EXPORTS_FILE);
+    let exports = std::fs::read(&exports_path)
+        .ok()
+        .and_then(|bytes| serde_json::from_slice(&bytes).ok())
+        .unwrap_or_default();
+    let progress = if options.progress {
+        let bar =
+            ProgressBar::with_draw_target(Some(n_instances as u64), ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let roots: Vec<usize> = (0..n_instances).filter(|&idx| pending[idx] == 0).collect();
+    let executor = Executor {
+        context,
+        options,
+        dependents,
+        shared: Mutex::new(Shared {
+            reports: vec![None; n_instances],
+            inputs: vec![None; n_instances],
+            pending,
+            running: Vec::new(),
+            exports,
+        }),
+        memo: Mutex::new(HashMap::new()),
+        progress,
+    };
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(jobs) = options.jobs {
+        builder = builder.num_threads(jobs.max(1));
+    }
+    let pool = builder.build().map_err(std::io::Error::other)?;
+    pool.install(|| {
+        rayon::scope(|scope| {
+            for idx in roots {
+                spawn(scope, &executor, idx);
+            }
+        })
+    });
+    executor.progress.finish_and_clear();
+    let shared = executor
+        .shared
+        .into_inner()
+        .expect("no worker panics while holding the lock");
+    let reports: Vec<InstanceReport> = shared
+        .reports
+        .into_iter()
+        .map(|report| report.expect("every instance is settled"))
+        .collect();
+
+    let mut record = context.record.clone();
+    for (idx, report) in reports.iter().enumerate() {
+        if let (Some(key), Some(inputs), Status::Ran | Status::Cached) =
+            (report.key, &shared.inputs[idx], &report.status)
+        {
+            record.instances.insert(
+                report.name.clone(),
+                context.record_of(idx, key, inputs, &report.outputs),
+            );
+        }
+    }
+    record.save(record_path)?;
+    output::write_atomic(
+        &exports_path,
+        &serde_json::to_vec_pretty(&shared.exports).expect("serialises"),
+    )?;
+    let report = RunReport {
+        instances: reports,
+        wall_s: started.elapsed().as_secs_f64(),
+    };
+    crate::manifest::write(&options.out_dir.join("manifest.parquet"), &report)?;
+    Ok(report)
+}
+
+fn spawn<'s>(scope: &rayon::Scope<'s>, executor: &'s Executor<'s>, idx: usize) {
+    scope.spawn(move |scope| {
+        let report = executor.process(idx);
+        for dependent in executor.settle(idx, report) {
+            spawn(scope, executor, dependent);
+        }
+    });
+}
+
+impl Executor<'_> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Shared> {
+        self.shared
+            .lock()
+            .expect("no worker panics while holding the lock")
+    }
+
+    /// Records the outcome and returns the dependents that became ready.
+    fn settle(&self, idx: usize, report: InstanceReport) -> Vec<usize> {
+        let mut shared = self.lock();
+        shared.running.retain(|name| *name != report.name);
+        shared.reports[idx] = Some(report);
+        self.progress.inc(1);
+        self.progress.set_message(shared.running.join(", "));
+        let mut ready = Vec::new();
+        for &dependent in &self.dependents[idx] {
+            shared.pending[dependent] -= 1;
+            if shared.pending[dependent] == 0 {
+                ready.push(dependent);
+            }
+        }
+        ready
+    }
+
+    fn process(&self, idx: usize) -> InstanceReport {
+        let context = self.context;
+        let instance = &context.instances.list[idx];
+        let decl = &context.study.stages[instance.stage];
+        let mut report = InstanceReport {
+            name: instance.name.clone(),
+            stage: decl.name.clone(),
+            kind: decl.stage.kind().into(),
+            key: None,
+            status: Status::Ran,
+            reasons: Vec::new(),
+            wall_s: 0.0,
+            params_json: params_json(instance),
+            outputs: BTreeMap::new(),
+        };
+        let inputs = {
+            let shared = self.lock();
+            let blocked = instance
+                .inputs
+                .iter()
+                .flat_map(|input| &input.from)
+                .find(|&&up| {
+                    !matches!(
+                        shared.reports[up].as_ref().map(|report| &report.status),
+                        Some(Status::Ran | Status::Cached)
+                    )
+                });
+            if let Some(&up) = blocked {
+                report.status = Status::Skipped(context.instances.list[up].name.clone());
+                return report;
+            }
+            context.resolve_inputs(idx, &|up| {
+                shared.reports[up]
+                    .as_ref()
+                    .map(|report| report.outputs.clone())
+            })
+        };
+        self.lock().inputs[idx] = Some(inputs.clone());
+        match context.decide(idx, &inputs) {
+            Decision::Cached { key, outputs } => {
+                report.key = Some(key);
+                report.status = Status::Cached;
+                report.outputs = outputs;
+                tracing::debug!(stage = %instance.name, "cached");
+            }
+            Decision::Runs { key, reasons } => {
+                let key = key.expect("inputs are settled, so the key is known");
+                report.key = Some(key);
+                report.reasons = reasons;
+                tracing::info!(stage = %instance.name, reason = %report.reasons.join("; "), "runs");
+                self.lock().running.push(instance.name.clone());
+                let started = Instant::now();
+                let result = self.execute(idx, key, &inputs);
+                report.wall_s = started.elapsed().as_secs_f64();
+                match result {
+                    Ok(outputs) => report.outputs = outputs,
+                    Err(message) => {
+                        tracing::error!(stage = %instance.name, "{message}");
+                        report.status = Status::Failed(message);
+                        return report;
+                    }
+                }
+            }
+        }
+        if let Err(message) = self.export(idx, &report.outputs) {
+            report.status = Status::Failed(message);
+        }
+        report
+    }
+
+    /// Loads the inputs, runs the stage, stores and records its outputs.
+    fn execute(
+        &self,
+        idx: usize,
+        key: Digest,
+        inputs: &ResolvedInputs,
+    ) -> Result<BTreeMap<String, Digest>, String> {
+        let context = self.context;
+        let instance = &context.instances.list[idx];
+        let stage = &context.study.stages[instance.stage].stage;
+        let mut stage_inputs = Inputs::default();
+        for (input, (port, artifacts)) in instance.inputs.iter().zip(inputs) {
+            let mut loaded = Vec::with_capacity(artifacts.len());
+            for artifact in artifacts {
+                let digest = artifact.digest.expect("settled inputs have digests");
+                let value = self
+                    .load(&digest)
+                    .map_err(|err| format!("input `{}`: {err}", artifact.reference))?;
+                loaded.push((context.point_coords(idx, artifact.instance), value));
+            }
+            let value = match input.arity {
+                squeal_stages::Arity::One => Input::One(loaded.pop().expect("one artifact").1),
+                squeal_stages::Arity::Many => Input::Many(loaded),
+            };
+            stage_inputs.0.insert(port.clone(), value);
+        }
+        let params = Params(instance.params.clone());
+        let outputs: Outputs =
+            match catch_unwind(AssertUnwindSafe(|| stage.run(&params, &stage_inputs))) {
+                Ok(Ok(outputs)) => outputs,
+                Ok(Err(StageError { message })) => return Err(message),
+                Err(payload) => {
+                    let message = payload
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| payload.downcast_ref::<&str>().map(|text| text.to_string()))
+                        .unwrap_or_else(|| "unknown panic".into());
+                    return Err(format!("internal error in `{}`: {message}", stage.kind()));
+                }
+            };
+        let declared = stage.outputs();
+        for port in &declared {
+            match outputs.get(port.name) {
+                Some(artifact) if artifact.artifact_type() == port.ty => {}
+                Some(artifact) => {
+                    return Err(format!(
+                        "internal error: output `{}` is a {}, declared {}",
+                        port.name,
+                        artifact.artifact_type(),
+                        port.ty
+                    ));
+                }
+                None => {
+                    return Err(format!(
+                        "internal error: output `{}` was not produced",
+                        port.name
+                    ));
+                }
+            }
+        }
+        if let Some(extra) = outputs
+            .keys()
+            .find(|name| !declared.iter().any(|port| port.name == *name))
+        {
+            return Err(format!("internal error: undeclared output `{extra}`"));
+        }
+        let mut digests = BTreeMap::new();
+        for (name, artifact) in outputs {
+            let digest = context
+                .cache
+                .put_object(&artifact.encode())
+                .map_err(|err| err.to_string())?;
+            self.memo
+                .lock()
+                .expect("memo lock")
+                .insert(digest, Arc::new(artifact));
+            digests.insert(name, digest);
+        }
+        if stage.pure() {
+            let action = ActionRecord {
+                stage: instance.name.clone(),
+                kind: stage.kind().into(),
+                outputs: digests.clone(),
+                wall_s: 0.0,
+            };
+            context
+                .cache
+                .put_action(&key, &action)
+                .map_err(|err| err.to_string())?;
+        }
+        Ok(digests)
+    }
+
+    fn load(&self, digest: &Digest) -> Result<Arc<Artifact>, String> {
+        if let Some(artifact) = self.memo.lock().expect("memo lock").get(digest) {
+            return Ok(artifact.clone());
+        }
+        let bytes = self
+            .context
+            .cache
+            .get_object(digest)
+            .map_err(|err| err.to_string())?;
+        let artifact = Arc::new(Artifact::decode(&bytes).map_err(|err| err.to_string())?);
+        self.memo
+            .lock()
+            .expect("memo lock")
+            .insert(*digest, artifact.clone());
+        Ok(artifact)
+    }
+
+    /// Writes each table output to Parquet unless the file there already holds these bytes.
+    fn export(&self, idx: usize, outputs: &BTreeMap<String, Digest>) -> Result<(), String> {
+        let instances = self.context.instances;
+        let instance = &instances.list[idx];
+        let mut dir = PathBuf::from(&self.context.study.stages[instance.stage].name);
+        for segment in instances.coord_segments(instance) {
+            dir.push(segment);
+        }
+        for (name, digest) in outputs {
+            let relative = dir.join(format!("{name}.parquet"));
+            let relative_key = relative.to_string_lossy().into_owned();
+            let path = self.options.out_dir.join(&relative);
+            if self.lock().exports.get(&relative_key) == Some(digest) && path.exists() {
+                continue;
+            }
+            let artifact = self
+                .load(digest)
+                .map_err(|err| format!("output `{name}`: {err}"))?;
+            if let Some(table) = artifact.as_table() {
+                output::write_parquet(&path, table)
+                    .map_err(|err| format!("writing {}: {err}", path.display()))?;
+                self.lock().exports.insert(relative_key, *digest);
+            }
+        }
+        Ok(())
+    }
+}
+
+fn params_json(instance: &crate::instances::Instance) -> String {
+    let map: serde_json::Map<String, serde_json::Value> = instance
+        .params
+        .iter()
+        .map(|(name, value)| {
+            let json = match value {
+                squeal_stages::Value::Bool(value) => serde_json::Value::from(*value),
+                squeal_stages::Value::Int(value) => serde_json::Value::from(*value),
+                squeal_stages::Value::Float(value) => serde_json::Value::from(*value),
+                squeal_stages::Value::Str(value) => serde_json::Value::from(value.clone()),
+            };
+            (name.clone(), json)
+        })
+        .collect();
+    serde_json::Value::Object(map).to_string()
+}

@@ -1,0 +1,271 @@
+//! Study files: YAML → a raw, located syntax tree, and the error type every spec problem uses.
+//!
+//! Parsing is strict (unknown keys, duplicate keys and wrong shapes are errors); meaning
+//! (kinds, parameters, references, cycles) is checked in [`crate::study`]. Every error names
+//! `file:line:col` and the field path.
+
+use std::fmt;
+
+use serde::Deserialize;
+use serde::de::{MapAccess, Visitor};
+use serde_saphyr::Spanned;
+
+/// Where a spec problem is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Location {
+    File {
+        file: String,
+        line: u64,
+        col: u64,
+    },
+    /// A `--set stage.param=value` on the command line.
+    CommandLine(String),
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::File { file, line, col } => write!(f, "{file}:{line}:{col}"),
+            Location::CommandLine(arg) => write!(f, "--set {arg}"),
+        }
+    }
+}
+
+/// A one-line problem with a study: location, field path, message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{location}: {path}: {message}")]
+pub struct SpecError {
+    pub location: Location,
+    pub path: String,
+    pub message: String,
+}
+
+/// A value with where it was written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Located<T> {
+    pub value: T,
+    pub location: Location,
+}
+
+impl<T> Located<T> {
+    pub fn error(&self, path: impl Into<String>, message: impl Into<String>) -> SpecError {
+        SpecError {
+            location: self.location.clone(),
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// A scalar as written in YAML (or on the command line), before it meets its declaration.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum RawValue {
+    Bool(bool),
+    Int(i64),
+    Float(f64),
+    Str(String),
+}
+
+impl fmt::Display for RawValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RawValue::Bool(value) => write!(f, "{value}"),
+            RawValue::Int(value) => write!(f, "{value}"),
+            RawValue::Float(value) => write!(f, "{value}"),
+            RawValue::Str(value) => write!(f, "\"{value}\""),
+        }
+    }
+}
+
+/// The values a `matrix:` entry sweeps: a list, or an evenly spaced range.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum RawSweep {
+    List(Vec<RawValue>),
+    Range(RawRange),
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRange {
+    pub start: f64,
+    pub stop: f64,
+    /// Number of points, both ends included.
+    pub num: usize,
+}
+
+/// A YAML mapping kept in file order. (Keys are plain strings so that error paths can name
+/// them; errors about an entry point at its value.)
+#[derive(Debug, Clone, PartialEq)]
+pub struct OrderedMap<V>(pub Vec<(String, V)>);
+
+impl<V> Default for OrderedMap<V> {
+    fn default() -> Self {
+        OrderedMap(Vec::new())
+    }
+}
+
+impl<'de, V: Deserialize<'de>> Deserialize<'de> for OrderedMap<V> {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct MapVisitor<V>(std::marker::PhantomData<V>);
+        impl<'de, V: Deserialize<'de>> Visitor<'de> for MapVisitor<V> {
+            type Value = OrderedMap<V>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a mapping")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+                let mut entries = Vec::new();
+                while let Some(key) = map.next_key::<String>()? {
+                    entries.push((key, map.next_value()?));
+                }
+                Ok(OrderedMap(entries))
+            }
+        }
+        deserializer.deserialize_map(MapVisitor(std::marker::PhantomData))
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawStudy {
+    /// The study's name (defaults to the file stem).
+    pub study: Option<String>,
+    #[serde(default)]
+    pub description: String,
+    /// Stages whose outputs are wanted; all stages when absent.
+    pub targets: Option<Vec<Spanned<String>>>,
+    pub stages: OrderedMap<RawStage>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawStage {
+    pub kind: Spanned<String>,
+    #[serde(default)]
+    pub params: OrderedMap<Spanned<RawValue>>,
+    /// Input port → `stage.output`.
+    #[serde(default)]
+    pub inputs: OrderedMap<Spanned<String>>,
+    /// Swept parameter → values; several entries sweep their cartesian product.
+    #[serde(default)]
+    pub matrix: OrderedMap<Spanned<RawSweep>>,
+}
+
+pub fn located<T>(file: &str, spanned: Spanned<T>) -> Located<T> {
+    Located {
+        location: file_location(file, &spanned.referenced),
+        value: spanned.value,
+    }
+}
+
+pub fn file_location(file: &str, location: &serde_saphyr::Location) -> Location {
+    Location::File {
+        file: file.to_string(),
+        line: location.line(),
+        col: location.column(),
+    }
+}
+
+/// Parses a study. `file` is the name used in error messages.
+pub fn parse(file: &str, text: &str) -> Result<RawStudy, SpecError> {
+    let options = serde_saphyr::options! { with_snippet: false };
+    let mut path = String::new();
+    let result = serde_saphyr::with_deserializer_from_str_with_options(text, options, |de| {
+        serde_path_to_error::deserialize(de).map_err(|err| {
+            path = err.path().to_string();
+            err.into_inner()
+        })
+    });
+    result.map_err(|err| {
+        let location = err.location().map_or(
+            Location::File {
+                file: file.to_string(),
+                line: 1,
+                col: 1,
+            },
+            |location| file_location(file, &location),
+        );
+        let path = if path.is_empty() || path == "." {
+            "(study)".to_string()
+        } else {
+            path
+        };
+        SpecError {
+            location,
+            path,
+            message: one_line(&err.without_snippet().to_string()),
+        }
+    })
+}
+
+/// Parses one `--set` value as a YAML scalar.
+pub fn parse_scalar(text: &str) -> Option<RawValue> {
+    serde_saphyr::from_str(text).ok()
+}
+
+/// serde-saphyr appends " at line L column C"; we print the location first instead.
+fn one_line(message: &str) -> String {
+    let first = message.lines().next().unwrap_or(message).trim();
+    let trimmed = match first.rfind(" at line ") {
+        Some(idx) => &first[..idx],
+        None => first,
+    };
+    trimmed
+        .trim_end_matches('.')
+        .trim_end_matches(':')
+        .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn error(text: &str) -> String {
+        parse("s.yaml", text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn keeps_stage_order_and_locations() {
+        let text = "stages:\n  b:\n    kind: x\n  a:\n    kind: y\n    params: { mu: 0.38 }\n";
+        let study = parse("s.yaml", text).unwrap();
+        let names: Vec<&str> = study
+            .stages
+            .0
+            .iter()
+            .map(|(name, _)| name.as_str())
+            .collect();
+        assert_eq!(names, ["b", "a"]);
+        let (_, a) = &study.stages.0[1];
+        assert_eq!(a.kind.referenced.line(), 5);
+        let (_, mu) = &a.params.0[0];
+        assert_eq!(mu.value, RawValue::Float(0.38));
+        assert_eq!((mu.referenced.line(), mu.referenced.column()), (6, 19));
+    }
+
+    #[test]
+    fn unknown_key_names_location_and_path() {
+        let message = error("stages:\n  a:\n    kind: x\n    parms: {}\n");
+        assert!(
+            message.starts_with("s.yaml:4:5: stages.a.parms: unknown field `parms`"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn syntax_and_duplicates_are_located() {
+        let message = error("stages:\n  a:\n    kind: [x\n");
+        assert!(message.starts_with("s.yaml:"), "{message}");
+        let message = error("stages:\n  a:\n    kind: x\n  a:\n    kind: y\n");
+        assert!(message.starts_with("s.yaml:4:"), "{message}");
+        assert!(message.contains("duplicate"), "{message}");
+    }
+
+    #[test]
+    fn scalars_parse_like_yaml() {
+        assert_eq!(parse_scalar("0.38"), Some(RawValue::Float(0.38)));
+        assert_eq!(parse_scalar("12"), Some(RawValue::Int(12)));
+        assert_eq!(parse_scalar("true"), Some(RawValue::Bool(true)));
+        assert_eq!(parse_scalar("40 mm"), Some(RawValue::Str("40 mm".into())));
+    }
+}

@@ -1,0 +1,161 @@
+//! Parameter values against their declarations: types, bounds and units.
+//!
+//! Parameters are SI. A numeric parameter may be written as a bare number (SI) or as a string
+//! `"<number> <unit>"` whose unit is the declared one with an optional decimal prefix
+//! (`40 mm`, `17 kHz`, `210 GPa`); the value is converted to SI before it is hashed, so `0.04`
+//! and `"40 mm"` are the same parameter value.
+
+use squeal_stages::{ParamSpec, ParamType, Value};
+
+use crate::spec::RawValue;
+
+const PREFIXES: &[(&str, f64)] = &[
+    ("G", 1e9),
+    ("M", 1e6),
+    ("k", 1e3),
+    ("c", 1e-2),
+    ("m", 1e-3),
+    ("u", 1e-6),
+    ("µ", 1e-6),
+    ("n", 1e-9),
+];
+
+/// Checks `raw` against `spec`, converting units. The error is one line, without location.
+pub fn convert(spec: &ParamSpec, raw: &RawValue) -> Result<Value, String> {
+    let value = match (&spec.ty, raw) {
+        (ParamType::Bool, RawValue::Bool(value)) => Value::Bool(*value),
+        (ParamType::Int { .. }, RawValue::Int(value)) => Value::Int(*value),
+        (ParamType::Float { .. }, RawValue::Int(value)) => Value::Float(*value as f64),
+        (ParamType::Float { .. }, RawValue::Float(value)) => Value::Float(*value),
+        (ParamType::Float { .. }, RawValue::Str(text)) => Value::Float(with_unit(spec, text)?),
+        (ParamType::Str, RawValue::Str(text)) => Value::Str(text.clone()),
+        (ParamType::Choice(choices), RawValue::Str(text)) if choices.contains(&text.as_str()) => {
+            Value::Str(text.clone())
+        }
+        (ty, raw) => return Err(format!("expected {ty}, found {raw}")),
+    };
+    check_bounds(spec, &value)?;
+    Ok(value)
+}
+
+fn check_bounds(spec: &ParamSpec, value: &Value) -> Result<(), String> {
+    match (&spec.ty, value) {
+        (ParamType::Float { min }, Value::Float(value)) if !value.is_finite() || value < min => {
+            Err(format!(
+                "{value} is out of range: expected a finite float >= {min}"
+            ))
+        }
+        (ParamType::Int { min }, Value::Int(value)) if value < min => {
+            Err(format!("{value} is out of range: expected an int >= {min}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// `"40 mm"` for a parameter in `m` → 0.04.
+fn with_unit(spec: &ParamSpec, text: &str) -> Result<f64, String> {
+    let text = text.trim();
+    let split = text
+        .find(|c: char| {
+            c.is_whitespace() || (c.is_alphabetic() && c != 'e' && c != 'E') || c == 'µ'
+        })
+        .unwrap_or(text.len());
+    let (number, unit) = (text[..split].trim(), text[split..].trim());
+    let number: f64 = number.parse().map_err(|_| {
+        format!(
+            "expected a number with an optional unit ({}), found \"{text}\"",
+            unit_name(spec)
+        )
+    })?;
+    if unit.is_empty() || unit == spec.unit {
+        return Ok(number);
+    }
+    if !spec.unit.is_empty() {
+        for (prefix, factor) in PREFIXES {
+            if unit.strip_prefix(prefix) == Some(spec.unit) {
+                return Ok(number * factor);
+            }
+        }
+    }
+    Err(format!(
+        "unit `{unit}` does not match the parameter's unit ({})",
+        unit_name(spec)
+    ))
+}
+
+fn unit_name(spec: &ParamSpec) -> String {
+    if spec.unit.is_empty() {
+        "dimensionless".into()
+    } else {
+        format!("`{}`", spec.unit)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(spec: &ParamSpec, raw: RawValue, expected: Result<Value, &str>) {
+        let actual = convert(spec, &raw);
+        match (actual, expected) {
+            (Ok(actual), Ok(expected)) => assert_eq!(actual, expected),
+            (Err(actual), Err(expected)) => assert!(actual.contains(expected), "{actual}"),
+            (actual, expected) => panic!("{raw}: got {actual:?}, expected {expected:?}"),
+        }
+    }
+
+    #[test]
+    fn units_convert_to_si() {
+        let thickness = ParamSpec::float("thickness", 0.04, "m", "disc thickness");
+        let float = |value| Ok(Value::Float(value));
+        check(&thickness, RawValue::Float(0.04), float(0.04));
+        check(&thickness, RawValue::Int(1), float(1.0));
+        check(&thickness, RawValue::Str("40 mm".into()), float(0.04));
+        check(&thickness, RawValue::Str("4cm".into()), float(0.04));
+        check(&thickness, RawValue::Str("0.04 m".into()), float(0.04));
+        check(&thickness, RawValue::Str("4e1 mm".into()), float(0.04));
+        check(
+            &thickness,
+            RawValue::Str("40 Hz".into()),
+            Err("unit `Hz` does not match"),
+        );
+        check(
+            &thickness,
+            RawValue::Str("forty".into()),
+            Err("expected a number"),
+        );
+        check(
+            &thickness,
+            RawValue::Bool(true),
+            Err("expected float, found true"),
+        );
+        let modulus = ParamSpec::float("E", 2.02e11, "Pa", "Young's modulus");
+        check(&modulus, RawValue::Str("202 GPa".into()), float(2.02e11));
+        let mu = ParamSpec::float("mu", 0.38, "", "friction coefficient").at_least(0.0);
+        check(&mu, RawValue::Str("0.3 Pa".into()), Err("(dimensionless)"));
+        check(&mu, RawValue::Float(-0.1), Err("out of range"));
+    }
+
+    #[test]
+    fn other_types_are_strict() {
+        let count = ParamSpec::int("n", 4, "count").at_least(1.0);
+        check(&count, RawValue::Int(3), Ok(Value::Int(3)));
+        check(
+            &count,
+            RawValue::Float(3.0),
+            Err("expected int >= 1, found 3"),
+        );
+        check(&count, RawValue::Int(0), Err("out of range"));
+        let method = ParamSpec::choice("method", &["krylov", "projection"], "krylov", "solver");
+        check(
+            &method,
+            RawValue::Str("krylov".into()),
+            Ok(Value::Str("krylov".into())),
+        );
+        check(
+            &method,
+            RawValue::Str("qz".into()),
+            Err("expected one of krylov | projection"),
+        );
+    }
+}

@@ -1,0 +1,456 @@
+//! The `squeal` command line: argument parsing, the stage registry and exit codes. Everything
+//! else lives in the `squeal-engine`, `squeal-cache` and `squeal-stages` crates.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context as _, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use squeal_cache::{Cache, GcPolicy};
+use squeal_engine::plan::{self, Context, Decision};
+use squeal_engine::record::RunRecord;
+use squeal_engine::{Instances, Override, Registry, RunOptions, SpecError, Status, Study, dag};
+
+/// Declarative, cached, parallel pipelines for brake squeal studies.
+#[derive(Parser)]
+#[command(name = "squeal", version, about)]
+struct Cli {
+    /// Log what the engine does (-v: stages, -vv: everything).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    /// Cache directory [default: .squeal/cache beside the study].
+    #[arg(long, env = "SQUEAL_CACHE", global = true)]
+    cache: Option<PathBuf>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args)]
+struct StudyArgs {
+    /// The study file (YAML).
+    study: PathBuf,
+    /// Override a parameter: stage.param=value (part of the cache key).
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    set: Vec<String>,
+    /// Compute these stages (and what they need) instead of the study's targets.
+    #[arg(long = "target", value_name = "STAGE")]
+    targets: Vec<String>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Check a study without running anything.
+    Validate(StudyArgs),
+    /// List every stage kind with its parameters, inputs and outputs.
+    Stages,
+    /// Show, for each stage instance, whether it is cached or why it runs.
+    Plan(StudyArgs),
+    /// Run a study and write its Parquet outputs.
+    Run {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Output directory [default: out/<study file stem>].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Stages run at once [default: all cores].
+        #[arg(long, short)]
+        jobs: Option<usize>,
+    },
+    /// Print the DAG of stage instances.
+    Dag {
+        #[command(flatten)]
+        study: StudyArgs,
+        #[arg(long, value_enum, default_value = "dot")]
+        format: DagFormat,
+    },
+    /// Inspect and maintain the cache.
+    #[command(subcommand)]
+    Cache(CacheCommand),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum DagFormat {
+    Dot,
+    Mermaid,
+}
+
+#[derive(Subcommand)]
+enum CacheCommand {
+    /// Entries and size.
+    Stats,
+    /// Re-hash every entry; corrupt ones are discarded and listed (exit code 1).
+    Verify,
+    /// Remove what is not needed: keep what the given studies use, and/or trim to a size.
+    Gc {
+        /// Keep only the entries these studies reference.
+        studies: Vec<PathBuf>,
+        /// Then evict least recently used entries down to this size (e.g. 500M, 20G).
+        #[arg(long, value_parser = parse_size)]
+        max_size: Option<u64>,
+    },
+}
+
+/// A user error in the study or the arguments: exit code 2.
+#[derive(Debug, thiserror::Error)]
+#[error(transparent)]
+struct UsageError(#[from] SpecError);
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let level = match cli.verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("SQUEAL_LOG")
+                .unwrap_or_else(|_| level.into()),
+        )
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .init();
+    std::panic::set_hook(Box::new(|info| tracing::error!("internal error: {info}")));
+    match execute(cli) {
+        Ok(code) => code,
+        Err(err) if err.is::<UsageError>() => {
+            eprintln!("error: {err}");
+            ExitCode::from(2)
+        }
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn registry() -> Registry {
+    let mut kinds = squeal_stages::all_kinds();
+    if std::env::var_os("SQUEAL_TEST_KINDS").is_some_and(|value| value == "1") {
+        kinds.extend(squeal_stages::test_kinds());
+    }
+    Registry::new(kinds)
+}
+
+/// The folder beside the study where squeal keeps its cache and run records.
+fn state_dir(study: &Path) -> PathBuf {
+    study.parent().unwrap_or(Path::new(".")).join(".squeal")
+}
+
+fn cache_dir(cli_cache: &Option<PathBuf>, study: Option<&Path>) -> PathBuf {
+    match (cli_cache, study) {
+        (Some(dir), _) => dir.clone(),
+        (None, Some(study)) => state_dir(study).join("cache"),
+        (None, None) => PathBuf::from(".squeal/cache"),
+    }
+}
+
+fn load_study(args: &StudyArgs, registry: &Registry) -> Result<(Study, Vec<usize>)> {
+    let overrides: Vec<Override> = args
+        .set
+        .iter()
+        .map(|arg| arg.parse())
+        .collect::<Result<_, SpecError>>()
+        .map_err(UsageError)?;
+    let study = Study::load(&args.study, registry, &overrides).map_err(UsageError)?;
+    let mut targets = study.targets.clone();
+    if !args.targets.is_empty() {
+        targets = args
+            .targets
+            .iter()
+            .map(|name| {
+                study.index_of(name).ok_or_else(|| SpecError {
+                    location: squeal_engine::spec::Location::CommandLine(format!(
+                        "--target {name}"
+                    )),
+                    path: "--target".into(),
+                    message: format!("no stage named `{name}`"),
+                })
+            })
+            .collect::<Result<_, _>>()
+            .map_err(|err| UsageError(err))?;
+    }
+    Ok((study, targets))
+}
+
+fn execute(cli: Cli) -> Result<ExitCode> {
+    let registry = registry();
+    match &cli.command {
+        Command::Validate(args) => {
+            let (study, targets) = load_study(args, &registry)?;
+            let instances = Instances::expand(&study, &targets);
+            println!(
+                "{}: ok ({} stages, {} instances for the targets)",
+                study.file,
+                study.stages.len(),
+                instances.list.len()
+            );
+        }
+        Command::Stages => print_stages(&registry),
+        Command::Plan(args) => {
+            let (study, targets) = load_study(args, &registry)?;
+            let instances = Instances::expand(&study, &targets);
+            let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
+            let record = RunRecord::load(&RunRecord::path_for(
+                &args.study,
+                &state_dir(&args.study).join("record"),
+            ));
+            let context = Context {
+                study: &study,
+                instances: &instances,
+                cache: &cache,
+                record: &record,
+            };
+            let lines = plan::plan(&context);
+            let width = lines
+                .iter()
+                .map(|line| line.instance.len())
+                .max()
+                .unwrap_or(0);
+            for line in &lines {
+                println!("{:width$}  {}", line.instance, line.decision.describe());
+            }
+            let cached = lines
+                .iter()
+                .filter(|line| matches!(line.decision, Decision::Cached { .. }))
+                .count();
+            println!(
+                "{} instances: {} cached, {} to run",
+                lines.len(),
+                cached,
+                lines.len() - cached
+            );
+        }
+        Command::Run {
+            study: args,
+            out,
+            jobs,
+        } => return run(&cli, args, out.clone(), *jobs, &registry),
+        Command::Dag {
+            study: args,
+            format,
+        } => {
+            let (study, targets) = load_study(args, &registry)?;
+            let instances = Instances::expand(&study, &targets);
+            let format = match format {
+                DagFormat::Dot => dag::Format::Dot,
+                DagFormat::Mermaid => dag::Format::Mermaid,
+            };
+            print!("{}", dag::render(&study, &instances, format));
+        }
+        Command::Cache(command) => return cache_command(&cli, command, &registry),
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run(
+    cli: &Cli,
+    args: &StudyArgs,
+    out: Option<PathBuf>,
+    jobs: Option<usize>,
+    registry: &Registry,
+) -> Result<ExitCode> {
+    let (study, targets) = load_study(args, registry)?;
+    let instances = Instances::expand(&study, &targets);
+    let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
+    let record_path = RunRecord::path_for(&args.study, &state_dir(&args.study).join("record"));
+    let record = RunRecord::load(&record_path);
+    let context = Context {
+        study: &study,
+        instances: &instances,
+        cache: &cache,
+        record: &record,
+    };
+    let stem = args
+        .study
+        .file_stem()
+        .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
+    let out_dir = out.unwrap_or_else(|| PathBuf::from("out").join(stem));
+    let options = RunOptions {
+        jobs,
+        out_dir: out_dir.clone(),
+        progress: true,
+    };
+    let report = squeal_engine::run::run(&context, &options, &record_path)
+        .with_context(|| format!("writing outputs to {}", out_dir.display()))?;
+    for instance in &report.instances {
+        match &instance.status {
+            Status::Ran => eprintln!(
+                "ran     {} ({}) in {:.3} s",
+                instance.name,
+                instance.reasons.join("; "),
+                instance.wall_s
+            ),
+            Status::Cached => {}
+            Status::Failed(message) => eprintln!("FAILED  {}: {message}", instance.name),
+            Status::Skipped(upstream) => {
+                eprintln!("skipped {}: `{upstream}` did not complete", instance.name)
+            }
+        }
+    }
+    eprintln!(
+        "{}: {} instances in {:.2} s: {} ran, {} cached, {} failed, {} skipped; outputs in {}",
+        study.name,
+        report.instances.len(),
+        report.wall_s,
+        report.count("ran"),
+        report.count("cached"),
+        report.count("failed"),
+        report.count("skipped"),
+        out_dir.display()
+    );
+    Ok(if report.succeeded() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn cache_command(cli: &Cli, command: &CacheCommand, registry: &Registry) -> Result<ExitCode> {
+    match command {
+        CacheCommand::Stats => {
+            let cache = Cache::open(cache_dir(&cli.cache, None))?;
+            let stats = cache.stats()?;
+            println!("cache {}", cache.root().display());
+            println!("  actions     {}", stats.actions);
+            println!(
+                "  objects     {} ({})",
+                stats.objects,
+                format_size(stats.object_bytes)
+            );
+            println!("  temporaries {}", stats.stray_temporaries);
+        }
+        CacheCommand::Verify => {
+            let cache = Cache::open(cache_dir(&cli.cache, None))?;
+            let report = cache.verify()?;
+            for problem in &report.problems {
+                println!("{problem}");
+            }
+            println!(
+                "verified {} actions and {} objects: {} problems",
+                report.actions_checked,
+                report.objects_checked,
+                report.problems.len()
+            );
+            if !report.problems.is_empty() {
+                return Ok(ExitCode::FAILURE);
+            }
+        }
+        CacheCommand::Gc { studies, max_size } => {
+            let dir = cache_dir(&cli.cache, studies.first().map(PathBuf::as_path));
+            let keep_keys = if studies.is_empty() {
+                None
+            } else {
+                Some(referenced_keys(&dir, studies, registry)?)
+            };
+            let cache = Cache::open_exclusive(&dir)?;
+            let report = cache.gc(&GcPolicy {
+                keep_keys,
+                max_bytes: *max_size,
+            })?;
+            println!(
+                "removed {} actions and {} objects ({}); {} kept",
+                report.actions_removed,
+                report.objects_removed,
+                format_size(report.bytes_freed),
+                format_size(report.bytes_kept)
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Keys of every cached instance of the given studies (their targets, with their parameters).
+fn referenced_keys(
+    dir: &Path,
+    studies: &[PathBuf],
+    registry: &Registry,
+) -> Result<HashSet<squeal_cache::Digest>> {
+    let cache = Cache::open(dir)?;
+    let mut keys = HashSet::new();
+    for path in studies {
+        let args = StudyArgs {
+            study: path.clone(),
+            set: Vec::new(),
+            targets: Vec::new(),
+        };
+        let (study, targets) = load_study(&args, registry)?;
+        let instances = Instances::expand(&study, &targets);
+        let record = RunRecord::default();
+        let context = Context {
+            study: &study,
+            instances: &instances,
+            cache: &cache,
+            record: &record,
+        };
+        keys.extend(
+            plan::plan(&context)
+                .into_iter()
+                .filter_map(|line| match line.decision {
+                    Decision::Cached { key, .. } => Some(key),
+                    Decision::Runs { .. } => None,
+                }),
+        );
+    }
+    Ok(keys)
+}
+
+fn print_stages(registry: &Registry) {
+    for stage in registry.iter() {
+        println!("{} (v{}): {}", stage.kind(), stage.version(), stage.doc());
+        for port in stage.inputs() {
+            let many = if port.arity == squeal_stages::Arity::Many {
+                ", gathers a sweep"
+            } else {
+                ""
+            };
+            println!("  input  {:<20} {}{many}: {}", port.name, port.ty, port.doc);
+        }
+        for port in stage.outputs() {
+            println!("  output {:<20} {}: {}", port.name, port.ty, port.doc);
+        }
+        for param in stage.params() {
+            let default = param
+                .default
+                .as_ref()
+                .map_or("required".to_string(), |value| format!("default {value}"));
+            let unit = if param.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" [{}]", param.unit)
+            };
+            println!(
+                "  param  {:<20} {}{unit}, {default}: {}",
+                param.name, param.ty, param.doc
+            );
+        }
+    }
+}
+
+fn parse_size(text: &str) -> Result<u64, String> {
+    let text = text.trim();
+    let split = text.find(|c: char| c.is_alphabetic()).unwrap_or(text.len());
+    let number: f64 = text[..split]
+        .trim()
+        .parse()
+        .map_err(|_| format!("not a size: `{text}`"))?;
+    let factor = match text[split..].trim().to_ascii_uppercase().as_str() {
+        "" | "B" => 1.0,
+        "K" | "KB" => 1e3,
+        "M" | "MB" => 1e6,
+        "G" | "GB" => 1e9,
+        "T" | "TB" => 1e12,
+        unit => return Err(format!("unknown size unit `{unit}` (use K, M, G or T)")),
+    };
+    Ok((number * factor) as u64)
+}
+
+fn format_size(bytes: u64) -> String {
+    match bytes {
+        0..1_000 => format!("{bytes} B"),
+        1_000..1_000_000 => format!("{:.1} kB", bytes as f64 / 1e3),
+        1_000_000..1_000_000_000 => format!("{:.1} MB", bytes as f64 / 1e6),
+        _ => format!("{:.2} GB", bytes as f64 / 1e9),
+    }
+}

@@ -1,0 +1,85 @@
+//! Typed values that flow between stages, and their canonical binary encoding.
+//!
+//! The encoding (postcard of the enum) is deterministic: the same value always gives the same
+//! bytes, so the blake3 digest of the bytes is the artifact's identity and drives early cutoff.
+
+use serde::{Deserialize, Serialize};
+
+use crate::table::Table;
+
+/// A value produced by one stage and consumed by others.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Artifact {
+    /// Columns of equal length; written to Parquet by the engine.
+    Table(Table),
+}
+
+/// The type of an [`Artifact`], used to check that an output may feed an input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ArtifactType {
+    Table,
+}
+
+impl ArtifactType {
+    pub fn name(self) -> &'static str {
+        match self {
+            ArtifactType::Table => "table",
+        }
+    }
+}
+
+impl std::fmt::Display for ArtifactType {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The bytes could not be decoded as an artifact (a corrupt or foreign cache object).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot decode artifact: {0}")]
+pub struct DecodeError(String);
+
+impl Artifact {
+    pub fn artifact_type(&self) -> ArtifactType {
+        match self {
+            Artifact::Table(_) => ArtifactType::Table,
+        }
+    }
+
+    /// Canonical encoding: equal values give equal bytes.
+    pub fn encode(&self) -> Vec<u8> {
+        postcard::to_stdvec(self).expect("encoding an in-memory artifact cannot fail")
+    }
+
+    pub fn decode(bytes: &[u8]) -> Result<Artifact, DecodeError> {
+        postcard::from_bytes(bytes).map_err(|err| DecodeError(err.to_string()))
+    }
+
+    pub fn as_table(&self) -> Option<&Table> {
+        match self {
+            Artifact::Table(table) => Some(table),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encoding_round_trips_and_is_deterministic() {
+        let table = Table::new()
+            .with("t", vec![0.0, 0.5, 1.0])
+            .with("label", vec!["a".to_string(), "b".into(), "c".into()]);
+        let artifact = Artifact::Table(table);
+        let bytes = artifact.encode();
+        assert_eq!(bytes, artifact.clone().encode());
+        assert_eq!(Artifact::decode(&bytes).unwrap(), artifact);
+    }
+
+    #[test]
+    fn truncated_bytes_do_not_decode() {
+        let bytes = Artifact::Table(Table::new().with("x", vec![1.0, 2.0])).encode();
+        assert!(Artifact::decode(&bytes[..bytes.len() - 3]).is_err());
+    }
+}

@@ -1,0 +1,30 @@
+//! The science of squeal, and the contract every stage implements.
+//!
+//! This crate knows nothing of YAML, DAGs, caches or files: a stage is a pure function of its
+//! parameters and its input artifacts ([`stage::Stage::run`]). The engine finds stages through
+//! the registry the binary builds from [`all_kinds`].
+
+pub mod artifact;
+pub mod stage;
+pub mod table;
+pub mod testing;
+
+use std::sync::Arc;
+
+pub use artifact::{Artifact, ArtifactType};
+pub use stage::{
+    Arity, Coords, Input, Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage,
+    StageError, Value,
+};
+pub use table::{Column, ColumnData, Table};
+
+/// Every production stage kind, in the order `squeal stages` lists them.
+pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
+    vec![Arc::new(table::Gather)]
+}
+
+/// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).
+/// They are registered only when a test asks for them.
+pub fn test_kinds() -> Vec<Arc<dyn Stage>> {
+    testing::kinds()
+}

@@ -1,0 +1,295 @@
+//! The stage contract: what a stage declares (parameters, typed inputs and outputs) and its
+//! pure `run`.
+//!
+//! Parameters are SI throughout; a parameter's unit is part of its declaration, and the engine
+//! converts values written with a unit (`40 mm`, `17 kHz`) before a stage sees them.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::sync::Arc;
+
+use crate::artifact::{Artifact, ArtifactType};
+
+/// A parameter value after validation and unit conversion.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    Bool(bool),
+    Int(i64),
+    Float(f64),
+    Str(String),
+}
+
+impl fmt::Display for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Bool(value) => write!(f, "{value}"),
+            Value::Int(value) => write!(f, "{value}"),
+            // `{}` prints the shortest representation that round-trips.
+            Value::Float(value) => write!(f, "{value}"),
+            Value::Str(value) => f.write_str(value),
+        }
+    }
+}
+
+/// The type of a declared parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParamType {
+    Bool,
+    Int {
+        min: i64,
+    },
+    Float {
+        min: f64,
+    },
+    Str,
+    /// One of a fixed set of names (solver methods, window functions, ...).
+    Choice(&'static [&'static str]),
+}
+
+impl fmt::Display for ParamType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ParamType::Bool => f.write_str("bool"),
+            ParamType::Int { min } if *min > i64::MIN => write!(f, "int >= {min}"),
+            ParamType::Int { .. } => f.write_str("int"),
+            ParamType::Float { min } if min.is_finite() => write!(f, "float >= {min}"),
+            ParamType::Float { .. } => f.write_str("float"),
+            ParamType::Str => f.write_str("string"),
+            ParamType::Choice(names) => write!(f, "one of {}", names.join(" | ")),
+        }
+    }
+}
+
+/// A declared parameter: name, type, default, SI unit ("" if dimensionless), one-line doc.
+#[derive(Debug, Clone)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub ty: ParamType,
+    /// `None` makes the parameter required.
+    pub default: Option<Value>,
+    pub unit: &'static str,
+    pub doc: &'static str,
+}
+
+impl ParamSpec {
+    pub fn float(name: &'static str, default: f64, unit: &'static str, doc: &'static str) -> Self {
+        let ty = ParamType::Float {
+            min: f64::NEG_INFINITY,
+        };
+        let default = Some(Value::Float(default));
+        ParamSpec {
+            name,
+            ty,
+            default,
+            unit,
+            doc,
+        }
+    }
+
+    pub fn int(name: &'static str, default: i64, doc: &'static str) -> Self {
+        let ty = ParamType::Int { min: i64::MIN };
+        ParamSpec {
+            name,
+            ty,
+            default: Some(Value::Int(default)),
+            unit: "",
+            doc,
+        }
+    }
+
+    pub fn bool(name: &'static str, default: bool, doc: &'static str) -> Self {
+        ParamSpec {
+            name,
+            ty: ParamType::Bool,
+            default: Some(Value::Bool(default)),
+            unit: "",
+            doc,
+        }
+    }
+
+    pub fn choice(
+        name: &'static str,
+        choices: &'static [&'static str],
+        default: &'static str,
+        doc: &'static str,
+    ) -> Self {
+        let default = Some(Value::Str(default.to_string()));
+        ParamSpec {
+            name,
+            ty: ParamType::Choice(choices),
+            default,
+            unit: "",
+            doc,
+        }
+    }
+
+    /// Lower bound (inclusive) for a numeric parameter.
+    pub fn at_least(mut self, bound: f64) -> Self {
+        self.ty = match self.ty {
+            ParamType::Float { .. } => ParamType::Float { min: bound },
+            ParamType::Int { .. } => ParamType::Int { min: bound as i64 },
+            other => other,
+        };
+        self
+    }
+
+    pub fn required(mut self) -> Self {
+        self.default = None;
+        self
+    }
+}
+
+/// How many artifacts an input port takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arity {
+    /// One artifact; a swept upstream makes this stage fan out, one instance per point.
+    One,
+    /// Every point of a swept upstream at once, each with its sweep coordinates (a gather).
+    Many,
+}
+
+/// A declared input or output.
+#[derive(Debug, Clone)]
+pub struct PortSpec {
+    pub name: &'static str,
+    pub ty: ArtifactType,
+    pub arity: Arity,
+    pub doc: &'static str,
+}
+
+impl PortSpec {
+    pub fn one(name: &'static str, ty: ArtifactType, doc: &'static str) -> Self {
+        PortSpec {
+            name,
+            ty,
+            arity: Arity::One,
+            doc,
+        }
+    }
+
+    pub fn many(name: &'static str, ty: ArtifactType, doc: &'static str) -> Self {
+        PortSpec {
+            name,
+            ty,
+            arity: Arity::Many,
+            doc,
+        }
+    }
+}
+
+/// Sweep coordinates of a stage instance: swept parameter name and value, in sweep order.
+pub type Coords = Vec<(String, Value)>;
+
+/// Validated parameters of one stage instance: every declared parameter is present and typed.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Params(pub BTreeMap<String, Value>);
+
+impl Params {
+    fn get(&self, name: &str) -> &Value {
+        self.0
+            .get(name)
+            .unwrap_or_else(|| panic!("parameter `{name}` is not declared by this stage"))
+    }
+
+    pub fn float(&self, name: &str) -> f64 {
+        match self.get(name) {
+            Value::Float(value) => *value,
+            Value::Int(value) => *value as f64,
+            other => panic!("parameter `{name}` is not a number: {other}"),
+        }
+    }
+
+    pub fn int(&self, name: &str) -> i64 {
+        match self.get(name) {
+            Value::Int(value) => *value,
+            other => panic!("parameter `{name}` is not an integer: {other}"),
+        }
+    }
+
+    pub fn bool(&self, name: &str) -> bool {
+        match self.get(name) {
+            Value::Bool(value) => *value,
+            other => panic!("parameter `{name}` is not a bool: {other}"),
+        }
+    }
+
+    pub fn str(&self, name: &str) -> &str {
+        match self.get(name) {
+            Value::Str(value) => value,
+            other => panic!("parameter `{name}` is not a string: {other}"),
+        }
+    }
+}
+
+/// What an input port receives.
+#[derive(Debug, Clone)]
+pub enum Input {
+    One(Arc<Artifact>),
+    Many(Vec<(Coords, Arc<Artifact>)>),
+}
+
+/// The inputs of one run, by port name.
+#[derive(Debug, Clone, Default)]
+pub struct Inputs(pub BTreeMap<String, Input>);
+
+impl Inputs {
+    pub fn one(&self, port: &str) -> Result<&Artifact, StageError> {
+        match self.0.get(port) {
+            Some(Input::One(artifact)) => Ok(artifact),
+            Some(Input::Many(_)) => Err(StageError::new(format!("input `{port}` is a gather"))),
+            None => Err(StageError::new(format!("input `{port}` is missing"))),
+        }
+    }
+
+    pub fn many(&self, port: &str) -> Result<&[(Coords, Arc<Artifact>)], StageError> {
+        match self.0.get(port) {
+            Some(Input::Many(points)) => Ok(points),
+            Some(Input::One(_)) => Err(StageError::new(format!("input `{port}` is not a gather"))),
+            None => Err(StageError::new(format!("input `{port}` is missing"))),
+        }
+    }
+
+    pub fn table(&self, port: &str) -> Result<&crate::Table, StageError> {
+        self.one(port)?
+            .as_table()
+            .ok_or_else(|| StageError::new(format!("input `{port}` is not a table")))
+    }
+}
+
+/// The outputs of one run, by port name.
+pub type Outputs = BTreeMap<String, Artifact>;
+
+/// Why a stage failed: a one-line message with the figures that matter
+/// (residual, iteration count, offending element).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{message}")]
+pub struct StageError {
+    pub message: String,
+}
+
+impl StageError {
+    pub fn new(message: impl Into<String>) -> Self {
+        StageError {
+            message: message.into(),
+        }
+    }
+}
+
+/// A kind of stage. Implementations are pure: `run` is a deterministic function of the
+/// parameters and inputs. A stage that is not (reads the clock, a file outside the study)
+/// returns `false` from [`Stage::pure`] and is never cached.
+pub trait Stage: Send + Sync {
+    /// The `kind:` written in a study, e.g. `mesh.brake`.
+    fn kind(&self) -> &'static str;
+    /// Bumped whenever the implementation changes its results; part of the cache key.
+    fn version(&self) -> u32;
+    /// One line for `squeal stages`.
+    fn doc(&self) -> &'static str;
+    fn params(&self) -> Vec<ParamSpec>;
+    fn inputs(&self) -> Vec<PortSpec>;
+    fn outputs(&self) -> Vec<PortSpec>;
+    fn pure(&self) -> bool {
+        true
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError>;
+}

@@ -1,0 +1,291 @@
+//! Long tables: named columns of equal length. Everything a person would plot or query is a
+//! table; the engine writes each one as a Parquet file.
+
+use serde::{Deserialize, Serialize};
+
+use crate::artifact::{Artifact, ArtifactType};
+use crate::stage::{
+    Coords, Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError, Value,
+};
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ColumnData {
+    F64(Vec<f64>),
+    I64(Vec<i64>),
+    Bool(Vec<bool>),
+    Str(Vec<String>),
+}
+
+impl ColumnData {
+    pub fn len(&self) -> usize {
+        match self {
+            ColumnData::F64(values) => values.len(),
+            ColumnData::I64(values) => values.len(),
+            ColumnData::Bool(values) => values.len(),
+            ColumnData::Str(values) => values.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn type_name(&self) -> &'static str {
+        match self {
+            ColumnData::F64(_) => "f64",
+            ColumnData::I64(_) => "i64",
+            ColumnData::Bool(_) => "bool",
+            ColumnData::Str(_) => "string",
+        }
+    }
+
+    /// A column holding `value` `n_rows` times (sweep coordinates in a gathered table).
+    fn repeat(value: &Value, n_rows: usize) -> ColumnData {
+        match value {
+            Value::Bool(value) => ColumnData::Bool(vec![*value; n_rows]),
+            Value::Int(value) => ColumnData::I64(vec![*value; n_rows]),
+            Value::Float(value) => ColumnData::F64(vec![*value; n_rows]),
+            Value::Str(value) => ColumnData::Str(vec![value.clone(); n_rows]),
+        }
+    }
+
+    fn extend(&mut self, other: &ColumnData) -> bool {
+        match (self, other) {
+            (ColumnData::F64(a), ColumnData::F64(b)) => a.extend_from_slice(b),
+            (ColumnData::I64(a), ColumnData::I64(b)) => a.extend_from_slice(b),
+            (ColumnData::Bool(a), ColumnData::Bool(b)) => a.extend_from_slice(b),
+            (ColumnData::Str(a), ColumnData::Str(b)) => a.extend_from_slice(b),
+            _ => return false,
+        }
+        true
+    }
+}
+
+impl From<Vec<f64>> for ColumnData {
+    fn from(values: Vec<f64>) -> Self {
+        ColumnData::F64(values)
+    }
+}
+
+impl From<Vec<i64>> for ColumnData {
+    fn from(values: Vec<i64>) -> Self {
+        ColumnData::I64(values)
+    }
+}
+
+impl From<Vec<bool>> for ColumnData {
+    fn from(values: Vec<bool>) -> Self {
+        ColumnData::Bool(values)
+    }
+}
+
+impl From<Vec<String>> for ColumnData {
+    fn from(values: Vec<String>) -> Self {
+        ColumnData::Str(values)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Column {
+    pub name: String,
+    pub data: ColumnData,
+}
+
+/// Named columns of equal length.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Table {
+    columns: Vec<Column>,
+}
+
+impl Table {
+    pub fn new() -> Self {
+        Table::default()
+    }
+
+    /// Appends a column. Panics if its length differs from the others': a table with ragged
+    /// columns is a bug in the stage that builds it.
+    pub fn with(mut self, name: impl Into<String>, data: impl Into<ColumnData>) -> Self {
+        let name = name.into();
+        let data = data.into();
+        if let Some(first) = self.columns.first() {
+            assert_eq!(
+                first.data.len(),
+                data.len(),
+                "column `{name}` has a different length"
+            );
+        }
+        self.columns.push(Column { name, data });
+        self
+    }
+
+    pub fn columns(&self) -> &[Column] {
+        &self.columns
+    }
+
+    pub fn column(&self, name: &str) -> Option<&ColumnData> {
+        self.columns
+            .iter()
+            .find(|column| column.name == name)
+            .map(|column| &column.data)
+    }
+
+    pub fn n_rows(&self) -> usize {
+        self.columns.first().map_or(0, |column| column.data.len())
+    }
+
+    /// Stacks the tables of a sweep into one, with the sweep coordinates as leading columns.
+    /// Every table must have the same columns (names and types) in the same order.
+    pub fn gather(points: &[(Coords, &Table)]) -> Result<Table, StageError> {
+        let Some((first_coords, first_table)) = points.first() else {
+            return Ok(Table::new());
+        };
+        let mut columns: Vec<Column> = first_coords
+            .iter()
+            .map(|(name, value)| Column {
+                name: name.clone(),
+                data: ColumnData::repeat(value, 0),
+            })
+            .chain(first_table.columns.iter().map(|column| Column {
+                name: column.name.clone(),
+                data: empty_like(&column.data),
+            }))
+            .collect();
+        for (point_idx, (coords, table)) in points.iter().enumerate() {
+            let same_shape = coords.len() == first_coords.len()
+                && table.columns.len() == first_table.columns.len()
+                && table
+                    .columns
+                    .iter()
+                    .zip(&first_table.columns)
+                    .all(|(a, b)| a.name == b.name && a.data.type_name() == b.data.type_name());
+            if !same_shape {
+                return Err(StageError::new(format!(
+                    "cannot gather: point {point_idx} has different columns from point 0"
+                )));
+            }
+            let n_rows = table.n_rows();
+            for (column, (name, value)) in columns.iter_mut().zip(coords) {
+                if column.name != *name || !column.data.extend(&ColumnData::repeat(value, n_rows)) {
+                    return Err(StageError::new(format!(
+                        "cannot gather: sweep coordinate `{name}` differs in type or order at point {point_idx}"
+                    )));
+                }
+            }
+            for (column, source) in columns[coords.len()..].iter_mut().zip(&table.columns) {
+                column.data.extend(&source.data);
+            }
+        }
+        Ok(Table { columns })
+    }
+}
+
+fn empty_like(data: &ColumnData) -> ColumnData {
+    match data {
+        ColumnData::F64(_) => ColumnData::F64(Vec::new()),
+        ColumnData::I64(_) => ColumnData::I64(Vec::new()),
+        ColumnData::Bool(_) => ColumnData::Bool(Vec::new()),
+        ColumnData::Str(_) => ColumnData::Str(Vec::new()),
+    }
+}
+
+/// `table.gather`: every point of a sweep in one long table, swept parameters as columns.
+pub struct Gather;
+
+impl Stage for Gather {
+    fn kind(&self) -> &'static str {
+        "table.gather"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Stack one table from every point of a sweep, with the swept parameters as columns"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        Vec::new()
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::many(
+            "tables",
+            ArtifactType::Table,
+            "the table of every sweep point",
+        )]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::one(
+            "table",
+            ArtifactType::Table,
+            "all points, coordinates first",
+        )]
+    }
+    fn run(&self, _params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let points = inputs.many("tables")?;
+        let tables: Vec<(Coords, &Table)> = points
+            .iter()
+            .map(|(coords, artifact)| {
+                let table = artifact
+                    .as_table()
+                    .ok_or_else(|| StageError::new("not a table"))?;
+                Ok((coords.clone(), table))
+            })
+            .collect::<Result<_, StageError>>()?;
+        let table = Table::gather(&tables)?;
+        Ok(Outputs::from([(
+            "table".to_string(),
+            Artifact::Table(table),
+        )]))
+    }
+}
+
+/// Wraps a table as the single output `name`, a common shape for stage results.
+pub fn single_output(name: &str, table: Table) -> Outputs {
+    Outputs::from([(name.to_string(), Artifact::Table(table))])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+    use std::sync::Arc;
+
+    use crate::stage::Input;
+
+    #[test]
+    fn gather_prepends_coordinates_and_stacks_rows() {
+        let a = Table::new().with("f", vec![1.0, 2.0]);
+        let b = Table::new().with("f", vec![3.0]);
+        let points = vec![
+            (
+                vec![("mu".to_string(), Value::Float(0.1))],
+                Arc::new(Artifact::Table(a)),
+            ),
+            (
+                vec![("mu".to_string(), Value::Float(0.2))],
+                Arc::new(Artifact::Table(b)),
+            ),
+        ];
+        let inputs = Inputs(BTreeMap::from([(
+            "tables".to_string(),
+            Input::Many(points),
+        )]));
+        let outputs = Gather.run(&Params::default(), &inputs).unwrap();
+        let table = outputs["table"].as_table().unwrap();
+        assert_eq!(
+            table.column("mu"),
+            Some(&ColumnData::F64(vec![0.1, 0.1, 0.2]))
+        );
+        assert_eq!(
+            table.column("f"),
+            Some(&ColumnData::F64(vec![1.0, 2.0, 3.0]))
+        );
+    }
+
+    #[test]
+    fn gather_rejects_tables_with_different_columns() {
+        let a = Table::new().with("f", vec![1.0]);
+        let b = Table::new().with("g", vec![1.0]);
+        let coords = vec![("mu".to_string(), Value::Float(0.1))];
+        let err = Table::gather(&[(coords.clone(), &a), (coords, &b)]).unwrap_err();
+        assert!(err.message.contains("point 1"), "{err}");
+    }
+}

@@ -1,0 +1,204 @@
+//! Stage kinds for exercising the engine: a constant source, arithmetic, rounding (whose output
+//! often does not change when its input does, which exercises early cutoff), a sleep and a
+//! failure. Registered only when a test asks for them (`SQUEAL_TEST_KINDS=1`).
+
+use std::sync::Arc;
+
+use crate::artifact::ArtifactType;
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::{ColumnData, Table, single_output};
+
+pub fn kinds() -> Vec<Arc<dyn Stage>> {
+    vec![
+        Arc::new(Constant),
+        Arc::new(Affine),
+        Arc::new(Round),
+        Arc::new(Sleep),
+        Arc::new(Fail),
+    ]
+}
+
+fn input_port() -> Vec<PortSpec> {
+    vec![PortSpec::one(
+        "table",
+        ArtifactType::Table,
+        "a table with an f64 column `x`",
+    )]
+}
+
+fn output_port() -> Vec<PortSpec> {
+    vec![PortSpec::one(
+        "table",
+        ArtifactType::Table,
+        "a table with an f64 column `x`",
+    )]
+}
+
+fn column_x(inputs: &Inputs) -> Result<&[f64], StageError> {
+    match inputs.table("table")?.column("x") {
+        Some(ColumnData::F64(values)) => Ok(values),
+        _ => Err(StageError::new("input table has no f64 column `x`")),
+    }
+}
+
+fn x_table(values: Vec<f64>) -> Outputs {
+    single_output("table", Table::new().with("x", values))
+}
+
+pub struct Constant;
+
+impl Stage for Constant {
+    fn kind(&self) -> &'static str {
+        "test.constant"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test source: a column `x` holding `value` in every row"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::float("value", 1.0, "", "the value of every row"),
+            ParamSpec::int("rows", 1, "number of rows").at_least(1.0),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        Vec::new()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        Ok(x_table(vec![
+            params.float("value");
+            params.int("rows") as usize
+        ]))
+    }
+}
+
+pub struct Affine;
+
+impl Stage for Affine {
+    fn kind(&self) -> &'static str {
+        "test.affine"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test arithmetic: x -> scale x + offset"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::float("scale", 1.0, "", "multiplier"),
+            ParamSpec::float("offset", 0.0, "", "added after scaling"),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        input_port()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let (scale, offset) = (params.float("scale"), params.float("offset"));
+        Ok(x_table(
+            column_x(inputs)?
+                .iter()
+                .map(|x| scale * x + offset)
+                .collect(),
+        ))
+    }
+}
+
+pub struct Round;
+
+impl Stage for Round {
+    fn kind(&self) -> &'static str {
+        "test.round"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test rounding: x rounded to `decimals` decimals"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![ParamSpec::int("decimals", 0, "decimal places kept").at_least(0.0)]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        input_port()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let factor = 10f64.powi(params.int("decimals") as i32);
+        Ok(x_table(
+            column_x(inputs)?
+                .iter()
+                .map(|x| (x * factor).round() / factor)
+                .collect(),
+        ))
+    }
+}
+
+pub struct Sleep;
+
+impl Stage for Sleep {
+    fn kind(&self) -> &'static str {
+        "test.sleep"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test delay: passes its input through after `seconds`"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![ParamSpec::float("seconds", 0.1, "s", "how long to sleep").at_least(0.0)]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        input_port()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        std::thread::sleep(std::time::Duration::from_secs_f64(params.float("seconds")));
+        Ok(single_output("table", inputs.table("table")?.clone()))
+    }
+}
+
+pub struct Fail;
+
+impl Stage for Fail {
+    fn kind(&self) -> &'static str {
+        "test.fail"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test failure: always fails with `message`"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![ParamSpec {
+            name: "message",
+            ty: crate::ParamType::Str,
+            default: Some(crate::Value::Str("failed on purpose".into())),
+            unit: "",
+            doc: "the error message",
+        }]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        input_port()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        Err(StageError::new(params.str("message")))
+    }
+}
