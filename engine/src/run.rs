@@ -414,7 +414,8 @@ impl Executor<'_> {
         Ok(artifact)
     }
 
-    /// Writes each table output to Parquet unless the file there already holds these bytes.
+    /// Writes each table output to Parquet and each figure to SVG and PNG, unless the files
+    /// there already hold these bytes.
     fn export(&self, idx: usize, outputs: &BTreeMap<String, Digest>) -> Result<(), String> {
         let instances = self.context.instances;
         let instance = &instances.list[idx];
@@ -423,20 +424,36 @@ impl Executor<'_> {
             dir.push(segment);
         }
         for (name, digest) in outputs {
-            let relative = dir.join(format!("{name}.parquet"));
+            let relative = dir.join(name);
             let relative_key = relative.to_string_lossy().into_owned();
-            let path = self.options.out_dir.join(&relative);
-            if self.lock().exports.get(&relative_key) == Some(digest) && path.exists() {
+            let base = self.options.out_dir.join(&relative);
+            let exported = self.lock().exports.get(&relative_key) == Some(digest);
+            let artifact_files_exist = |extensions: &[&str]| {
+                extensions
+                    .iter()
+                    .all(|ext| base.with_extension(ext).exists())
+            };
+            if exported
+                && (artifact_files_exist(&["parquet"]) || artifact_files_exist(&["svg", "png"]))
+            {
                 continue;
             }
             let artifact = self
                 .load(digest)
                 .map_err(|err| format!("output `{name}`: {err}"))?;
-            if let Some(table) = artifact.as_table() {
-                output::write_parquet(&path, table)
-                    .map_err(|err| format!("writing {}: {err}", path.display()))?;
-                self.lock().exports.insert(relative_key, *digest);
-            }
+            let written = match artifact.as_ref() {
+                Artifact::Table(table) => {
+                    output::write_parquet(&base.with_extension("parquet"), table)
+                }
+                Artifact::Figure(figure) => {
+                    output::write_atomic(&base.with_extension("svg"), figure.svg.as_bytes())
+                        .and_then(|()| {
+                            output::write_atomic(&base.with_extension("png"), &figure.png)
+                        })
+                }
+            };
+            written.map_err(|err| format!("writing {}: {err}", base.display()))?;
+            self.lock().exports.insert(relative_key, *digest);
         }
         Ok(())
     }

@@ -12,18 +12,29 @@ use crate::table::Table;
 pub enum Artifact {
     /// Columns of equal length; written to Parquet by the engine.
     Table(Table),
+    /// A rendered figure; written as `<output>.svg` and `<output>.png` by the engine.
+    Figure(Figure),
+}
+
+/// A figure rendered by a stage, in both formats people use: SVG for papers, PNG for a look.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Figure {
+    pub svg: String,
+    pub png: Vec<u8>,
 }
 
 /// The type of an [`Artifact`], used to check that an output may feed an input.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ArtifactType {
     Table,
+    Figure,
 }
 
 impl ArtifactType {
     pub fn name(self) -> &'static str {
         match self {
             ArtifactType::Table => "table",
+            ArtifactType::Figure => "figure",
         }
     }
 }
@@ -43,6 +54,7 @@ impl Artifact {
     pub fn artifact_type(&self) -> ArtifactType {
         match self {
             Artifact::Table(_) => ArtifactType::Table,
+            Artifact::Figure(_) => ArtifactType::Figure,
         }
     }
 
@@ -58,6 +70,7 @@ impl Artifact {
     pub fn as_table(&self) -> Option<&Table> {
         match self {
             Artifact::Table(table) => Some(table),
+            _ => None,
         }
     }
 }

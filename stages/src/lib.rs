@@ -11,7 +11,7 @@ pub mod testing;
 
 use std::sync::Arc;
 
-pub use artifact::{Artifact, ArtifactType};
+pub use artifact::{Artifact, ArtifactType, Figure};
 pub use stage::{
     Arity, Coords, Input, Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage,
     StageError, Value,
