@@ -18,7 +18,7 @@ pub enum Location {
         line: u64,
         col: u64,
     },
-    /// A `--set stage.param=value` on the command line.
+    /// An argument on the command line, e.g. `--set stage.param=value`.
     CommandLine(String),
 }
 
@@ -26,7 +26,7 @@ impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Location::File { file, line, col } => write!(f, "{file}:{line}:{col}"),
-            Location::CommandLine(arg) => write!(f, "--set {arg}"),
+            Location::CommandLine(arg) => f.write_str(arg),
         }
     }
 }
@@ -186,15 +186,10 @@ pub fn parse(file: &str, text: &str) -> Result<RawStudy, SpecError> {
             },
             |location| file_location(file, &location),
         );
-        let path = if path.is_empty() || path == "." {
-            "(study)".to_string()
-        } else {
-            path
-        };
         SpecError {
             location,
-            path,
-            message: one_line(&err.without_snippet().to_string()),
+            path: clean_path(&path),
+            message: plain_message(&err.without_snippet().to_string()),
         }
     })
 }
@@ -204,17 +199,56 @@ pub fn parse_scalar(text: &str) -> Option<RawValue> {
     serde_saphyr::from_str(text).ok()
 }
 
-/// serde-saphyr appends " at line L column C"; we print the location first instead.
-fn one_line(message: &str) -> String {
+/// The path as a user wrote it: without the `.value` that `Spanned` fields add, and without
+/// the `?` of keys not yet read.
+fn clean_path(path: &str) -> String {
+    let mut segments: Vec<&str> = path
+        .split('.')
+        .filter(|segment| !segment.is_empty() && *segment != "?")
+        .collect();
+    let spanned_leaf = match segments.as_slice() {
+        ["stages", _, "params" | "matrix" | "inputs", _, "value"]
+        | ["stages", _, "kind", "value"] => true,
+        [.., last] => last.starts_with("targets[") && last.ends_with("].value"),
+        _ => false,
+    };
+    if spanned_leaf {
+        let last = segments.pop().expect("matched a non-empty path");
+        if let Some(target) = last.strip_suffix(".value") {
+            segments.push(target);
+        }
+    }
+    if segments.is_empty() {
+        "(study)".into()
+    } else {
+        segments.join(".")
+    }
+}
+
+/// One line, location removed (we print it first), serde's wording made plain.
+fn plain_message(message: &str) -> String {
     let first = message.lines().next().unwrap_or(message).trim();
-    let trimmed = match first.rfind(" at line ") {
+    let first = match first.rfind(" at line ") {
         Some(idx) => &first[..idx],
         None => first,
     };
-    trimmed
-        .trim_end_matches('.')
-        .trim_end_matches(':')
-        .to_string()
+    let first = first.trim_end_matches('.').trim_end_matches(':');
+    if let Some(rest) = first.strip_prefix("duplicate mapping key: ") {
+        let key = rest
+            .split(", set DuplicateKeyPolicy")
+            .next()
+            .unwrap_or(rest);
+        return format!("duplicate key `{key}`");
+    }
+    if first.contains("untagged enum RawSweep") {
+        return "expected a list of values or {start, stop, num}".into();
+    }
+    if first.contains("untagged enum RawValue") {
+        return "expected a scalar (number, string or bool)".into();
+    }
+    first
+        .replace("expected mapping start", "expected a mapping")
+        .replace("expected sequence start", "expected a list")
 }
 
 #[cfg(test)]

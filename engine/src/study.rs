@@ -52,7 +52,7 @@ impl std::str::FromStr for Override {
 
     fn from_str(arg: &str) -> Result<Override, SpecError> {
         let error = |message: &str| SpecError {
-            location: Location::CommandLine(arg.to_string()),
+            location: Location::CommandLine(format!("--set {arg}")),
             path: "--set".into(),
             message: message.to_string(),
         };
@@ -160,7 +160,7 @@ impl Study {
         for item in overrides {
             if !stage_index.contains_key(item.stage.as_str()) {
                 return Err(SpecError {
-                    location: Location::CommandLine(item.arg.clone()),
+                    location: Location::CommandLine(format!("--set {}", item.arg)),
                     path: "--set".into(),
                     message: format!("no stage named `{}`", item.stage),
                 });
@@ -265,7 +265,7 @@ fn validate_stage(
     for item in overrides {
         let located = Located {
             value: item.value.clone(),
-            location: Location::CommandLine(item.arg.clone()),
+            location: Location::CommandLine(format!("--set {}", item.arg)),
         };
         match written.iter_mut().find(|(param, _)| *param == item.param) {
             Some((_, slot)) => *slot = located,

@@ -1,0 +1,114 @@
+//! Shared helpers for tests that drive the `squeal` binary on real study files.
+
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use arrow::array::{Array, Float64Array, StringArray};
+use arrow::record_batch::RecordBatch;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// A scratch folder holding a study, its `.squeal/` state and its outputs.
+pub struct Workspace {
+    pub dir: tempfile::TempDir,
+}
+
+impl Workspace {
+    pub fn new() -> Workspace {
+        Workspace {
+            dir: tempfile::tempdir().expect("temporary folder"),
+        }
+    }
+
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    pub fn write(&self, name: &str, text: &str) -> PathBuf {
+        let path = self.path().join(name);
+        std::fs::write(&path, text).expect("write study");
+        path
+    }
+
+    /// `squeal ARGS` run inside the workspace, with the engine's test stage kinds enabled.
+    pub fn squeal(&self, args: &[&str]) -> Output {
+        self.command(args).output().expect("run squeal")
+    }
+
+    pub fn command(&self, args: &[&str]) -> Command {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_squeal"));
+        command
+            .args(args)
+            .current_dir(self.path())
+            .env("SQUEAL_TEST_KINDS", "1")
+            .env_remove("SQUEAL_CACHE");
+        command
+    }
+
+    /// Runs and asserts success, returning stderr.
+    pub fn run_ok(&self, args: &[&str]) -> String {
+        let output = self.squeal(args);
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(output.status.success(), "squeal {args:?} failed:\n{stderr}");
+        stderr
+    }
+
+    pub fn cache_dir(&self) -> PathBuf {
+        self.path().join(".squeal/cache")
+    }
+}
+
+pub fn read_parquet(path: &Path) -> RecordBatch {
+    let file = std::fs::File::open(path).unwrap_or_else(|err| panic!("{}: {err}", path.display()));
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
+        .expect("parquet")
+        .build()
+        .expect("reader");
+    let batches: Vec<RecordBatch> = reader.map(|batch| batch.expect("batch")).collect();
+    arrow::compute::concat_batches(&batches[0].schema(), &batches).expect("same schema")
+}
+
+pub fn strings(batch: &RecordBatch, column: &str) -> Vec<String> {
+    let array = batch
+        .column_by_name(column)
+        .unwrap_or_else(|| panic!("no column {column}"));
+    let array = array
+        .as_any()
+        .downcast_ref::<StringArray>()
+        .expect("string column");
+    (0..array.len())
+        .map(|idx| array.value(idx).to_string())
+        .collect()
+}
+
+pub fn floats(batch: &RecordBatch, column: &str) -> Vec<f64> {
+    let array = batch
+        .column_by_name(column)
+        .unwrap_or_else(|| panic!("no column {column}"));
+    array
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .expect("f64 column")
+        .values()
+        .to_vec()
+}
+
+/// `manifest.parquet` as stage instance → status.
+pub fn statuses(out: &Path) -> BTreeMap<String, String> {
+    let manifest = read_parquet(&out.join("manifest.parquet"));
+    strings(&manifest, "stage")
+        .into_iter()
+        .zip(strings(&manifest, "status"))
+        .collect()
+}
+
+/// The instances a run executed (status `ran`), sorted.
+pub fn ran(out: &Path) -> Vec<String> {
+    statuses(out)
+        .into_iter()
+        .filter(|(_, status)| status == "ran")
+        .map(|(stage, _)| stage)
+        .collect()
+}
