@@ -50,5 +50,5 @@ pub fn table(report: &RunReport) -> Table {
 }
 
 pub fn write(path: &Path, report: &RunReport) -> std::io::Result<()> {
-    crate::output::write_parquet(path, &table(report))
+    crate::output::write_parquet_if_changed(path, &table(report))
 }

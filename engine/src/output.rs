@@ -16,8 +16,9 @@ use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 use squeal_stages::{ColumnData, Table};
 
-/// Writes `bytes` to `path` through a temporary file in the same folder, fsync and rename:
-/// a reader sees the old file or the new one, never half of one.
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename: a reader
+/// sees the old file or the new one, never half of one. Not fsynced: everything written here
+/// (outputs, manifest, record) can be regenerated from the cache, which is.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
@@ -26,9 +27,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let mut tmp = tempfile::NamedTempFile::new_in(dir)?;
     tmp.write_all(bytes)?;
-    tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|err| err.error)?;
     Ok(())
+}
+
+/// [`write_atomic`], unless the file already holds exactly these bytes (small files rewritten
+/// on every run: manifest, record).
+pub fn write_if_changed(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if std::fs::read(path).is_ok_and(|existing| existing == bytes) {
+        return Ok(());
+    }
+    write_atomic(path, bytes)
 }
 
 pub fn to_record_batch(table: &Table) -> RecordBatch {
@@ -76,6 +85,12 @@ pub fn parquet_bytes(table: &Table) -> Result<Vec<u8>, parquet::errors::ParquetE
 pub fn write_parquet(path: &Path, table: &Table) -> std::io::Result<()> {
     let bytes = parquet_bytes(table).map_err(std::io::Error::other)?;
     write_atomic(path, &bytes)
+}
+
+/// [`write_parquet`] for small tables rewritten on every run.
+pub fn write_parquet_if_changed(path: &Path, table: &Table) -> std::io::Result<()> {
+    let bytes = parquet_bytes(table).map_err(std::io::Error::other)?;
+    write_if_changed(path, &bytes)
 }
 
 #[cfg(test)]

@@ -277,3 +277,89 @@ pub fn plan(context: &Context) -> Vec<PlanLine> {
     }
     lines
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::study::Registry;
+
+    const STUDY: &str = "\
+stages:
+  source:
+    kind: test.constant
+    params: { value: 2.0 }
+  scaled:
+    kind: test.affine
+    inputs: { table: source.table }
+";
+
+    /// The plan lines of STUDY, run against `record` on an empty cache.
+    fn plan_with(record: &RunRecord) -> Vec<String> {
+        let registry = Registry::new(squeal_stages::test_kinds());
+        let study = Study::from_text("s.yaml", "s", STUDY, &registry, &[]).unwrap();
+        let instances = Instances::expand(&study, &study.targets);
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::open(dir.path()).unwrap();
+        let context = Context {
+            study: &study,
+            instances: &instances,
+            cache: &cache,
+            record,
+        };
+        plan(&context)
+            .into_iter()
+            .map(|line| format!("{} {}", line.instance, line.decision.describe()))
+            .collect()
+    }
+
+    fn previous(kind: &str, version: u32, params: &[(&str, &str)]) -> InstanceRecord {
+        InstanceRecord {
+            kind: kind.into(),
+            version,
+            key: Digest::of(b"old key"),
+            params: params
+                .iter()
+                .map(|(name, value)| (name.to_string(), value.to_string()))
+                .collect(),
+            inputs: BTreeMap::new(),
+            outputs: BTreeMap::new(),
+        }
+    }
+
+    #[test]
+    fn reasons_name_what_changed_since_the_recorded_run() {
+        assert_eq!(
+            plan_with(&RunRecord::default()),
+            ["source runs: new", "scaled runs: new"]
+        );
+        let mut record = RunRecord::default();
+        record.instances.insert(
+            "source".into(),
+            previous("test.constant", 0, &[("value", "2"), ("rows", "1")]),
+        );
+        record
+            .instances
+            .insert("scaled".into(), previous("test.round", 1, &[]));
+        assert_eq!(
+            plan_with(&record),
+            [
+                "source runs: stage version changed 0 → 1",
+                "scaled runs: kind changed test.round → test.affine; parameter `offset` is new (0); \
+                 parameter `scale` is new (1); input `table` now has 1 artifacts (was 0)",
+            ]
+        );
+        record.instances.insert(
+            "source".into(),
+            previous("test.constant", 1, &[("value", "2.5"), ("rows", "1")]),
+        );
+        assert_eq!(
+            plan_with(&record)[0],
+            "source runs: parameter `value` changed 2.5 → 2"
+        );
+        record.instances.insert(
+            "source".into(),
+            previous("test.constant", 1, &[("value", "2"), ("rows", "1")]),
+        );
+        assert_eq!(plan_with(&record)[0], "source runs: not in cache");
+    }
+}

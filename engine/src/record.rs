@@ -44,6 +44,6 @@ impl RunRecord {
     /// Written atomically, like everything the engine leaves behind.
     pub fn save(&self, path: &Path) -> std::io::Result<()> {
         let json = serde_json::to_vec_pretty(self).expect("records serialise");
-        crate::output::write_atomic(path, &json)
+        crate::output::write_if_changed(path, &json)
     }
 }

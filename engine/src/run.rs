@@ -189,7 +189,7 @@ pub fn run(
         }
     }
     record.save(record_path)?;
-    output::write_atomic(
+    output::write_if_changed(
         &exports_path,
         &serde_json::to_vec_pretty(&shared.exports).expect("serialises"),
     )?;

@@ -1,0 +1,201 @@
+//! The Parquet files a run writes read back with the promised columns and rows, and sweeps
+//! fan out and gather as documented.
+
+mod common;
+
+use common::{Workspace, floats, read_parquet, strings};
+
+const SWEEP: &str = "\
+study: sweep
+targets: [gathered]
+stages:
+  source:
+    kind: test.constant
+    params: { value: 2.0, rows: 3 }
+  scaled:
+    kind: test.affine
+    inputs: { table: source.table }
+    matrix:
+      scale: [1, 10]
+      offset: { start: 0.0, stop: 1.0, num: 3 }
+  rounded:
+    kind: test.round
+    inputs: { table: scaled.table }
+  gathered:
+    kind: table.gather
+    inputs: { tables: rounded.table }
+  unused:
+    kind: test.fail
+    inputs: { table: source.table }
+";
+
+#[test]
+fn manifest_has_one_row_per_instance_with_the_promised_columns() {
+    let workspace = Workspace::new();
+    workspace.write("sweep.yaml", SWEEP);
+    workspace.run_ok(&["run", "sweep.yaml", "--out", "out"]);
+    let manifest = read_parquet(&workspace.path().join("out/manifest.parquet"));
+    let columns: Vec<String> = manifest
+        .schema()
+        .fields()
+        .iter()
+        .map(|field| field.name().clone())
+        .collect();
+    for column in [
+        "stage",
+        "kind",
+        "key",
+        "status",
+        "wall_s",
+        "params_json",
+        "reason",
+        "outputs_json",
+    ] {
+        assert!(
+            columns.contains(&column.to_string()),
+            "{column} missing from {columns:?}"
+        );
+    }
+    // 1 source + 6 sweep points × 2 stages + 1 gather; `unused` is not needed by the target.
+    assert_eq!(manifest.num_rows(), 14);
+    let stages = strings(&manifest, "stage");
+    assert!(
+        stages.contains(&"scaled[scale=10,offset=0.5]".to_string()),
+        "{stages:?}"
+    );
+    assert!(
+        stages.contains(&"rounded[scale=1,offset=1]".to_string()),
+        "{stages:?}"
+    );
+    assert!(!stages.iter().any(|stage| stage.starts_with("unused")));
+    assert!(
+        strings(&manifest, "status")
+            .iter()
+            .all(|status| status == "ran")
+    );
+    let params = strings(&manifest, "params_json");
+    let scaled = stages
+        .iter()
+        .position(|stage| stage == "scaled[scale=10,offset=0.5]")
+        .unwrap();
+    let params: serde_json::Value = serde_json::from_str(&params[scaled]).unwrap();
+    assert_eq!(params, serde_json::json!({ "scale": 10.0, "offset": 0.5 }));
+    assert!(floats(&manifest, "wall_s").iter().all(|wall| *wall >= 0.0));
+    assert!(strings(&manifest, "key").iter().all(|key| key.len() == 64));
+
+    workspace.run_ok(&["run", "sweep.yaml", "--out", "out"]);
+    let manifest = read_parquet(&workspace.path().join("out/manifest.parquet"));
+    assert!(
+        strings(&manifest, "status")
+            .iter()
+            .all(|status| status == "cached")
+    );
+}
+
+#[test]
+fn gathered_tables_carry_the_swept_parameters_as_columns() {
+    let workspace = Workspace::new();
+    workspace.write("sweep.yaml", SWEEP);
+    workspace.run_ok(&["run", "sweep.yaml", "--out", "out"]);
+    let gathered = read_parquet(&workspace.path().join("out/gathered/table.parquet"));
+    let columns: Vec<String> = gathered
+        .schema()
+        .fields()
+        .iter()
+        .map(|field| field.name().clone())
+        .collect();
+    assert_eq!(columns, ["scale", "offset", "x"]);
+    assert_eq!(gathered.num_rows(), 18);
+    let (scale, offset, x) = (
+        floats(&gathered, "scale"),
+        floats(&gathered, "offset"),
+        floats(&gathered, "x"),
+    );
+    for row in 0..18 {
+        assert_eq!(
+            x[row],
+            (2.0 * scale[row] + offset[row]).round(),
+            "row {row}"
+        );
+    }
+    assert_eq!(offset[..9], [0.0, 0.0, 0.0, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0]);
+    // Swept instances write hive-style folders that pyarrow, polars and duckdb read as columns.
+    let point = read_parquet(
+        &workspace
+            .path()
+            .join("out/scaled/scale=10/offset=0.5/table.parquet"),
+    );
+    assert_eq!(floats(&point, "x"), [20.5, 20.5, 20.5]);
+}
+
+#[test]
+fn two_swept_inputs_from_one_sweep_are_joined_not_crossed() {
+    let workspace = Workspace::new();
+    let study = "\
+stages:
+  source:
+    kind: test.constant
+    matrix: { value: [1, 2, 3] }
+  left:
+    kind: test.affine
+    inputs: { table: source.table }
+  right:
+    kind: test.round
+    inputs: { table: source.table }
+    matrix: { decimals: [0, 1] }
+  both:
+    kind: table.gather
+    inputs: { tables: right.table }
+  per_value:
+    kind: test.affine
+    inputs: { table: left.table }
+    params: { scale: 3 }
+";
+    workspace.write("join.yaml", study);
+    workspace.run_ok(&["run", "join.yaml", "--out", "out"]);
+    let stages = common::statuses(&workspace.path().join("out"));
+    let names: Vec<&str> = stages.keys().map(String::as_str).collect();
+    assert_eq!(
+        names
+            .iter()
+            .filter(|name| name.starts_with("left["))
+            .count(),
+        3
+    );
+    assert_eq!(
+        names
+            .iter()
+            .filter(|name| name.starts_with("right["))
+            .count(),
+        6
+    );
+    assert_eq!(
+        names
+            .iter()
+            .filter(|name| name.starts_with("per_value["))
+            .count(),
+        3
+    );
+    assert!(names.contains(&"right[value=2,decimals=1]"), "{names:?}");
+    let gathered = read_parquet(&workspace.path().join("out/both/table.parquet"));
+    assert_eq!(gathered.num_rows(), 6);
+    assert_eq!(floats(&gathered, "value"), [1.0, 1.0, 2.0, 2.0, 3.0, 3.0]);
+}
+
+#[test]
+fn dag_renders_every_instance_and_edge() {
+    let workspace = Workspace::new();
+    workspace.write("sweep.yaml", SWEEP);
+    let output = workspace.squeal(&["dag", "sweep.yaml", "--format", "dot"]);
+    let dot = String::from_utf8_lossy(&output.stdout);
+    assert!(dot.starts_with("digraph \"sweep\" {"), "{dot}");
+    assert_eq!(
+        dot.matches("[label=\"").count(),
+        14 + 18,
+        "14 nodes and 18 edges:\n{dot}"
+    );
+    let output = workspace.squeal(&["dag", "sweep.yaml", "--format", "mermaid"]);
+    let mermaid = String::from_utf8_lossy(&output.stdout);
+    assert!(mermaid.starts_with("flowchart LR"), "{mermaid}");
+    assert_eq!(mermaid.matches("-->").count(), 18);
+}
