@@ -169,7 +169,7 @@ fn load_study(args: &StudyArgs, registry: &Registry) -> Result<(Study, Vec<usize
                 })
             })
             .collect::<Result<_, _>>()
-            .map_err(|err| UsageError(err))?;
+            .map_err(UsageError)?;
     }
     Ok((study, targets))
 }

@@ -42,6 +42,9 @@ pub struct Instance {
     pub inputs: Vec<InstanceInput>,
 }
 
+/// A partial instance during expansion: its coordinates and its one-input upstream instances.
+type Combo = (Vec<(usize, Value)>, Vec<usize>);
+
 /// The instances a set of targets needs, upstream before downstream.
 pub struct Instances {
     pub axes: Vec<Axis>,
@@ -86,7 +89,7 @@ impl Instances {
             }
             let decl = &study.stages[stage_idx];
             // Join the one-artifact inputs on shared axes.
-            let mut combos: Vec<(Vec<(usize, Value)>, Vec<usize>)> = vec![(Vec::new(), Vec::new())];
+            let mut combos: Vec<Combo> = vec![(Vec::new(), Vec::new())];
             for input in decl.inputs.iter().filter(|input| input.arity == Arity::One) {
                 let upstream = &instances.of_stage[input.from];
                 combos = join(&instances.list, &combos, upstream);
@@ -160,11 +163,7 @@ impl Instances {
 
 /// Extends each partial combination with every upstream instance that agrees with it on the
 /// axes they share. Upstream instances are indexed by those axes, so this is linear.
-fn join(
-    list: &[Instance],
-    combos: &[(Vec<(usize, Value)>, Vec<usize>)],
-    upstream: &[usize],
-) -> Vec<(Vec<(usize, Value)>, Vec<usize>)> {
+fn join(list: &[Instance], combos: &[Combo], upstream: &[usize]) -> Vec<Combo> {
     let (Some((first_coords, _)), Some(&first_up)) = (combos.first(), upstream.first()) else {
         return Vec::new();
     };

@@ -166,21 +166,19 @@ impl Study {
                 });
             }
         }
+        let validator = Validator {
+            file,
+            registry,
+            raw_stages: &raw.stages.0,
+            stage_index: &stage_index,
+        };
         let mut stages = Vec::with_capacity(raw.stages.0.len());
         for (name, raw_stage) in &raw.stages.0 {
             let own_overrides: Vec<&Override> = overrides
                 .iter()
                 .filter(|item| item.stage == *name)
                 .collect();
-            stages.push(validate_stage(
-                file,
-                name,
-                raw_stage,
-                registry,
-                &raw.stages.0,
-                &stage_index,
-                &own_overrides,
-            )?);
+            stages.push(validator.stage(name, raw_stage, &own_overrides)?);
         }
         let targets = match &raw.targets {
             None => (0..stages.len()).collect(),
@@ -217,118 +215,204 @@ impl Study {
     }
 }
 
-fn validate_stage(
-    file: &str,
-    name: &str,
-    raw: &RawStage,
-    registry: &Registry,
-    raw_stages: &[(String, RawStage)],
-    stage_index: &HashMap<&str, usize>,
-    overrides: &[&Override],
-) -> Result<StageDecl, SpecError> {
-    let path = format!("stages.{name}");
-    let kind = spec::located(file, raw.kind.clone());
-    let stage = registry.get(&kind.value).cloned().ok_or_else(|| {
-        let known: Vec<&str> = registry.iter().map(|stage| stage.kind()).collect();
-        kind.error(
-            format!("{path}.kind"),
-            format!(
-                "unknown stage kind `{}` (known: {})",
-                kind.value,
-                known.join(", ")
-            ),
-        )
-    })?;
-    let specs = stage.params();
-    let find_spec = |param: &str, located: &dyn Fn(String) -> SpecError| {
-        specs.iter().find(|spec| spec.name == param).ok_or_else(|| {
-            let known: Vec<&str> = specs.iter().map(|spec| spec.name).collect();
-            let known = if known.is_empty() {
-                "none".into()
-            } else {
-                known.join(", ")
-            };
-            located(format!(
-                "`{}` has no parameter `{param}` (parameters: {known})",
-                kind.value
-            ))
-        })
-    };
+/// What checking one stage needs to know of the whole study.
+struct Validator<'a> {
+    file: &'a str,
+    registry: &'a Registry,
+    raw_stages: &'a [(String, RawStage)],
+    stage_index: &'a HashMap<&'a str, usize>,
+}
 
-    // Written values: the file's params, then --set overrides on top.
-    let mut written: Vec<(String, Located<RawValue>)> = raw
-        .params
-        .0
-        .iter()
-        .map(|(param, value)| (param.clone(), spec::located(file, value.clone())))
-        .collect();
-    for item in overrides {
-        let located = Located {
-            value: item.value.clone(),
-            location: Location::CommandLine(format!("--set {}", item.arg)),
+impl Validator<'_> {
+    fn stage(
+        &self,
+        name: &str,
+        raw: &RawStage,
+        overrides: &[&Override],
+    ) -> Result<StageDecl, SpecError> {
+        let Validator { file, registry, .. } = *self;
+        let path = format!("stages.{name}");
+        let kind = spec::located(file, raw.kind.clone());
+        let stage = registry.get(&kind.value).cloned().ok_or_else(|| {
+            let known: Vec<&str> = registry.iter().map(|stage| stage.kind()).collect();
+            kind.error(
+                format!("{path}.kind"),
+                format!(
+                    "unknown stage kind `{}` (known: {})",
+                    kind.value,
+                    known.join(", ")
+                ),
+            )
+        })?;
+        let specs = stage.params();
+        let find_spec = |param: &str, located: &dyn Fn(String) -> SpecError| {
+            specs.iter().find(|spec| spec.name == param).ok_or_else(|| {
+                let known: Vec<&str> = specs.iter().map(|spec| spec.name).collect();
+                let known = if known.is_empty() {
+                    "none".into()
+                } else {
+                    known.join(", ")
+                };
+                located(format!(
+                    "`{}` has no parameter `{param}` (parameters: {known})",
+                    kind.value
+                ))
+            })
         };
-        match written.iter_mut().find(|(param, _)| *param == item.param) {
-            Some((_, slot)) => *slot = located,
-            None => written.push((item.param.clone(), located)),
-        }
-    }
-    let mut params = BTreeMap::new();
-    for (param, value) in &written {
-        let param_path = format!("{path}.params.{param}");
-        let spec = find_spec(param, &|message| value.error(&param_path, message))?;
-        let converted = units::convert(spec, &value.value)
-            .map_err(|message| value.error(&param_path, message))?;
-        params.insert(param.clone(), converted);
-    }
 
-    let mut matrix = Vec::new();
-    for (param, sweep) in &raw.matrix.0 {
-        let sweep_path = format!("{path}.matrix.{param}");
-        let sweep: Located<RawSweep> = spec::located(file, sweep.clone());
-        let spec = find_spec(param, &|message| sweep.error(&sweep_path, message))?;
-        if params.contains_key(param) {
-            return Err(sweep.error(
-                &sweep_path,
-                format!("`{param}` is both set in params and swept"),
-            ));
+        // Written values: the file's params, then --set overrides on top.
+        let mut written: Vec<(String, Located<RawValue>)> = raw
+            .params
+            .0
+            .iter()
+            .map(|(param, value)| (param.clone(), spec::located(file, value.clone())))
+            .collect();
+        for item in overrides {
+            let located = Located {
+                value: item.value.clone(),
+                location: Location::CommandLine(format!("--set {}", item.arg)),
+            };
+            match written.iter_mut().find(|(param, _)| *param == item.param) {
+                Some((_, slot)) => *slot = located,
+                None => written.push((item.param.clone(), located)),
+            }
         }
-        let values = sweep_values(spec, &sweep.value)
-            .map_err(|message| sweep.error(&sweep_path, message))?;
-        matrix.push((param.clone(), values));
-    }
-    for spec in &specs {
-        let swept = matrix.iter().any(|(param, _)| param == spec.name);
-        if !params.contains_key(spec.name) && !swept {
-            match &spec.default {
-                Some(default) => {
-                    params.insert(spec.name.to_string(), default.clone());
-                }
-                None => {
-                    return Err(
-                        kind.error(&path, format!("missing required parameter `{}`", spec.name))
-                    );
+        let mut params = BTreeMap::new();
+        for (param, value) in &written {
+            let param_path = format!("{path}.params.{param}");
+            let spec = find_spec(param, &|message| value.error(&param_path, message))?;
+            let converted = units::convert(spec, &value.value)
+                .map_err(|message| value.error(&param_path, message))?;
+            params.insert(param.clone(), converted);
+        }
+
+        let mut matrix = Vec::new();
+        for (param, sweep) in &raw.matrix.0 {
+            let sweep_path = format!("{path}.matrix.{param}");
+            let sweep: Located<RawSweep> = spec::located(file, sweep.clone());
+            let spec = find_spec(param, &|message| sweep.error(&sweep_path, message))?;
+            if params.contains_key(param) {
+                return Err(sweep.error(
+                    &sweep_path,
+                    format!("`{param}` is both set in params and swept"),
+                ));
+            }
+            let values = sweep_values(spec, &sweep.value)
+                .map_err(|message| sweep.error(&sweep_path, message))?;
+            matrix.push((param.clone(), values));
+        }
+        for spec in &specs {
+            let swept = matrix.iter().any(|(param, _)| param == spec.name);
+            if !params.contains_key(spec.name) && !swept {
+                match &spec.default {
+                    Some(default) => {
+                        params.insert(spec.name.to_string(), default.clone());
+                    }
+                    None => {
+                        return Err(kind
+                            .error(&path, format!("missing required parameter `{}`", spec.name)));
+                    }
                 }
             }
         }
+
+        let inputs = self.inputs(&path, &kind, stage.as_ref(), raw)?;
+        Ok(StageDecl {
+            name: name.into(),
+            stage,
+            params,
+            matrix,
+            inputs,
+        })
     }
 
-    let inputs = validate_inputs(
-        file,
-        &path,
-        &kind,
-        stage.as_ref(),
-        raw,
-        registry,
-        raw_stages,
-        stage_index,
-    )?;
-    Ok(StageDecl {
-        name: name.into(),
-        stage,
-        params,
-        matrix,
-        inputs,
-    })
+    fn inputs(
+        &self,
+        path: &str,
+        kind: &Located<String>,
+        stage: &dyn Stage,
+        raw: &RawStage,
+    ) -> Result<Vec<InputDecl>, SpecError> {
+        let Validator {
+            file,
+            registry,
+            raw_stages,
+            stage_index,
+        } = *self;
+        let ports = stage.inputs();
+        let mut inputs = Vec::new();
+        for (port_name, reference) in &raw.inputs.0 {
+            let input_path = format!("{path}.inputs.{port_name}");
+            let reference = spec::located(file, reference.clone());
+            let port = ports
+                .iter()
+                .find(|port| port.name == port_name)
+                .ok_or_else(|| {
+                    let known: Vec<&str> = ports.iter().map(|port| port.name).collect();
+                    let known = if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    };
+                    reference.error(
+                        &input_path,
+                        format!(
+                            "`{}` has no input `{port_name}` (inputs: {known})",
+                            kind.value
+                        ),
+                    )
+                })?;
+            let (from_name, output) = reference
+                .value
+                .split_once('.')
+                .ok_or_else(|| reference.error(&input_path, "expected `stage.output`"))?;
+            let from = *stage_index.get(from_name).ok_or_else(|| {
+                reference.error(&input_path, format!("no stage named `{from_name}`"))
+            })?;
+            // The upstream kind was validated or will be: look it up without failing twice.
+            if let Some(upstream) = registry.get(&raw_stages[from].1.kind.value) {
+                let out = upstream
+                    .outputs()
+                    .into_iter()
+                    .find(|out| out.name == output)
+                    .ok_or_else(|| {
+                        let known: Vec<&str> =
+                            upstream.outputs().iter().map(|out| out.name).collect();
+                        reference.error(
+                            &input_path,
+                            format!(
+                                "stage `{from_name}` has no output `{output}` (outputs: {})",
+                                known.join(", ")
+                            ),
+                        )
+                    })?;
+                if out.ty != port.ty {
+                    return Err(reference.error(
+                        &input_path,
+                        format!(
+                            "`{from_name}.{output}` is a {}, but input `{port_name}` takes a {}",
+                            out.ty, port.ty
+                        ),
+                    ));
+                }
+            }
+            inputs.push(InputDecl {
+                port: port_name.clone(),
+                from,
+                output: output.into(),
+                arity: port.arity,
+            });
+        }
+        for port in &ports {
+            if !inputs.iter().any(|input| input.port == port.name) {
+                return Err(kind.error(
+                    path,
+                    format!("missing input `{}` ({})", port.name, port.doc),
+                ));
+            }
+        }
+        Ok(inputs)
+    }
 }
 
 fn sweep_values(spec: &ParamSpec, sweep: &RawSweep) -> Result<Vec<Value>, String> {
@@ -361,90 +445,6 @@ fn sweep_values(spec: &ParamSpec, sweep: &RawSweep) -> Result<Vec<Value>, String
         }
     }
     Ok(values)
-}
-
-fn validate_inputs(
-    file: &str,
-    path: &str,
-    kind: &Located<String>,
-    stage: &dyn Stage,
-    raw: &RawStage,
-    registry: &Registry,
-    raw_stages: &[(String, RawStage)],
-    stage_index: &HashMap<&str, usize>,
-) -> Result<Vec<InputDecl>, SpecError> {
-    let ports = stage.inputs();
-    let mut inputs = Vec::new();
-    for (port_name, reference) in &raw.inputs.0 {
-        let input_path = format!("{path}.inputs.{port_name}");
-        let reference = spec::located(file, reference.clone());
-        let port = ports
-            .iter()
-            .find(|port| port.name == port_name)
-            .ok_or_else(|| {
-                let known: Vec<&str> = ports.iter().map(|port| port.name).collect();
-                let known = if known.is_empty() {
-                    "none".into()
-                } else {
-                    known.join(", ")
-                };
-                reference.error(
-                    &input_path,
-                    format!(
-                        "`{}` has no input `{port_name}` (inputs: {known})",
-                        kind.value
-                    ),
-                )
-            })?;
-        let (from_name, output) = reference
-            .value
-            .split_once('.')
-            .ok_or_else(|| reference.error(&input_path, "expected `stage.output`"))?;
-        let from = *stage_index
-            .get(from_name)
-            .ok_or_else(|| reference.error(&input_path, format!("no stage named `{from_name}`")))?;
-        // The upstream kind was validated or will be: look it up without failing twice.
-        if let Some(upstream) = registry.get(&raw_stages[from].1.kind.value) {
-            let out = upstream
-                .outputs()
-                .into_iter()
-                .find(|out| out.name == output)
-                .ok_or_else(|| {
-                    let known: Vec<&str> = upstream.outputs().iter().map(|out| out.name).collect();
-                    reference.error(
-                        &input_path,
-                        format!(
-                            "stage `{from_name}` has no output `{output}` (outputs: {})",
-                            known.join(", ")
-                        ),
-                    )
-                })?;
-            if out.ty != port.ty {
-                return Err(reference.error(
-                    &input_path,
-                    format!(
-                        "`{from_name}.{output}` is a {}, but input `{port_name}` takes a {}",
-                        out.ty, port.ty
-                    ),
-                ));
-            }
-        }
-        inputs.push(InputDecl {
-            port: port_name.clone(),
-            from,
-            output: output.into(),
-            arity: port.arity,
-        });
-    }
-    for port in &ports {
-        if !inputs.iter().any(|input| input.port == port.name) {
-            return Err(kind.error(
-                path,
-                format!("missing input `{}` ({})", port.name, port.doc),
-            ));
-        }
-    }
-    Ok(inputs)
 }
 
 /// A cycle is an error naming its stages in order, at the first stage's `kind:`.
