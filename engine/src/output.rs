@@ -82,12 +82,7 @@ pub fn parquet_bytes(table: &Table) -> Result<Vec<u8>, parquet::errors::ParquetE
     Ok(bytes)
 }
 
-pub fn write_parquet(path: &Path, table: &Table) -> std::io::Result<()> {
-    let bytes = parquet_bytes(table).map_err(std::io::Error::other)?;
-    write_atomic(path, &bytes)
-}
-
-/// [`write_parquet`] for small tables rewritten on every run.
+/// Writes a small table rewritten on every run (the manifest), unless unchanged.
 pub fn write_parquet_if_changed(path: &Path, table: &Table) -> std::io::Result<()> {
     let bytes = parquet_bytes(table).map_err(std::io::Error::other)?;
     write_if_changed(path, &bytes)

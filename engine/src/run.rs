@@ -84,7 +84,7 @@ struct Shared {
     inputs: Vec<Option<ResolvedInputs>>,
     pending: Vec<usize>,
     running: Vec<String>,
-    exports: BTreeMap<String, Digest>,
+    exports: BTreeMap<String, Export>,
 }
 
 struct Executor<'a> {
@@ -414,8 +414,8 @@ impl Executor<'_> {
         Ok(artifact)
     }
 
-    /// Writes each table output to Parquet and each figure to SVG and PNG, unless the files
-    /// there already hold these bytes.
+    /// Writes each output people read: tables to Parquet, figures to SVG and PNG, documents
+    /// under their extension. Skipped when the export record says these bytes are already there.
     fn export(&self, idx: usize, outputs: &BTreeMap<String, Digest>) -> Result<(), String> {
         let instances = self.context.instances;
         let instance = &instances.list[idx];
@@ -426,37 +426,76 @@ impl Executor<'_> {
         for (name, digest) in outputs {
             let relative = dir.join(name);
             let relative_key = relative.to_string_lossy().into_owned();
-            let base = self.options.out_dir.join(&relative);
-            let exported = self.lock().exports.get(&relative_key) == Some(digest);
-            let artifact_files_exist = |extensions: &[&str]| {
-                extensions
-                    .iter()
-                    .all(|ext| base.with_extension(ext).exists())
-            };
-            if exported
-                && (artifact_files_exist(&["parquet"]) || artifact_files_exist(&["svg", "png"]))
-            {
+            let up_to_date = self
+                .lock()
+                .exports
+                .get(&relative_key)
+                .is_some_and(|export| {
+                    export.digest == *digest
+                        && export
+                            .files
+                            .iter()
+                            .all(|file| self.options.out_dir.join(file).exists())
+                });
+            if up_to_date {
                 continue;
             }
             let artifact = self
                 .load(digest)
                 .map_err(|err| format!("output `{name}`: {err}"))?;
-            let written = match artifact.as_ref() {
+            let files: Vec<(PathBuf, &[u8])>;
+            let parquet;
+            match artifact.as_ref() {
                 Artifact::Table(table) => {
-                    output::write_parquet(&base.with_extension("parquet"), table)
+                    parquet = output::parquet_bytes(table)
+                        .map_err(|err| format!("output `{name}`: {err}"))?;
+                    files = vec![(relative.with_extension("parquet"), &parquet)];
                 }
                 Artifact::Figure(figure) => {
-                    output::write_atomic(&base.with_extension("svg"), figure.svg.as_bytes())
-                        .and_then(|()| {
-                            output::write_atomic(&base.with_extension("png"), &figure.png)
-                        })
+                    files = vec![
+                        (relative.with_extension("svg"), figure.svg.as_bytes()),
+                        (relative.with_extension("png"), &figure.png),
+                    ];
                 }
-            };
-            written.map_err(|err| format!("writing {}: {err}", base.display()))?;
-            self.lock().exports.insert(relative_key, *digest);
+                Artifact::Document(document) => {
+                    files = vec![(
+                        relative.with_extension(&document.extension),
+                        &document.bytes,
+                    )];
+                }
+                // Meshes, models and modes feed other stages; people see them through the
+                // tables, figures and documents those stages write.
+                Artifact::Mesh(_) | Artifact::Model(_) | Artifact::RealModes(_) => {
+                    files = Vec::new()
+                }
+            }
+            for (file, bytes) in &files {
+                let path = self.options.out_dir.join(file);
+                output::write_atomic(&path, bytes)
+                    .map_err(|err| format!("writing {}: {err}", path.display()))?;
+            }
+            let files = files
+                .iter()
+                .map(|(file, _)| file.to_string_lossy().into_owned())
+                .collect();
+            self.lock().exports.insert(
+                relative_key,
+                Export {
+                    digest: *digest,
+                    files,
+                },
+            );
         }
         Ok(())
     }
+}
+
+/// What the last export of an output wrote (`out/.squeal-exports.json`).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+struct Export {
+    digest: Digest,
+    /// Paths relative to the output folder.
+    files: Vec<String>,
 }
 
 fn params_json(instance: &crate::instances::Instance) -> String {

@@ -5,6 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::mesh::Mesh;
+use crate::model::{Model, RealModes};
 use crate::table::Table;
 
 /// A value produced by one stage and consumed by others.
@@ -14,6 +16,19 @@ pub enum Artifact {
     Table(Table),
     /// A rendered figure; written as `<output>.svg` and `<output>.png` by the engine.
     Figure(Figure),
+    /// A file in a format other tools read (VTU for ParaView, Matrix Market for scipy);
+    /// written as `<output>.<extension>` by the engine.
+    Document(Document),
+    Mesh(Box<Mesh>),
+    Model(Box<Model>),
+    RealModes(Box<RealModes>),
+}
+
+/// Bytes of a file format, with the extension it is written under.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Document {
+    pub extension: String,
+    pub bytes: Vec<u8>,
 }
 
 /// A figure rendered by a stage, in both formats people use: SVG for papers, PNG for a look.
@@ -28,6 +43,10 @@ pub struct Figure {
 pub enum ArtifactType {
     Table,
     Figure,
+    Document,
+    Mesh,
+    Model,
+    RealModes,
 }
 
 impl ArtifactType {
@@ -35,6 +54,10 @@ impl ArtifactType {
         match self {
             ArtifactType::Table => "table",
             ArtifactType::Figure => "figure",
+            ArtifactType::Document => "document",
+            ArtifactType::Mesh => "mesh",
+            ArtifactType::Model => "model",
+            ArtifactType::RealModes => "real modes",
         }
     }
 }
@@ -55,6 +78,10 @@ impl Artifact {
         match self {
             Artifact::Table(_) => ArtifactType::Table,
             Artifact::Figure(_) => ArtifactType::Figure,
+            Artifact::Document(_) => ArtifactType::Document,
+            Artifact::Mesh(_) => ArtifactType::Mesh,
+            Artifact::Model(_) => ArtifactType::Model,
+            Artifact::RealModes(_) => ArtifactType::RealModes,
         }
     }
 

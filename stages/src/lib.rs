@@ -4,14 +4,18 @@
 //! parameters and its input artifacts ([`stage::Stage::run`]). The engine finds stages through
 //! the registry the binary builds from [`all_kinds`].
 
+#![allow(non_snake_case)] // matrices are named as in the equations: M, K, C
+
 pub mod artifact;
+pub mod mesh;
+pub mod model;
 pub mod stage;
 pub mod table;
 pub mod testing;
 
 use std::sync::Arc;
 
-pub use artifact::{Artifact, ArtifactType, Figure};
+pub use artifact::{Artifact, ArtifactType, Document, Figure};
 pub use stage::{
     Arity, Coords, Input, Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage,
     StageError, Value,
