@@ -11,6 +11,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+pub mod structured;
+
 /// A node of the disc face and the coincident (distinct) node of the pad face opposite.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ContactPair {
