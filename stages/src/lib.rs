@@ -24,7 +24,7 @@ pub use table::{Column, ColumnData, Table};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
-    vec![Arc::new(table::Gather)]
+    vec![Arc::new(mesh::brake::MeshBrake), Arc::new(table::Gather)]
 }
 
 /// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).
