@@ -113,7 +113,7 @@ impl Stage for GmshImport {
         1
     }
     fn doc(&self) -> &'static str {
-        "Import a hexahedral Gmsh mesh (MSH 4.1 ASCII): parts from physical volumes, node sets from physical surfaces, contact pairs (reads a file: never cached)"
+        "Import a hexahedral Gmsh mesh (MSH 4.1 ASCII) with parts, node sets and contact pairs; reads a file, so never cached"
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
@@ -158,6 +158,9 @@ impl Stage for GmshImport {
     }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
         let path = params.str("path");
+        if path.is_empty() {
+            return Err(StageError::new("path is empty: name the .msh file to read"));
+        }
         let contact = match (params.str("contact_disc"), params.str("contact_pad")) {
             ("", "") => None,
             ("", _) | (_, "") => {
@@ -654,6 +657,76 @@ fn capitalised(word: &str) -> String {
         .unwrap_or_default()
 }
 
+/// The physical volume of a block of hexahedra: exactly one, with a name.
+fn volume_group(
+    entity_tag: i64,
+    element_type: u32,
+    physicals: &[i64],
+    names: &HashMap<GroupKey, String>,
+    block_line: usize,
+) -> Result<(GroupKey, String), MshError> {
+    if element_type != GMSH_HEXAHEDRON {
+        return Err(MshError::at(
+            block_line,
+            format!(
+                "volume {entity_tag}: {} elements are not supported, only 8-node hexahedra (type 5)",
+                element_type_name(element_type)
+            ),
+        ));
+    }
+    match physicals {
+        [] => Err(MshError::at(
+            block_line,
+            format!(
+                "the hexahedra of volume {entity_tag} are in no physical volume: add it to one, whose name is its part (Physical Volume(\"disc\") = {{{entity_tag}}})"
+            ),
+        )),
+        [physical] => {
+            let key = (3, *physical);
+            Ok((key, group_name(names, key, block_line)?))
+        }
+        several => {
+            let listed: Vec<String> = several
+                .iter()
+                .map(|tag| names.get(&(3, *tag)).cloned().unwrap_or(tag.to_string()))
+                .collect();
+            Err(MshError::at(
+                block_line,
+                format!(
+                    "volume {entity_tag} is in {} physical volumes ({}): its hexahedra need exactly one part",
+                    several.len(),
+                    listed.join(", ")
+                ),
+            ))
+        }
+    }
+}
+
+/// Nodes per element of a block on a point, curve or surface; 0 for a block in no physical
+/// group, which is skipped unread.
+fn boundary_nodes_per_element(
+    dim: u32,
+    entity_tag: i64,
+    element_type: u32,
+    physicals: &[i64],
+    block_line: usize,
+) -> Result<usize, MshError> {
+    match boundary_element_shape(element_type) {
+        Some((n_nodes, element_dim)) if element_dim == dim => Ok(n_nodes),
+        _ if physicals.is_empty() => Ok(0),
+        _ => {
+            let word = dimension_word(dim);
+            Err(MshError::at(
+                block_line,
+                format!(
+                    "{word} {entity_tag}: {} elements are not supported on a {word}, only first-order points, lines, triangles and quadrangles",
+                    element_type_name(element_type)
+                ),
+            ))
+        }
+    }
+}
+
 fn parse_elements(
     section: &Section,
     nodes: &Nodes,
@@ -688,61 +761,12 @@ fn parse_elements(
         let physicals = entities
             .get(&(dim, entity_tag))
             .map_or(&[][..], Vec::as_slice);
-        let word = dimension_word(dim);
         let n_nodes = if dim == 3 {
-            if element_type != GMSH_HEXAHEDRON {
-                return Err(MshError::at(
-                    block_line,
-                    format!(
-                        "volume {entity_tag}: {} elements are not supported, only 8-node hexahedra (type 5)",
-                        element_type_name(element_type)
-                    ),
-                ));
-            }
-            match physicals {
-                [] => {
-                    return Err(MshError::at(
-                        block_line,
-                        format!(
-                            "the hexahedra of volume {entity_tag} are in no physical volume: add it to one, whose name is its part (Physical Volume(\"disc\") = {{{entity_tag}}})"
-                        ),
-                    ));
-                }
-                [physical] => {
-                    let key = (3, *physical);
-                    let name = group_name(names, key, block_line)?;
-                    elements.volume_names.insert(key, name);
-                }
-                several => {
-                    let listed: Vec<String> = several
-                        .iter()
-                        .map(|tag| names.get(&(3, *tag)).cloned().unwrap_or(tag.to_string()))
-                        .collect();
-                    return Err(MshError::at(
-                        block_line,
-                        format!(
-                            "volume {entity_tag} is in {} physical volumes ({}): its hexahedra need exactly one part",
-                            several.len(),
-                            listed.join(", ")
-                        ),
-                    ));
-                }
-            }
+            let (key, name) = volume_group(entity_tag, element_type, physicals, names, block_line)?;
+            elements.volume_names.insert(key, name);
             8
         } else {
-            match boundary_element_shape(element_type) {
-                Some((n_nodes, element_dim)) if element_dim == dim => n_nodes,
-                _ if physicals.is_empty() => 0, // not in a group: skipped unread
-                _ => {
-                    return Err(MshError::at(
-                        block_line,
-                        format!(
-                            "{word} {entity_tag}: {} elements are not supported on a {word}, only first-order points, lines, triangles and quadrangles",
-                            element_type_name(element_type)
-                        ),
-                    ));
-                }
-            }
+            boundary_nodes_per_element(dim, entity_tag, element_type, physicals, block_line)?
         };
         let groups = physicals
             .iter()
@@ -981,6 +1005,7 @@ fn contact_group<'e>(
             .by_ref()
             .map(|(_, (group_name, _))| group_name.as_str())
             .collect();
+        available.sort_unstable();
         available.dedup();
         let available = if available.is_empty() {
             "none".to_string()
@@ -1042,86 +1067,16 @@ fn pair_contact_nodes(
         .find(|node| pad_nodes.binary_search(node).is_ok())
     {
         return Err(MshError::whole_file(format!(
-            "node {} is on both `{}` and `{}`: the contact interface needs duplicated nodes, one copy per side",
+            "node {} is on both `{}` and `{}`: the contact interface needs duplicated nodes, one copy per side (mesh the parts without fragmenting them, or use Plugin(Crack))",
             tag_of_index[shared], contact.disc, contact.pad
         )));
     }
 
-    // Faces of hexahedra whose four nodes are all on the disc contact surface.
-    let on_disc = |node: &u32| disc_nodes.binary_search(node).is_ok();
-    let mut faces: HashMap<[u32; 4], Vec<usize>> = HashMap::new();
-    for (hex_idx, hex) in mesh.hexes.iter().enumerate() {
-        for face in HEX_FACES {
-            let nodes = face.map(|local| hex[local]);
-            if nodes.iter().all(on_disc) {
-                let mut key = nodes;
-                key.sort_unstable();
-                faces.entry(key).or_default().push(hex_idx);
-            }
-        }
-    }
-
-    let mut normal_sums: HashMap<u32, [f64; 3]> = HashMap::new();
-    let mut area_sums: HashMap<u32, f64> = HashMap::new();
-    let mut shortest_edge = f64::INFINITY;
-    for (quad_tags, element_tag, line) in &disc_group.quads {
-        let mut quad = quad_tags.map(|tag| index_of_tag[&tag]);
-        let mut key = quad;
-        key.sort_unstable();
-        let owners = faces.get(&key).map_or(&[][..], Vec::as_slice);
-        let hex_idx = match owners {
-            [hex_idx] => *hex_idx,
-            [] => {
-                return Err(MshError::at(
-                    *line,
-                    format!(
-                        "contact_disc `{}`: element {element_tag} is not a face of any hexahedron",
-                        contact.disc
-                    ),
-                ));
-            }
-            _ => {
-                return Err(MshError::at(
-                    *line,
-                    format!(
-                        "contact_disc `{}`: element {element_tag} is a face of {} hexahedra: it must lie on the disc's boundary",
-                        contact.disc,
-                        owners.len()
-                    ),
-                ));
-            }
-        };
-        let mut corners = quad.map(|node| mesh.nodes[node as usize]);
-        // Orient the face outward from its hexahedron: Gmsh surface orientation is arbitrary.
-        let hex_centre = centroid(mesh.hexes[hex_idx].iter().map(|n| mesh.nodes[*n as usize]));
-        let face_centre = centroid(corners.iter().copied());
-        let (_, centre_normal) = quad_tangents(&corners, 0.0, 0.0);
-        if dot(centre_normal, sub(face_centre, hex_centre)) < 0.0 {
-            quad.reverse();
-            corners.reverse();
-        }
-        for edge in 0..4 {
-            shortest_edge = shortest_edge.min(norm(sub(corners[(edge + 1) % 4], corners[edge])));
-        }
-        // 2×2 Gauss points integrate Nᵢ (x_ξ × x_η) exactly on a bilinear quadrangle.
-        let gauss = 1.0 / 3f64.sqrt();
-        for (xi, eta) in [
-            (-gauss, -gauss),
-            (gauss, -gauss),
-            (gauss, gauss),
-            (-gauss, gauss),
-        ] {
-            let (shape, normal_da) = quad_tangents(&corners, xi, eta);
-            let da = norm(normal_da);
-            for (local, node) in quad.iter().enumerate() {
-                let sum = normal_sums.entry(*node).or_insert([0.0; 3]);
-                for axis in 0..3 {
-                    sum[axis] += shape[local] * normal_da[axis];
-                }
-                *area_sums.entry(*node).or_insert(0.0) += shape[local] * da;
-            }
-        }
-    }
+    let FaceIntegrals {
+        normal_sums,
+        area_sums,
+        shortest_edge,
+    } = integrate_disc_faces(mesh, disc_group, &disc_nodes, index_of_tag, &contact.disc)?;
 
     let tolerance = contact.relative_tolerance * shortest_edge;
     let pad_grid = PointGrid::new(&mesh.nodes, &pad_nodes, shortest_edge.max(tolerance));
@@ -1199,6 +1154,102 @@ fn pair_contact_nodes(
         )));
     }
     Ok(pairs)
+}
+
+/// Per disc contact node: Σ ∫ Nᵢ n dA and Σ ∫ Nᵢ dA over its faces; and the shortest edge.
+struct FaceIntegrals {
+    normal_sums: HashMap<u32, [f64; 3]>,
+    area_sums: HashMap<u32, f64>,
+    shortest_edge: f64,
+}
+
+/// Integrates the disc's contact faces, each oriented out of the hexahedron it bounds.
+fn integrate_disc_faces(
+    mesh: &Mesh,
+    disc_group: &BoundaryGroup,
+    disc_nodes: &[u32],
+    index_of_tag: &HashMap<u64, u32>,
+    disc_name: &str,
+) -> Result<FaceIntegrals, MshError> {
+    // Faces of hexahedra whose four nodes are all on the disc contact surface.
+    let on_disc = |node: &u32| disc_nodes.binary_search(node).is_ok();
+    let mut faces: HashMap<[u32; 4], Vec<usize>> = HashMap::new();
+    for (hex_idx, hex) in mesh.hexes.iter().enumerate() {
+        for face in HEX_FACES {
+            let nodes = face.map(|local| hex[local]);
+            if nodes.iter().all(on_disc) {
+                let mut key = nodes;
+                key.sort_unstable();
+                faces.entry(key).or_default().push(hex_idx);
+            }
+        }
+    }
+
+    let mut normal_sums: HashMap<u32, [f64; 3]> = HashMap::new();
+    let mut area_sums: HashMap<u32, f64> = HashMap::new();
+    let mut shortest_edge = f64::INFINITY;
+    for (quad_tags, element_tag, line) in &disc_group.quads {
+        let mut quad = quad_tags.map(|tag| index_of_tag[&tag]);
+        let mut key = quad;
+        key.sort_unstable();
+        let owners = faces.get(&key).map_or(&[][..], Vec::as_slice);
+        let hex_idx = match owners {
+            [hex_idx] => *hex_idx,
+            [] => {
+                return Err(MshError::at(
+                    *line,
+                    format!(
+                        "contact_disc `{disc_name}`: element {element_tag} is not a face of any hexahedron"
+                    ),
+                ));
+            }
+            _ => {
+                return Err(MshError::at(
+                    *line,
+                    format!(
+                        "contact_disc `{disc_name}`: element {element_tag} is a face of {} hexahedra: it must lie on the disc's boundary",
+                        owners.len()
+                    ),
+                ));
+            }
+        };
+        let mut corners = quad.map(|node| mesh.nodes[node as usize]);
+        // Orient the face outward from its hexahedron: Gmsh surface orientation is arbitrary.
+        let hex_centre = centroid(mesh.hexes[hex_idx].iter().map(|n| mesh.nodes[*n as usize]));
+        let face_centre = centroid(corners.iter().copied());
+        let (_, centre_normal) = quad_tangents(&corners, 0.0, 0.0);
+        if dot(centre_normal, sub(face_centre, hex_centre)) < 0.0 {
+            quad.reverse();
+            corners.reverse();
+        }
+        for edge in 0..4 {
+            shortest_edge = shortest_edge.min(norm(sub(corners[(edge + 1) % 4], corners[edge])));
+        }
+        // 2×2 Gauss points integrate Nᵢ (x_ξ × x_η) exactly on a bilinear quadrangle.
+        let gauss = 1.0 / 3f64.sqrt();
+        for (xi, eta) in [
+            (-gauss, -gauss),
+            (gauss, -gauss),
+            (gauss, gauss),
+            (-gauss, gauss),
+        ] {
+            let (shape, normal_da) = quad_tangents(&corners, xi, eta);
+            let da = norm(normal_da);
+            for (local, node) in quad.iter().enumerate() {
+                let sum = normal_sums.entry(*node).or_insert([0.0; 3]);
+                for axis in 0..3 {
+                    sum[axis] += shape[local] * normal_da[axis];
+                }
+                *area_sums.entry(*node).or_insert(0.0) += shape[local] * da;
+            }
+        }
+    }
+
+    Ok(FaceIntegrals {
+        normal_sums,
+        area_sums,
+        shortest_edge,
+    })
 }
 
 fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
@@ -1465,6 +1516,22 @@ mod tests {
             .run(&params(&block, "contact_disc", ""), &Inputs::default())
             .unwrap_err();
         assert!(err.message.contains("both"), "{err}");
+
+        // Parse errors carry `file:line:`.
+        let old_format =
+            std::env::temp_dir().join(format!("squeal-gmsh-old-format-{}.msh", std::process::id()));
+        let text = std::fs::read_to_string(&block).unwrap();
+        std::fs::write(&old_format, text.replace("4.1 0 8", "2.2 0 8")).unwrap();
+        let old_format = old_format.to_string_lossy().into_owned();
+        let err = stage
+            .run(&params(&old_format, "", ""), &Inputs::default())
+            .unwrap_err();
+        let _ = std::fs::remove_file(&old_format);
+        assert!(
+            err.message
+                .starts_with(&format!("{old_format}:2: MSH 2.2 is not supported")),
+            "{err}"
+        );
 
         let missing = format!("{}/tests/data/no_such.msh", env!("CARGO_MANIFEST_DIR"));
         let err = stage
