@@ -502,6 +502,7 @@ mod tests {
         mesh.nodes.truncate(2);
         mesh.hexes.clear();
         mesh.hex_part.clear();
+        mesh.node_sets.clear();
         let dof_of_node = vec![[None, Some(0), Some(1)], [Some(2), Some(3), Some(4)]];
         let identity = |scale: f64| {
             let rows: Vec<Vec<f64>> = (0..5)

@@ -30,8 +30,8 @@
 //!
 //! Point arrays of `vtu.modes`: one Float64 x 3 array per mode, `mode_0001_1234.5Hz` (number
 //! from 1, frequency ω/2π in Hz), the mass-normalised shape expanded from the free DOFs to the
-//! nodes with zeros at clamped DOFs. In ParaView, `Warp By Vector` on a mode animates nothing
-//! but shows its shape; colour by its magnitude to see where it moves.
+//! nodes with zeros at clamped DOFs. In ParaView, colour by a mode's magnitude to see where it
+//! moves, or apply `Warp By Vector` with it to see the deformed shape.
 
 use std::f64::consts::PI;
 use std::fmt::Write;
