@@ -76,8 +76,8 @@ fn unknown_or_missing_keys() {
 fn unknown_kinds() {
     check_file(
         "unknown_kind.yaml",
-        "3:11: stages.source.kind: unknown stage kind `test.konstant` (known: table.gather, \
-         test.affine, test.constant, test.fail, test.round, test.sleep)",
+        "3:11: stages.source.kind: unknown stage kind `test.konstant` (did you mean `test.constant`? \
+         `squeal stages` lists them all)",
     );
 }
 
@@ -142,6 +142,10 @@ fn references() {
     check_file(
         "unknown_target.yaml",
         "1:19: targets[1]: no stage named `spectrum`",
+    );
+    check_file(
+        "wrong_output_type.yaml",
+        "9:22: stages.scaled.inputs.table: `view.vtu` is a document, but input `table` takes a table",
     );
 }
 

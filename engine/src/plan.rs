@@ -296,7 +296,15 @@ stages:
     /// The plan lines of STUDY, run against `record` on an empty cache.
     fn plan_with(record: &RunRecord) -> Vec<String> {
         let registry = Registry::new(squeal_stages::test_kinds());
-        let study = Study::from_text("s.yaml", "s", STUDY, &registry, &[]).unwrap();
+        let study = Study::from_text(
+            "s.yaml",
+            "s",
+            STUDY,
+            std::path::Path::new("."),
+            &registry,
+            &[],
+        )
+        .unwrap();
         let instances = Instances::expand(&study, &study.targets);
         let dir = tempfile::tempdir().unwrap();
         let cache = Cache::open(dir.path()).unwrap();

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use petgraph::graph::{DiGraph, NodeIndex};
 use serde_saphyr::Spanned;
-use squeal_stages::{Arity, ParamSpec, Stage, Value};
+use squeal_stages::{Arity, ParamSpec, ParamType, Stage, Value};
 
 use crate::spec::{self, Located, Location, RawStage, RawSweep, RawValue, SpecError};
 use crate::units;
@@ -128,13 +128,18 @@ impl Study {
         let stem = path
             .file_stem()
             .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
-        Study::from_text(&file, &stem, &text, registry, overrides)
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let base_dir = std::path::absolute(folder).unwrap_or_else(|_| folder.to_path_buf());
+        Study::from_text(&file, &stem, &text, &base_dir, registry, overrides)
     }
 
+    /// Validates a study's text. `file` names it in messages; relative paths in it resolve
+    /// against `base_dir`.
     pub fn from_text(
         file: &str,
         default_name: &str,
         text: &str,
+        base_dir: &Path,
         registry: &Registry,
         overrides: &[Override],
     ) -> Result<Study, SpecError> {
@@ -168,6 +173,7 @@ impl Study {
         }
         let validator = Validator {
             file,
+            base_dir,
             registry,
             raw_stages: &raw.stages.0,
             stage_index: &stage_index,
@@ -218,12 +224,22 @@ impl Study {
 /// What checking one stage needs to know of the whole study.
 struct Validator<'a> {
     file: &'a str,
+    /// The study's folder, against which relative paths in the study resolve.
+    base_dir: &'a Path,
     registry: &'a Registry,
     raw_stages: &'a [(String, RawStage)],
     stage_index: &'a HashMap<&'a str, usize>,
 }
 
 impl Validator<'_> {
+    fn resolve_path(&self, path: &str, location: &Location) -> String {
+        let base = match location {
+            Location::File { .. } => self.base_dir.to_path_buf(),
+            Location::CommandLine(_) => std::env::current_dir().unwrap_or_default(),
+        };
+        base.join(path).display().to_string()
+    }
+
     fn stage(
         &self,
         name: &str,
@@ -234,13 +250,15 @@ impl Validator<'_> {
         let path = format!("stages.{name}");
         let kind = spec::located(file, raw.kind.clone());
         let stage = registry.get(&kind.value).cloned().ok_or_else(|| {
-            let known: Vec<&str> = registry.iter().map(|stage| stage.kind()).collect();
+            let hint = match closest(&kind.value, registry.iter().map(|stage| stage.kind())) {
+                Some(known) => format!("did you mean `{known}`? "),
+                None => String::new(),
+            };
             kind.error(
                 format!("{path}.kind"),
                 format!(
-                    "unknown stage kind `{}` (known: {})",
-                    kind.value,
-                    known.join(", ")
+                    "unknown stage kind `{}` ({hint}`squeal stages` lists them all)",
+                    kind.value
                 ),
             )
         })?;
@@ -281,8 +299,11 @@ impl Validator<'_> {
         for (param, value) in &written {
             let param_path = format!("{path}.params.{param}");
             let spec = find_spec(param, &|message| value.error(&param_path, message))?;
-            let converted = units::convert(spec, &value.value)
+            let mut converted = units::convert(spec, &value.value)
                 .map_err(|message| value.error(&param_path, message))?;
+            if let (ParamType::Path, Value::Str(path)) = (&spec.ty, &converted) {
+                converted = Value::Str(self.resolve_path(path, &value.location));
+            }
             params.insert(param.clone(), converted);
         }
 
@@ -338,6 +359,7 @@ impl Validator<'_> {
             registry,
             raw_stages,
             stage_index,
+            ..
         } = *self;
         let ports = stage.inputs();
         let mut inputs = Vec::new();
@@ -498,4 +520,29 @@ fn check_acyclic(
 /// Whether `to` reaches `from` back, i.e. the edge from → to lies on a cycle.
 fn reaches(graph: &DiGraph<usize, ()>, from: NodeIndex, to: NodeIndex) -> bool {
     petgraph::algo::has_path_connecting(graph, from, to, None)
+}
+
+/// The candidate nearest to `word` by edit distance, if it is near enough to be a typo.
+fn closest<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    let distance = |a: &str, b: &str| {
+        let b: Vec<char> = b.chars().collect();
+        let mut previous: Vec<usize> = (0..=b.len()).collect();
+        for (i, ca) in a.chars().enumerate() {
+            let mut current = vec![i + 1];
+            for (j, cb) in b.iter().enumerate() {
+                current.push(
+                    (previous[j] + usize::from(ca != *cb))
+                        .min(previous[j + 1] + 1)
+                        .min(current[j] + 1),
+                );
+            }
+            previous = current;
+        }
+        previous[b.len()]
+    };
+    candidates
+        .map(|candidate| (distance(word, candidate), candidate))
+        .filter(|(edits, _)| *edits <= 2.max(word.len() / 4))
+        .min()
+        .map(|(_, candidate)| candidate)
 }

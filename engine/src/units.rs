@@ -28,7 +28,7 @@ pub fn convert(spec: &ParamSpec, raw: &RawValue) -> Result<Value, String> {
         (ParamType::Float { .. }, RawValue::Int(value)) => Value::Float(*value as f64),
         (ParamType::Float { .. }, RawValue::Float(value)) => Value::Float(*value),
         (ParamType::Float { .. }, RawValue::Str(text)) => Value::Float(with_unit(spec, text)?),
-        (ParamType::Str, RawValue::Str(text)) => Value::Str(text.clone()),
+        (ParamType::Str | ParamType::Path, RawValue::Str(text)) => Value::Str(text.clone()),
         (ParamType::Choice(choices), RawValue::Str(text)) if choices.contains(&text.as_str()) => {
             Value::Str(text.clone())
         }

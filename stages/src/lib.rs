@@ -7,6 +7,7 @@
 #![allow(non_snake_case)] // matrices are named as in the equations: M, K, C
 
 pub mod artifact;
+pub mod export;
 pub mod mesh;
 pub mod model;
 pub mod stage;
@@ -24,7 +25,14 @@ pub use table::{Column, ColumnData, Table};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
-    vec![Arc::new(mesh::brake::MeshBrake), Arc::new(table::Gather)]
+    vec![
+        Arc::new(mesh::brake::MeshBrake),
+        Arc::new(mesh::gmsh::GmshImport),
+        Arc::new(export::vtu::MeshVtu),
+        Arc::new(export::vtu::ModesVtu),
+        Arc::new(export::matrix_market::MatrixMarket),
+        Arc::new(table::Gather),
+    ]
 }
 
 /// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).

@@ -42,6 +42,9 @@ pub enum ParamType {
         min: f64,
     },
     Str,
+    /// A file path. The engine makes a relative path absolute: relative to the study's folder
+    /// when written in the study, to the working directory when given on the command line.
+    Path,
     /// One of a fixed set of names (solver methods, window functions, ...).
     Choice(&'static [&'static str]),
 }
@@ -55,6 +58,7 @@ impl fmt::Display for ParamType {
             ParamType::Float { min } if min.is_finite() => write!(f, "float >= {min}"),
             ParamType::Float { .. } => f.write_str("float"),
             ParamType::Str => f.write_str("string"),
+            ParamType::Path => f.write_str("path"),
             ParamType::Choice(names) => write!(f, "one of {}", names.join(" | ")),
         }
     }
@@ -92,6 +96,17 @@ impl ParamSpec {
             name,
             ty,
             default: Some(Value::Int(default)),
+            unit: "",
+            doc,
+        }
+    }
+
+    /// A required file path (see [`ParamType::Path`]).
+    pub fn path(name: &'static str, doc: &'static str) -> Self {
+        ParamSpec {
+            name,
+            ty: ParamType::Path,
+            default: None,
             unit: "",
             doc,
         }

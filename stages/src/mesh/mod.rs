@@ -12,6 +12,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 pub mod brake;
+pub mod gmsh;
 pub mod structured;
 
 /// A node of the disc face and the coincident (distinct) node of the pad face opposite.
