@@ -7,6 +7,7 @@
 #![allow(non_snake_case)] // matrices are named as in the equations: M, K, C
 
 pub mod artifact;
+pub mod contact;
 pub mod export;
 pub mod mesh;
 pub mod model;
