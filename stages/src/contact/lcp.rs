@@ -107,7 +107,8 @@ pub fn complementarity_residual(a: &Mat<f64>, q: &[f64], r: &[f64], g: &[f64]) -
 }
 
 fn check_diagonal(a: &Mat<f64>, solver: &'static str) -> Result<(), LcpError> {
-    if (0..a.nrows()).any(|i| !(a[(i, i)] > 0.0)) {
+    // A non-positive (or NaN) diagonal leaves the augmentation parameters undefined.
+    if (0..a.nrows()).any(|i| a[(i, i)].is_nan() || a[(i, i)] <= 0.0) {
         return Err(LcpError {
             solver,
             iterations: 0,

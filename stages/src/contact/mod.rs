@@ -57,9 +57,8 @@ pub fn frames(mesh: &Mesh, omega: f64) -> Result<ContactFrames, String> {
             v_g[2] - normal_part * n[2],
         ];
         let speed = dot(tangential, tangential).sqrt();
-        if !(speed > 1e-12 * omega.abs().max(1e-300) * dot(x, x).sqrt().max(1e-300))
-            || !speed.is_finite()
-        {
+        let tiny = 1e-12 * omega.abs() * dot(x, x).sqrt();
+        if speed.is_nan() || speed <= tiny || !speed.is_finite() {
             return Err(format!(
                 "contact pair {pair_idx} (disc node {}) has no sliding direction: |v_g| = {speed:.3e} m/s at ω = {omega} rad/s",
                 pair.disc_node
@@ -84,10 +83,10 @@ pub fn h_columns(model: &Model, frames: &ContactFrames) -> Vec<Vec<(usize, f64)>
             let mut column = Vec::with_capacity(6);
             for (node, sign) in [(pair.pad_node, 1.0), (pair.disc_node, -1.0)] {
                 for (axis, dof) in model.dof_of_node[node as usize].iter().enumerate() {
-                    if let Some(dof) = dof {
-                        if direction[axis] != 0.0 {
-                            column.push((*dof as usize, sign * direction[axis]));
-                        }
+                    if let Some(dof) = dof
+                        && direction[axis] != 0.0
+                    {
+                        column.push((*dof as usize, sign * direction[axis]));
                     }
                 }
             }
