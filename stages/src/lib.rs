@@ -7,8 +7,10 @@
 #![allow(non_snake_case)] // matrices are named as in the equations: M, K, C
 
 pub mod artifact;
+pub mod assemble;
 pub mod mesh;
 pub mod model;
+pub mod modes;
 pub mod stage;
 pub mod table;
 pub mod testing;
@@ -24,7 +26,11 @@ pub use table::{Column, ColumnData, Table};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
-    vec![Arc::new(table::Gather)]
+    vec![
+        Arc::new(table::Gather),
+        Arc::new(assemble::Assemble),
+        Arc::new(modes::Modes),
+    ]
 }
 
 /// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).
