@@ -14,11 +14,11 @@ pub fn parse_set_names(list: &str) -> Vec<String> {
         .collect()
 }
 
-/// Free DOF index of each node's x, y, z displacement (`None` where clamped), and their count.
-pub fn number_dofs(
-    mesh: &Mesh,
-    clamped_sets: &[String],
-) -> Result<(Vec<[Option<u32>; 3]>, usize), StageError> {
+/// Free DOF index of each node's x, y, z displacement (`None` where clamped).
+pub type DofOfNode = Vec<[Option<u32>; 3]>;
+
+/// The DOF numbering (see [`DofOfNode`]) and the number of free DOFs.
+pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, usize), StageError> {
     let missing: Vec<&str> = clamped_sets
         .iter()
         .filter(|name| !mesh.node_sets.contains_key(name.as_str()))

@@ -44,6 +44,9 @@
 //! `det J > 0` at every Gauss point and every corner, else the element is inverted or
 //! degenerate and is rejected.
 
+// Index loops follow the index notation of the element formulas (K_ij = Σ_s B_si (DB)_sj).
+#![allow(clippy::needless_range_loop)]
+
 /// Reference coordinates (ξ, η, ζ) of the eight nodes.
 pub const NODE_REFERENCE: [[f64; 3]; 8] = [
     [-1.0, -1.0, -1.0],

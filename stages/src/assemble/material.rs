@@ -82,9 +82,7 @@ impl Material {
         let shear_modulus = E / (2.0 * (1.0 + nu));
         let mut D = [[0.0; 6]; 6];
         for row in 0..3 {
-            for col in 0..3 {
-                D[row][col] = lame_lambda;
-            }
+            D[row][..3].fill(lame_lambda);
             D[row][row] = lame_lambda + 2.0 * shear_modulus;
             D[row + 3][row + 3] = shear_modulus;
         }

@@ -23,8 +23,27 @@ pub fn symmetrised(A: MatRef<'_, f64>) -> Mat<f64> {
 }
 
 /// Eigenvalues (ascending) and orthonormal eigenvectors of the symmetric `A`.
+///
+/// `A` is scaled to a largest entry of 1 first: faer's tridiagonal eigensolver loses accuracy
+/// on matrices of very large or very small norm (stiffness entries are ~1e11, Lanczos
+/// projections ~1e-6), and scaling by a power of two is exact.
 pub fn symmetric_eigen(A: MatRef<'_, f64>, par: Par) -> Result<(Vec<f64>, Mat<f64>), StageError> {
     let n = A.nrows();
+    let largest = A
+        .col_iter()
+        .flat_map(|column| column.iter().copied())
+        .fold(0.0f64, |largest, value| largest.max(value.abs()));
+    if !largest.is_finite() {
+        return Err(StageError::new(format!(
+            "dense symmetric eigensolver: the {n}×{n} matrix has a non-finite entry"
+        )));
+    }
+    let scale = if largest > 0.0 {
+        2f64.powi(largest.log2().round() as i32)
+    } else {
+        1.0
+    };
+    let A = Mat::from_fn(n, n, |i, j| A[(i, j)] / scale);
     let mut eigenvectors = Mat::<f64>::zeros(n, n);
     let mut eigenvalues = Diag::<f64>::zeros(n);
     let mut buffer = MemBuffer::new(self_adjoint_evd_scratch::<f64>(
@@ -34,7 +53,7 @@ pub fn symmetric_eigen(A: MatRef<'_, f64>, par: Par) -> Result<(Vec<f64>, Mat<f6
         Default::default(),
     ));
     self_adjoint_evd(
-        A,
+        A.as_ref(),
         eigenvalues.as_mut(),
         Some(eigenvectors.as_mut()),
         par,
@@ -46,7 +65,7 @@ pub fn symmetric_eigen(A: MatRef<'_, f64>, par: Par) -> Result<(Vec<f64>, Mat<f6
             "dense symmetric eigensolver failed on a {n}×{n} matrix: {err:?}"
         ))
     })?;
-    let eigenvalues = (0..n).map(|i| eigenvalues[i]).collect();
+    let eigenvalues = (0..n).map(|i| eigenvalues[i] * scale).collect();
     Ok((eigenvalues, eigenvectors))
 }
 

@@ -42,7 +42,7 @@ const DENSE_LIMIT: usize = 600;
 /// Vectors per Lanczos block: multiplicities up to this (the six rigid-body modes of a free
 /// body, the pairs of an axisymmetric disc) are found without relying on roundoff.
 const BLOCK_SIZE: usize = 8;
-const LANCZOS_TOLERANCE: f64 = 1e-10;
+const LANCZOS_TOLERANCE: f64 = 1e-9;
 /// σ = −SHIFT_FRACTION · (median of K_ii / M_ii) when the band starts at 0: far above the
 /// roundoff of rigid-body eigenvalues, far below the first elastic one.
 const SHIFT_FRACTION: f64 = 1e-8;
@@ -198,13 +198,21 @@ fn gap_at_or_above(sorted: &[f64], first: usize, absolute_floor: f64) -> Option<
     })
 }
 
-/// `(Z, K Z, M Z) → (λ, Φ, K Φ, M Φ)`: Rayleigh–Ritz of `(K, M)` on the span of `Z`.
+/// Ritz pairs `(λ, Φ)` with the products `K Φ` and `M Φ`.
+struct RitzProducts {
+    lambda: Vec<f64>,
+    vectors: Mat<f64>,
+    K_vectors: Mat<f64>,
+    M_vectors: Mat<f64>,
+}
+
+/// Rayleigh–Ritz of `(K, M)` on the span of `Z`.
 fn rayleigh_ritz(
     Z: MatRef<'_, f64>,
     K: &CscMatrix,
     M: &CscMatrix,
     par: Par,
-) -> Result<(Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>), StageError> {
+) -> Result<RitzProducts, StageError> {
     let p = Z.ncols();
     let KZ = symmetric_mul(K, Z);
     let MZ = symmetric_mul(M, Z);
@@ -243,7 +251,12 @@ fn rayleigh_ritz(
         );
         result
     };
-    Ok((lambda, product(&Z.to_owned()), product(&KZ), product(&MZ)))
+    Ok(RitzProducts {
+        vectors: product(&Z.to_owned()),
+        K_vectors: product(&KZ),
+        M_vectors: product(&MZ),
+        lambda,
+    })
 }
 
 /// Subspace-iteration refinement of approximate eigenvectors `Q` (eigenvalues `lambda`),
@@ -271,7 +284,12 @@ fn refine(
                 }
             }
         }
-        let (new_lambda, vectors, K_vectors, M_vectors) = rayleigh_ritz(Z.as_ref(), K, M, par)?;
+        let RitzProducts {
+            lambda: new_lambda,
+            vectors,
+            K_vectors,
+            M_vectors,
+        } = rayleigh_ritz(Z.as_ref(), K, M, par)?;
         let new_residuals = residuals(
             &new_lambda,
             vectors.as_ref(),
@@ -439,7 +457,7 @@ pub fn solve(
             (vectors.clone(), lambda.clone())
         } else {
             let lanczos_started = Instant::now();
-            let max_basis = (2 * n_needed).max(n_needed + 4 * BLOCK_SIZE).min(n / 3);
+            let max_basis = (2 * n_needed).max(n_needed + 10 * BLOCK_SIZE).min(n / 3);
             let options = LanczosOptions {
                 block_size: BLOCK_SIZE,
                 max_basis,
