@@ -4,13 +4,18 @@
 //! parameters and its input artifacts ([`stage::Stage::run`]). The engine finds stages through
 //! the registry the binary builds from [`all_kinds`].
 
-#![allow(non_snake_case)] // matrices are named as in the equations: M, K, C
+#![allow(non_snake_case)]
+// matrices are named as in the equations: M, K, C
+// `!(x > 0.0)` is how numerical checks reject NaN together with x <= 0.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod artifact;
+pub mod assemble;
 pub mod contact;
 pub mod export;
 pub mod mesh;
 pub mod model;
+pub mod modes;
 pub mod stage;
 pub mod table;
 pub mod testing;
@@ -29,6 +34,8 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
     vec![
         Arc::new(mesh::brake::MeshBrake),
         Arc::new(mesh::gmsh::GmshImport),
+        Arc::new(assemble::Assemble),
+        Arc::new(modes::Modes),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),

@@ -1,0 +1,303 @@
+//! `assemble`: the finite-element model of a hexahedral mesh — mass `M`, stiffness `K` and
+//! Rayleigh damping `C` over the free degrees of freedom.
+//!
+//! Linear elasticity, small strains. With `N` the shape functions, `u ≈ N q`:
+//!
+//! ```text
+//! M = Σ_e ∫_e ρ Nᵀ N dV          (consistent mass)
+//! K = Σ_e K_e                     (hexahedra with incompatible modes, see [`hex8`])
+//! C = Σ_parts (α_p M_p + β_p K_p) (Rayleigh damping per part, [`material`])
+//! ```
+//!
+//! Each part of the mesh names its material: `disc` or `pad` (the paper's Table 1 are the
+//! defaults). The DOFs of the node sets listed in `clamped` are removed (`u = 0` there); the
+//! others are numbered node by node ([`dofs`]). Element matrices are computed in parallel and
+//! summed in a fixed order ([`sparse`]): the matrices are bit-identical from run to run.
+
+pub mod dofs;
+pub mod hex8;
+pub mod material;
+pub mod sparse;
+
+#[cfg(test)]
+pub(crate) mod tests;
+
+use rayon::prelude::*;
+
+use crate::artifact::{Artifact, ArtifactType};
+use crate::mesh::Mesh;
+use crate::model::Model;
+use crate::stage::{
+    Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError, Value,
+};
+use crate::table::Table;
+
+use hex8::{Degenerate, ElementMatrices};
+use material::{MATERIAL_PARTS, Material};
+
+/// How many offending elements an error message names.
+const ELEMENTS_NAMED_IN_ERRORS: usize = 5;
+
+/// `assemble`: mesh → model (`M`, `K`, `C`) and a summary table.
+pub struct Assemble;
+
+impl Stage for Assemble {
+    fn kind(&self) -> &'static str {
+        "assemble"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn doc(&self) -> &'static str {
+        "Assemble mass, stiffness and Rayleigh damping of a hexahedral mesh (incompatible-mode hexahedra), clamping node sets"
+    }
+
+    fn params(&self) -> Vec<ParamSpec> {
+        let mut params = material::material_params("disc", [2.02e11, 0.29, 7850.0, 3.75, 5e-8]);
+        params.extend(material::material_params(
+            "pad",
+            [3e8, 0.3, 5102.0, 54.375, 72.5e-8],
+        ));
+        params.push(ParamSpec {
+            name: "clamped",
+            ty: ParamType::Str,
+            default: Some(Value::Str("hub,pad_backs".into())),
+            unit: "",
+            doc: "comma-separated node sets whose DOFs are fixed; empty for a free body",
+        });
+        params
+    }
+
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::one(
+            "mesh",
+            ArtifactType::Mesh,
+            "hexahedral mesh with parts `disc` and `pad`",
+        )]
+    }
+
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one("model", ArtifactType::Model, "M, K, C over the free DOFs"),
+            PortSpec::one(
+                "summary",
+                ArtifactType::Table,
+                "per part (and `total`): elements, free DOFs, volume, mass",
+            ),
+        ]
+    }
+
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let mesh = match inputs.one("mesh")? {
+            Artifact::Mesh(mesh) => mesh.as_ref(),
+            other => {
+                return Err(StageError::new(format!(
+                    "input `mesh` is a {}, not a mesh",
+                    other.artifact_type()
+                )));
+            }
+        };
+        let clamped = dofs::parse_set_names(params.str("clamped"));
+        let (model, summary) = assemble_model(mesh, params, &clamped)?;
+        Ok(Outputs::from([
+            ("model".to_string(), Artifact::Model(Box::new(model))),
+            ("summary".to_string(), Artifact::Table(summary)),
+        ]))
+    }
+}
+
+/// Checks the mesh's indices and coordinates so that assembly cannot index out of bounds.
+fn check_mesh(mesh: &Mesh) -> Result<(), StageError> {
+    if mesh.hexes.is_empty() {
+        return Err(StageError::new("the mesh has no elements"));
+    }
+    if mesh.hex_part.len() != mesh.hexes.len() {
+        return Err(StageError::new(format!(
+            "the mesh has {} elements but {} element parts",
+            mesh.hexes.len(),
+            mesh.hex_part.len()
+        )));
+    }
+    if let Some((element, part)) = mesh
+        .hex_part
+        .iter()
+        .enumerate()
+        .find(|(_, part)| **part as usize >= mesh.parts.len())
+    {
+        return Err(StageError::new(format!(
+            "element {element} is in part {part}, but the mesh has {} parts",
+            mesh.parts.len()
+        )));
+    }
+    let n_nodes = mesh.n_nodes();
+    if let Some((element, hex)) = mesh
+        .hexes
+        .iter()
+        .enumerate()
+        .find(|(_, hex)| hex.iter().any(|&node| node as usize >= n_nodes))
+    {
+        return Err(StageError::new(format!(
+            "element {element} names node {}, but the mesh has {n_nodes} nodes",
+            hex.iter().max().unwrap_or(&0)
+        )));
+    }
+    if let Some(node) = mesh
+        .nodes
+        .iter()
+        .position(|x| x.iter().any(|coordinate| !coordinate.is_finite()))
+    {
+        return Err(StageError::new(format!(
+            "node {node} has a non-finite coordinate {:?}",
+            mesh.nodes[node]
+        )));
+    }
+    Ok(())
+}
+
+/// The material of every part, by part index.
+fn part_materials(mesh: &Mesh, params: &Params) -> Result<Vec<Material>, StageError> {
+    mesh.parts
+        .iter()
+        .map(|part| {
+            if MATERIAL_PARTS.contains(&part.as_str()) {
+                Material::from_params(params, part)
+            } else {
+                Err(StageError::new(format!(
+                    "part `{part}` has no material: parts must be named {}",
+                    MATERIAL_PARTS.join(" or ")
+                )))
+            }
+        })
+        .collect()
+}
+
+fn degenerate_error(failures: &[(usize, Degenerate)]) -> StageError {
+    let named: Vec<String> = failures
+        .iter()
+        .take(ELEMENTS_NAMED_IN_ERRORS)
+        .map(|(element, failure)| {
+            format!(
+                "element {element} (det J = {:.3e} at {})",
+                failure.det_j, failure.location
+            )
+        })
+        .collect();
+    StageError::new(format!(
+        "{} inverted or degenerate element(s) (det J <= 0): {}{}",
+        failures.len(),
+        named.join(", "),
+        if failures.len() > ELEMENTS_NAMED_IN_ERRORS {
+            ", ..."
+        } else {
+            ""
+        }
+    ))
+}
+
+/// The model of `mesh` with the node sets `clamped` fixed, and its summary table.
+pub fn assemble_model(
+    mesh: &Mesh,
+    params: &Params,
+    clamped: &[String],
+) -> Result<(Model, Table), StageError> {
+    check_mesh(mesh)?;
+    let materials = part_materials(mesh, params)?;
+    let (dof_of_node, n_dofs) = dofs::number_dofs(mesh, clamped)?;
+    if n_dofs == 0 {
+        return Err(StageError::new(
+            "every node is clamped: the model has no free DOF",
+        ));
+    }
+    let elasticities: Vec<[[f64; 6]; 6]> = materials.iter().map(Material::elasticity).collect();
+
+    let results: Vec<Result<ElementMatrices, Degenerate>> = mesh
+        .hexes
+        .par_iter()
+        .zip(&mesh.hex_part)
+        .map(|(hex, &part)| {
+            let coords = hex.map(|node| mesh.nodes[node as usize]);
+            let part = part as usize;
+            hex8::element_matrices(&coords, &elasticities[part], materials[part].density)
+        })
+        .collect();
+    let failures: Vec<(usize, Degenerate)> = results
+        .iter()
+        .enumerate()
+        .filter_map(|(element, result)| result.as_ref().err().map(|failure| (element, *failure)))
+        .collect();
+    if !failures.is_empty() {
+        return Err(degenerate_error(&failures));
+    }
+    let elements: Vec<ElementMatrices> = results.into_iter().flatten().collect();
+    let damping: Vec<(f64, f64)> = mesh
+        .hex_part
+        .iter()
+        .map(|&part| {
+            (
+                materials[part as usize].alpha,
+                materials[part as usize].beta,
+            )
+        })
+        .collect();
+
+    let assembled = sparse::assemble(mesh, &dof_of_node, n_dofs, &elements, &damping);
+    let summary = summary_table(mesh, &materials, &dof_of_node, &elements, n_dofs);
+    let model = Model {
+        mesh: mesh.clone(),
+        dof_of_node: dof_of_node.clone(),
+        M: assembled.M,
+        K: assembled.K,
+        C: assembled.C,
+    };
+    Ok((model, summary))
+}
+
+/// One row per part and a `total` row: elements, free DOFs, volume, mass.
+fn summary_table(
+    mesh: &Mesh,
+    materials: &[Material],
+    dof_of_node: &[[Option<u32>; 3]],
+    elements: &[ElementMatrices],
+    n_dofs: usize,
+) -> Table {
+    let n_parts = mesh.parts.len();
+    let mut n_elements = vec![0i64; n_parts];
+    let mut volume = vec![0.0; n_parts];
+    let mut node_in_part = vec![vec![false; mesh.n_nodes()]; n_parts];
+    for ((hex, &part), matrices) in mesh.hexes.iter().zip(&mesh.hex_part).zip(elements) {
+        let part = part as usize;
+        n_elements[part] += 1;
+        volume[part] += matrices.volume;
+        for &node in hex {
+            node_in_part[part][node as usize] = true;
+        }
+    }
+    let free_dofs_of = |in_part: &Vec<bool>| -> i64 {
+        in_part
+            .iter()
+            .zip(dof_of_node)
+            .filter(|(inside, _)| **inside)
+            .map(|(_, dofs)| dofs.iter().flatten().count() as i64)
+            .sum()
+    };
+    let mut names: Vec<String> = mesh.parts.clone();
+    let mut dofs: Vec<i64> = node_in_part.iter().map(free_dofs_of).collect();
+    let mut masses: Vec<f64> = volume
+        .iter()
+        .zip(materials)
+        .map(|(volume, material)| volume * material.density)
+        .collect();
+    names.push("total".into());
+    n_elements.push(mesh.hexes.len() as i64);
+    dofs.push(n_dofs as i64);
+    volume.push(volume.iter().sum());
+    masses.push(masses.iter().sum());
+    Table::new()
+        .with("part", names)
+        .with("n_elements", n_elements)
+        .with("n_dofs", dofs)
+        .with("volume_m3", volume)
+        .with("mass_kg", masses)
+}

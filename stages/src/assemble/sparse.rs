@@ -1,0 +1,201 @@
+//! Deterministic parallel assembly of `M`, `K` and `C` into one shared sparse pattern.
+//!
+//! The pattern has a dense 3×3 block for every pair of nodes that share an element (explicit
+//! zeros included, so `M`, `K` and `C` have identical structure and can be combined entry by
+//! entry, e.g. `K − σ M`). Because DOFs are numbered node by node, the free columns of a node
+//! are consecutive and so are their values: each node's columns are filled by one task, which
+//! adds the contributions of the node's elements in increasing element order. Every entry is
+//! therefore the same floating-point sum whatever the number of threads, and the matrices are
+//! bit-identical from run to run (the engine caches them by content hash).
+
+use rayon::prelude::*;
+
+use super::hex8::{ElementMatrices, packed_index};
+use crate::mesh::Mesh;
+use crate::model::CscMatrix;
+
+/// The assembled matrices over the free DOFs.
+pub struct Assembled {
+    pub M: CscMatrix,
+    pub K: CscMatrix,
+    pub C: CscMatrix,
+}
+
+/// Elements of each node, in increasing element order (compressed rows).
+struct NodeElements {
+    offsets: Vec<usize>,
+    elements: Vec<u32>,
+}
+
+impl NodeElements {
+    fn new(mesh: &Mesh) -> NodeElements {
+        let mut offsets = vec![0usize; mesh.n_nodes() + 1];
+        for hex in &mesh.hexes {
+            for &node in hex {
+                offsets[node as usize + 1] += 1;
+            }
+        }
+        for node in 0..mesh.n_nodes() {
+            offsets[node + 1] += offsets[node];
+        }
+        let mut next = offsets.clone();
+        let mut elements = vec![0u32; offsets[mesh.n_nodes()]];
+        for (element_idx, hex) in mesh.hexes.iter().enumerate() {
+            for &node in hex {
+                elements[next[node as usize]] = element_idx as u32;
+                next[node as usize] += 1;
+            }
+        }
+        NodeElements { offsets, elements }
+    }
+
+    /// Elements of `node`; an element appears once per occurrence of the node in it.
+    fn of(&self, node: usize) -> &[u32] {
+        &self.elements[self.offsets[node]..self.offsets[node + 1]]
+    }
+}
+
+/// Assembles the element matrices (`elements[e]`, damping `(α, β)` of element `e`) over the
+/// free DOFs `dof_of_node` (node-major numbering, `n_dofs` in all).
+pub fn assemble(
+    mesh: &Mesh,
+    dof_of_node: &[[Option<u32>; 3]],
+    n_dofs: usize,
+    elements: &[ElementMatrices],
+    damping: &[(f64, f64)],
+) -> Assembled {
+    let n_nodes = mesh.n_nodes();
+    let node_elements = NodeElements::new(mesh);
+    let free_dirs: Vec<Vec<usize>> = dof_of_node
+        .iter()
+        .map(|dofs| (0..3).filter(|&dir| dofs[dir].is_some()).collect())
+        .collect();
+
+    // Neighbours of each free node (sorted, itself included) and, for each neighbour, how many
+    // free DOFs precede it in the node's columns.
+    let neighbours: Vec<(Vec<u32>, Vec<usize>)> = (0..n_nodes)
+        .into_par_iter()
+        .map(|node| {
+            if free_dirs[node].is_empty() {
+                return (Vec::new(), vec![0]);
+            }
+            let mut nodes: Vec<u32> = node_elements
+                .of(node)
+                .iter()
+                .flat_map(|&element| mesh.hexes[element as usize])
+                .collect();
+            nodes.sort_unstable();
+            nodes.dedup();
+            let mut offsets = Vec::with_capacity(nodes.len() + 1);
+            let mut count = 0;
+            offsets.push(0);
+            for &other in &nodes {
+                count += free_dirs[other as usize].len();
+                offsets.push(count);
+            }
+            (nodes, offsets)
+        })
+        .collect();
+
+    // Pattern: node-major, so the columns of node n come after those of nodes < n.
+    let mut col_ptr = Vec::with_capacity(n_dofs + 1);
+    col_ptr.push(0usize);
+    let mut row_idx = Vec::new();
+    for node in 0..n_nodes {
+        let (nodes, offsets) = &neighbours[node];
+        let column_len = *offsets.last().unwrap_or(&0);
+        for _ in &free_dirs[node] {
+            for &other in nodes {
+                for &dir in &free_dirs[other as usize] {
+                    row_idx.push(dof_of_node[other as usize][dir].unwrap_or(0) as usize);
+                }
+            }
+            col_ptr.push(col_ptr.last().unwrap_or(&0) + column_len);
+        }
+    }
+    debug_assert_eq!(col_ptr.len(), n_dofs + 1);
+
+    let nnz = row_idx.len();
+    let mut M_values = vec![0.0; nnz];
+    let mut K_values = vec![0.0; nnz];
+    let mut C_values = vec![0.0; nnz];
+    // Split the value arrays into one disjoint slice per node (its consecutive columns).
+    let mut node_slices = Vec::with_capacity(n_nodes);
+    {
+        let (mut M_rest, mut K_rest, mut C_rest) = (
+            M_values.as_mut_slice(),
+            K_values.as_mut_slice(),
+            C_values.as_mut_slice(),
+        );
+        for node in 0..n_nodes {
+            let len = free_dirs[node].len() * neighbours[node].1.last().unwrap_or(&0);
+            let (M_node, M_tail) = std::mem::take(&mut M_rest).split_at_mut(len);
+            let (K_node, K_tail) = std::mem::take(&mut K_rest).split_at_mut(len);
+            let (C_node, C_tail) = std::mem::take(&mut C_rest).split_at_mut(len);
+            (M_rest, K_rest, C_rest) = (M_tail, K_tail, C_tail);
+            node_slices.push((node, M_node, K_node, C_node));
+        }
+    }
+    node_slices
+        .into_par_iter()
+        .for_each(|(node, M_node, K_node, C_node)| {
+            let column_dirs = &free_dirs[node];
+            if column_dirs.is_empty() {
+                return;
+            }
+            let (nodes, offsets) = &neighbours[node];
+            let column_len = offsets[offsets.len() - 1];
+            let mut previous_element = None;
+            for &element_idx in node_elements.of(node) {
+                // A node listed twice in a hexahedron makes it degenerate, which is rejected
+                // before assembly; skipping repeats keeps every contribution counted once.
+                if previous_element == Some(element_idx) {
+                    continue;
+                }
+                previous_element = Some(element_idx);
+                let element_idx = element_idx as usize;
+                let hex = &mesh.hexes[element_idx];
+                let matrices = &elements[element_idx];
+                let (alpha, beta) = damping[element_idx];
+                let Some(local_col) = hex.iter().position(|&other| other as usize == node) else {
+                    continue;
+                };
+                for (local_row, &other) in hex.iter().enumerate() {
+                    let Ok(neighbour) = nodes.binary_search(&other) else {
+                        continue;
+                    };
+                    let row_base = offsets[neighbour];
+                    for (column_rank, &col_dir) in column_dirs.iter().enumerate() {
+                        let element_col = 3 * local_col + col_dir;
+                        for (row_rank, &row_dir) in free_dirs[other as usize].iter().enumerate() {
+                            let element_row = 3 * local_row + row_dir;
+                            let position = column_rank * column_len + row_base + row_rank;
+                            let stiffness =
+                                matrices.stiffness[packed_index(element_row, element_col)];
+                            let mass = if row_dir == col_dir {
+                                matrices.mass[packed_index(local_row, local_col)]
+                            } else {
+                                0.0
+                            };
+                            K_node[position] += stiffness;
+                            M_node[position] += mass;
+                            C_node[position] += alpha * mass + beta * stiffness;
+                        }
+                    }
+                }
+            }
+        });
+
+    let matrix = |values: Vec<f64>| CscMatrix {
+        n_rows: n_dofs,
+        n_cols: n_dofs,
+        col_ptr: col_ptr.clone(),
+        row_idx: row_idx.clone(),
+        values,
+    };
+    Assembled {
+        M: matrix(M_values),
+        K: matrix(K_values),
+        C: matrix(C_values),
+    }
+}

@@ -1,0 +1,340 @@
+//! Verification of the assembly: exact mass, exact symmetry and reproducibility, the constant
+//! strain patch test on a distorted mesh, Rayleigh damping per part, and clear errors.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+
+use super::Assemble;
+use super::hex8;
+use super::material::Material;
+use crate::artifact::Artifact;
+use crate::mesh::{Mesh, structured};
+use crate::model::{CscMatrix, Model};
+use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
+use crate::table::{ColumnData, Table};
+
+/// The parameters of `stage` at their defaults, with `overrides`.
+pub(crate) fn params_of(stage: &dyn Stage, overrides: &[(&str, Value)]) -> Params {
+    let mut values = BTreeMap::new();
+    for spec in stage.params() {
+        if let Some(default) = spec.default {
+            values.insert(spec.name.to_string(), default);
+        }
+    }
+    for (name, value) in overrides {
+        values.insert(name.to_string(), value.clone());
+    }
+    Params(values)
+}
+
+/// Runs `assemble` on `mesh` with `clamped` and the default materials.
+pub(crate) fn try_assemble(mesh: &Mesh, clamped: &str) -> Result<(Model, Table), StageError> {
+    let params = params_of(&Assemble, &[("clamped", Value::Str(clamped.into()))]);
+    let inputs = Inputs(BTreeMap::from([(
+        "mesh".to_string(),
+        Input::One(Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
+    )]));
+    let mut outputs = Assemble.run(&params, &inputs)?;
+    let model = match outputs.remove("model") {
+        Some(Artifact::Model(model)) => *model,
+        other => panic!("no model output: {other:?}"),
+    };
+    let summary = match outputs.remove("summary") {
+        Some(Artifact::Table(table)) => table,
+        other => panic!("no summary output: {other:?}"),
+    };
+    Ok((model, summary))
+}
+
+pub(crate) fn assemble(mesh: &Mesh, clamped: &str) -> (Model, Table) {
+    try_assemble(mesh, clamped).unwrap_or_else(|err| panic!("assembly failed: {err}"))
+}
+
+pub(crate) fn to_dense(A: &CscMatrix) -> Mat<f64> {
+    let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
+    for col in 0..A.n_cols {
+        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
+            dense[(A.row_idx[entry], col)] = A.values[entry];
+        }
+    }
+    dense
+}
+
+/// `rᵀ M r` for the unit translation `r` along x: the total (free) mass.
+fn translational_mass(model: &Model) -> f64 {
+    let translation: Vec<f64> = (0..model.n_dofs())
+        .map(|dof| if dof % 3 == 0 { 1.0 } else { 0.0 })
+        .collect();
+    let M_translation = model.M.mul_vec(&translation);
+    translation
+        .iter()
+        .zip(&M_translation)
+        .map(|(r, m)| r * m)
+        .sum()
+}
+
+fn summary_total(summary: &Table, column: &str) -> f64 {
+    match summary.column(column) {
+        Some(ColumnData::F64(values)) => *values.last().unwrap(),
+        other => panic!("summary column {column}: {other:?}"),
+    }
+}
+
+#[test]
+fn total_mass_is_exact_on_a_block() {
+    let mesh = structured::block([0.2, 0.05, 0.03], [5, 3, 2], "disc");
+    let (model, summary) = assemble(&mesh, "");
+    let exact = 7850.0 * 0.2 * 0.05 * 0.03;
+    let from_matrix = translational_mass(&model);
+    assert!(
+        (from_matrix - exact).abs() <= 1e-12 * exact,
+        "{from_matrix} vs {exact}"
+    );
+    let from_table = summary_total(&summary, "mass_kg");
+    assert!(
+        (from_table - exact).abs() <= 1e-12 * exact,
+        "{from_table} vs {exact}"
+    );
+    assert_eq!(model.n_dofs(), 3 * 6 * 4 * 3);
+}
+
+#[test]
+fn total_mass_is_exact_on_an_annulus() {
+    let (r_inner, r_outer, thickness, n_theta) = (0.1, 0.3, 0.02, 24);
+    let mesh = structured::annulus(r_inner, r_outer, 0.0, thickness, [3, n_theta, 2], "pad");
+    let (model, summary) = assemble(&mesh, "");
+    // The mesh is the polygonal annulus between two regular 24-gons.
+    let area = 0.5
+        * n_theta as f64
+        * (2.0 * std::f64::consts::PI / n_theta as f64).sin()
+        * (r_outer * r_outer - r_inner * r_inner);
+    let exact = 5102.0 * area * thickness;
+    let from_matrix = translational_mass(&model);
+    assert!(
+        (from_matrix - exact).abs() <= 1e-12 * exact,
+        "{from_matrix} vs {exact}"
+    );
+    let from_table = summary_total(&summary, "mass_kg");
+    assert!(
+        (from_table - exact).abs() <= 1e-12 * exact,
+        "{from_table} vs {exact}"
+    );
+}
+
+#[test]
+fn matrices_are_exactly_symmetric_and_identical_between_runs() {
+    let mut mesh = structured::annulus(0.05, 0.15, 0.0, 0.01, [3, 16, 2], "disc");
+    mesh.nodes[40][2] += 0.001;
+    let (first, _) = assemble(&mesh, "inner");
+    let (second, _) = assemble(&mesh, "inner");
+    assert_eq!(
+        Artifact::Model(Box::new(first.clone())).encode(),
+        Artifact::Model(Box::new(second)).encode()
+    );
+    for A in [&first.K, &first.M, &first.C] {
+        let dense = to_dense(A);
+        for i in 0..A.n_rows {
+            for j in 0..i {
+                assert_eq!(dense[(i, j)].to_bits(), dense[(j, i)].to_bits());
+            }
+        }
+    }
+    // M, K and C share one pattern.
+    assert_eq!(first.K.row_idx, first.M.row_idx);
+    assert_eq!(first.K.col_ptr, first.C.col_ptr);
+}
+
+#[test]
+fn clamped_node_sets_lose_their_dofs() {
+    let mesh = structured::block([0.3, 0.1, 0.1], [3, 2, 2], "disc");
+    let (model, summary) = assemble(&mesh, " x0 , y1 ");
+    let clamped: std::collections::BTreeSet<u32> = mesh.node_sets["x0"]
+        .iter()
+        .chain(&mesh.node_sets["y1"])
+        .copied()
+        .collect();
+    assert_eq!(model.n_dofs(), 3 * (mesh.n_nodes() - clamped.len()));
+    for (node, dofs) in model.dof_of_node.iter().enumerate() {
+        assert_eq!(dofs[0].is_none(), clamped.contains(&(node as u32)));
+    }
+    assert_eq!(
+        summary.column("n_dofs"),
+        Some(&ColumnData::I64(vec![model.n_dofs() as i64; 2]))
+    );
+}
+
+#[test]
+fn rayleigh_damping_is_taken_per_part() {
+    // Two elements along x: element 0 is disc, element 1 is pad.
+    let mut mesh = structured::block([2.0, 1.0, 1.0], [2, 1, 1], "disc");
+    mesh.parts.push("pad".into());
+    mesh.hex_part[1] = 1;
+    let (model, summary) = assemble(&mesh, "");
+    let (disc_alpha, disc_beta, pad_alpha, pad_beta) = (3.75, 5e-8, 54.375, 72.5e-8);
+    // Node 0 (x = 0) belongs to the disc element only, node 2 (x = 2) to the pad only.
+    for (node, alpha, beta) in [(0usize, disc_alpha, disc_beta), (2, pad_alpha, pad_beta)] {
+        let col = model.dof_of_node[node][0].unwrap() as usize;
+        for entry in model.K.col_ptr[col]..model.K.col_ptr[col + 1] {
+            let expected = alpha * model.M.values[entry] + beta * model.K.values[entry];
+            let scale = expected.abs().max(1e-300);
+            assert!((model.C.values[entry] - expected).abs() <= 1e-14 * scale.max(1.0));
+        }
+    }
+    let masses = match summary.column("mass_kg") {
+        Some(ColumnData::F64(values)) => values.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert!((masses[0] - 7850.0).abs() < 1e-9 && (masses[1] - 5102.0).abs() < 1e-9);
+}
+
+/// Moves the interior nodes of a 3×3×3 block, imposes a linear displacement on the boundary,
+/// solves for the interior: the solution must be the linear field, the strain constant.
+#[test]
+fn constant_strain_patch_test_on_a_distorted_mesh() {
+    let mut mesh = structured::block([1.0, 1.0, 1.0], [3, 3, 3], "disc");
+    let boundary: std::collections::BTreeSet<u32> = ["x0", "x1", "y0", "y1", "z0", "z1"]
+        .iter()
+        .flat_map(|face| mesh.node_sets[*face].iter().copied())
+        .collect();
+    let interior: Vec<usize> = (0..mesh.n_nodes())
+        .filter(|node| !boundary.contains(&(*node as u32)))
+        .collect();
+    assert_eq!(interior.len(), 8);
+    for (count, &node) in interior.iter().enumerate() {
+        let shift = |k: usize| 0.09 * (((count * 7 + k * 3) % 5) as f64 / 2.0 - 1.0);
+        for direction in 0..3 {
+            mesh.nodes[node][direction] += shift(direction);
+        }
+    }
+    let gradient = [
+        [1.0e-3, 2.0e-4, -3.0e-4],
+        [5.0e-4, -2.0e-3, 1.0e-4],
+        [-1.0e-4, 3.0e-4, 1.5e-3],
+    ];
+    let offset = [1e-4, -2e-4, 3e-4];
+    let exact = |x: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|i| offset[i] + (0..3).map(|j| gradient[i][j] * x[j]).sum::<f64>())
+    };
+    let (model, _) = assemble(&mesh, "");
+    let K = to_dense(&model.K);
+    let interior_dofs: Vec<usize> = interior
+        .iter()
+        .flat_map(|&node| (0..3).map(move |d| 3 * node + d))
+        .collect();
+    let mut prescribed = vec![0.0; model.n_dofs()];
+    for &node in &boundary {
+        let value = exact(mesh.nodes[node as usize]);
+        for d in 0..3 {
+            prescribed[3 * node as usize + d] = value[d];
+        }
+    }
+    let n_interior = interior_dofs.len();
+    let K_interior = Mat::from_fn(n_interior, n_interior, |i, j| {
+        K[(interior_dofs[i], interior_dofs[j])]
+    });
+    let rhs = Mat::from_fn(n_interior, 1, |i, _| {
+        -(0..model.n_dofs())
+            .map(|j| K[(interior_dofs[i], j)] * prescribed[j])
+            .sum::<f64>()
+    });
+    let solution = K_interior.llt(Side::Lower).unwrap().solve(&rhs);
+    let mut displacement = prescribed.clone();
+    for (i, &dof) in interior_dofs.iter().enumerate() {
+        displacement[dof] = solution[(i, 0)];
+    }
+    let scale = 2e-3;
+    for &node in &interior {
+        let want = exact(mesh.nodes[node]);
+        for d in 0..3 {
+            let error = (displacement[3 * node + d] - want[d]).abs();
+            assert!(
+                error <= 1e-10 * scale,
+                "node {node} dir {d}: error {error:e}"
+            );
+        }
+    }
+    // Constant strain ε = sym(∇u) (engineering shears), hence constant stress σ = D ε.
+    let expected_strain = [
+        gradient[0][0],
+        gradient[1][1],
+        gradient[2][2],
+        gradient[0][1] + gradient[1][0],
+        gradient[1][2] + gradient[2][1],
+        gradient[2][0] + gradient[0][2],
+    ];
+    let material = Material::from_params(&params_of(&Assemble, &[]), "disc").unwrap();
+    let D = material.elasticity();
+    let stress = |strain: &[f64; 6]| -> [f64; 6] {
+        std::array::from_fn(|i| (0..6).map(|j| D[i][j] * strain[j]).sum())
+    };
+    let expected_stress = stress(&expected_strain);
+    let stress_scale = expected_stress.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+    for hex in &mesh.hexes {
+        let coords = hex.map(|node| mesh.nodes[node as usize]);
+        let element_displacement: [f64; 24] =
+            std::array::from_fn(|dof| displacement[3 * hex[dof / 3] as usize + dof % 3]);
+        let strains = hex8::gauss_point_strains(&coords, &D, &element_displacement).unwrap();
+        for strain in strains {
+            let got = stress(&strain);
+            for s in 0..6 {
+                assert!(
+                    (got[s] - expected_stress[s]).abs() <= 1e-10 * stress_scale,
+                    "stress {s}: {} vs {}",
+                    got[s],
+                    expected_stress[s]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn inverted_element_is_named_with_its_det_j() {
+    let mut mesh = structured::block([1.0, 1.0, 1.0], [3, 2, 2], "disc");
+    // Mirror element 4 by swapping its bottom and top faces.
+    let hex = mesh.hexes[4];
+    mesh.hexes[4] = [
+        hex[4], hex[5], hex[6], hex[7], hex[0], hex[1], hex[2], hex[3],
+    ];
+    let err = try_assemble(&mesh, "").unwrap_err();
+    assert!(
+        err.message.contains("1 inverted or degenerate element"),
+        "{err}"
+    );
+    assert!(err.message.contains("element 4 (det J = -"), "{err}");
+}
+
+#[test]
+fn unknown_part_and_missing_node_sets_are_errors() {
+    let mesh = structured::block([1.0, 1.0, 1.0], [1, 1, 1], "caliper");
+    let err = try_assemble(&mesh, "").unwrap_err();
+    assert!(
+        err.message.contains("part `caliper` has no material"),
+        "{err}"
+    );
+
+    let mesh = structured::block([1.0, 1.0, 1.0], [1, 1, 1], "disc");
+    let err = try_assemble(&mesh, "hub,pad_backs").unwrap_err();
+    assert!(
+        err.message
+            .contains("clamped node sets not in the mesh: hub, pad_backs"),
+        "{err}"
+    );
+}
+
+#[test]
+fn non_physical_material_is_an_error() {
+    let mesh = structured::block([1.0, 1.0, 1.0], [1, 1, 1], "disc");
+    let params = params_of(
+        &Assemble,
+        &[
+            ("clamped", Value::Str(String::new())),
+            ("nu_disc", Value::Float(0.5)),
+        ],
+    );
+    let err = super::assemble_model(&mesh, &params, &[]).unwrap_err();
+    assert!(err.message.contains("nu_disc = 0.5"), "{err}");
+}

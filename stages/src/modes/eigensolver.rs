@@ -1,0 +1,612 @@
+//! The lowest eigenpairs of `K φ = λ M φ` in a band, proved complete by a Sturm count.
+//!
+//! 1. Factorise `K − σ M` once, σ at the bottom of the band (slightly below zero when the band
+//!    starts at 0, so that a free body's rigid-body modes, λ ≈ 0, lie above it).
+//! 2. Block shift-invert Lanczos ([`super::lanczos`]) until enough Ritz pairs have converged,
+//!    with a few beyond the last wanted one.
+//! 3. Refine: one or more steps of subspace iteration `Z = (K − σ M)⁻¹ M Q` followed by a
+//!    Rayleigh–Ritz projection of `(K, M)` on `Z` (`Zᵀ K Z y = λ Zᵀ M Z y`, `φ = Z y`). This
+//!    removes the high-frequency roundoff that `K` would amplify in the residual, and resolves
+//!    repeated eigenvalues into `M`-orthonormal vectors.
+//! 4. Prove completeness: factorise `K − τ M` with τ in a gap above the last wanted eigenvalue;
+//!    its negative pivots minus those of `K − σ M` count the eigenvalues in `[σ, τ)`. If fewer
+//!    were found, continue Lanczos deflated against those found; if that fails, report it.
+//!
+//! Residuals: `‖K φ − λ M φ‖ / ‖K φ‖`. A rigid-body mode has `K φ = 0` up to roundoff, where
+//! that ratio means nothing; for a mode with `‖K φ‖ ≤ 1e-10 ‖K‖₁ ‖φ‖` the residual is the
+//! normwise backward error `‖K φ − λ M φ‖ / (‖K‖₁ ‖φ‖)` instead.
+//!
+//! Small models (a few hundred DOFs) are solved densely, and checked the same way.
+
+use std::time::Instant;
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef, Par};
+
+use super::dense::{generalized_symmetric_eigen, select_columns, symmetrised};
+use super::factor::{Factor, ShiftedPencil};
+use super::lanczos::{LanczosOptions, ShiftInvert, block_lanczos};
+use super::sparse_ops::{check_symmetric, diagonal, symmetric_mul};
+use crate::model::CscMatrix;
+use crate::stage::StageError;
+
+/// Largest residual of a reported mode.
+pub const RESIDUAL_TOLERANCE: f64 = 1e-8;
+/// Refinement stops once every wanted mode is this accurate.
+const REFINED_RESIDUAL: f64 = 1e-10;
+const MAX_REFINEMENTS: usize = 4;
+/// Lanczos attempts (the first, then deflated continuations after a failed Sturm count).
+const MAX_ATTEMPTS: usize = 3;
+/// Models up to this many DOFs are solved densely.
+const DENSE_LIMIT: usize = 600;
+/// Vectors per Lanczos block: multiplicities up to this (the six rigid-body modes of a free
+/// body, the pairs of an axisymmetric disc) are found without relying on roundoff.
+const BLOCK_SIZE: usize = 8;
+const LANCZOS_TOLERANCE: f64 = 1e-9;
+/// σ = −SHIFT_FRACTION · (median of K_ii / M_ii) when the band starts at 0: far above the
+/// roundoff of rigid-body eigenvalues, far below the first elastic one.
+const SHIFT_FRACTION: f64 = 1e-8;
+/// Eigenvalues closer than this (relative) form a cluster the Sturm shift must not split.
+const CLUSTER_GAP: f64 = 1e-6;
+/// `‖K φ‖ ≤ RIGID_BODY · ‖K‖₁ ‖φ‖` marks a zero-frequency (rigid-body) mode.
+const RIGID_BODY: f64 = 1e-10;
+
+/// Which eigenvalues λ = ω² are wanted: the lowest `n_modes` (0: all) in `[lambda_lo,
+/// lambda_hi]` (`lambda_hi` infinite: no upper bound).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Band {
+    pub n_modes: usize,
+    pub lambda_lo: f64,
+    pub lambda_hi: f64,
+}
+
+/// Figures of a solve, for benchmarks and diagnostics (not part of any artifact: timings vary).
+#[derive(Debug, Clone, Default)]
+pub struct SolveReport {
+    pub n_dofs: usize,
+    pub dense: bool,
+    pub nested_dissection: bool,
+    /// Entries of the factor `L`.
+    pub factor_entries: usize,
+    pub sigma: f64,
+    pub analyse_seconds: f64,
+    /// Total time of the numeric factorisations, and how many there were.
+    pub factor_seconds: f64,
+    pub n_factorizations: usize,
+    pub lanczos_seconds: f64,
+    pub refine_seconds: f64,
+    pub n_solves: usize,
+    pub basis_size: usize,
+    pub restarts: usize,
+    pub attempts: usize,
+    /// The Sturm shift τ, the eigenvalue count in [σ, τ) it proves, and how many were found.
+    pub sturm_shift: f64,
+    pub sturm_count: usize,
+    pub found_below_sturm_shift: usize,
+    pub worst_residual: f64,
+}
+
+/// Mass-normalised eigenpairs, λ ascending.
+pub struct Eigensolution {
+    pub lambda: Vec<f64>,
+    pub shapes: Mat<f64>,
+    pub residuals: Vec<f64>,
+    pub report: SolveReport,
+}
+
+/// Eigenpairs with their residual figures.
+struct Candidates {
+    lambda: Vec<f64>,
+    vectors: Mat<f64>,
+    residuals: Vec<f64>,
+}
+
+fn norm_1(A: &CscMatrix) -> f64 {
+    (0..A.n_cols)
+        .map(|j| {
+            A.values[A.col_ptr[j]..A.col_ptr[j + 1]]
+                .iter()
+                .map(|v| v.abs())
+                .sum::<f64>()
+        })
+        .fold(0.0, f64::max)
+}
+
+fn column_norm(A: MatRef<'_, f64>, j: usize) -> f64 {
+    A.col(j).iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// Residual of each pair (see the module docs) from `K φ` and `M φ`.
+fn residuals(
+    lambda: &[f64],
+    vectors: MatRef<'_, f64>,
+    K_vectors: MatRef<'_, f64>,
+    M_vectors: MatRef<'_, f64>,
+    K_norm: f64,
+) -> Vec<f64> {
+    (0..lambda.len())
+        .map(|j| {
+            let residual = K_vectors
+                .col(j)
+                .iter()
+                .zip(M_vectors.col(j).iter())
+                .map(|(k, m)| (k - lambda[j] * m).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let K_phi = column_norm(K_vectors, j);
+            let backward_scale = K_norm * column_norm(vectors, j);
+            if K_phi <= RIGID_BODY * backward_scale {
+                residual / backward_scale
+            } else {
+                residual / K_phi
+            }
+        })
+        .collect()
+}
+
+/// Median of `K_ii / M_ii`: the scale of the eigenvalues of a single DOF.
+fn diagonal_eigenvalue_scale(K: &CscMatrix, M: &CscMatrix) -> Result<f64, StageError> {
+    let K_diagonal = diagonal(K);
+    let M_diagonal = diagonal(M);
+    if let Some(dof) = M_diagonal.iter().position(|&m| !(m > 0.0)) {
+        return Err(StageError::new(format!(
+            "M is not positive definite: M[{dof}, {dof}] = {:e}",
+            M_diagonal[dof]
+        )));
+    }
+    let mut ratios: Vec<f64> = K_diagonal
+        .iter()
+        .zip(&M_diagonal)
+        .map(|(k, m)| k / m)
+        .filter(|ratio| *ratio > 0.0)
+        .collect();
+    if ratios.is_empty() {
+        return Err(StageError::new("K has no positive diagonal entry"));
+    }
+    ratios.sort_by(f64::total_cmp);
+    Ok(ratios[ratios.len() / 2])
+}
+
+/// Factorises `K − s M` at `target`, nudging `s` if it is (numerically) an eigenvalue.
+fn factor_at<'a>(
+    pencil: &'a ShiftedPencil,
+    target: f64,
+    scale: f64,
+    par: Par,
+    report: &mut SolveReport,
+) -> Result<Factor<'a>, StageError> {
+    let mut last_error = None;
+    for attempt in 0..4 {
+        let nudge = [0.0, -1e-7, 1e-7, -1e-5][attempt] * target.abs().max(scale);
+        let started = Instant::now();
+        let result = pencil.factor(target + nudge, par);
+        report.factor_seconds += started.elapsed().as_secs_f64();
+        report.n_factorizations += 1;
+        match result {
+            Ok(factor) => return Ok(factor),
+            Err(err) => last_error = Some(err),
+        }
+    }
+    Err(last_error.unwrap_or_else(|| StageError::new("no factorisation attempted")))
+}
+
+/// The smallest `j ≥ first` with a gap between `sorted[j − 1]` and `sorted[j]`.
+fn gap_at_or_above(sorted: &[f64], first: usize, absolute_floor: f64) -> Option<usize> {
+    (first.max(1)..sorted.len()).find(|&j| {
+        let (below, above) = (sorted[j - 1], sorted[j]);
+        above - below > CLUSTER_GAP * below.abs().max(above.abs()) + absolute_floor
+    })
+}
+
+/// Ritz pairs `(λ, Φ)` with the products `K Φ` and `M Φ`.
+struct RitzProducts {
+    lambda: Vec<f64>,
+    vectors: Mat<f64>,
+    K_vectors: Mat<f64>,
+    M_vectors: Mat<f64>,
+}
+
+/// Rayleigh–Ritz of `(K, M)` on the span of `Z`.
+fn rayleigh_ritz(
+    Z: MatRef<'_, f64>,
+    K: &CscMatrix,
+    M: &CscMatrix,
+    par: Par,
+) -> Result<RitzProducts, StageError> {
+    let p = Z.ncols();
+    let KZ = symmetric_mul(K, Z);
+    let MZ = symmetric_mul(M, Z);
+    let mut K_projected = Mat::<f64>::zeros(p, p);
+    let mut M_projected = Mat::<f64>::zeros(p, p);
+    matmul(
+        K_projected.as_mut(),
+        Accum::Replace,
+        Z.transpose(),
+        KZ.as_ref(),
+        1.0,
+        par,
+    );
+    matmul(
+        M_projected.as_mut(),
+        Accum::Replace,
+        Z.transpose(),
+        MZ.as_ref(),
+        1.0,
+        par,
+    );
+    let (lambda, Y) = generalized_symmetric_eigen(
+        symmetrised(K_projected.as_ref()).as_ref(),
+        symmetrised(M_projected.as_ref()).as_ref(),
+        par,
+    )?;
+    let product = |A: &Mat<f64>| {
+        let mut result = Mat::<f64>::zeros(A.nrows(), p);
+        matmul(
+            result.as_mut(),
+            Accum::Replace,
+            A.as_ref(),
+            Y.as_ref(),
+            1.0,
+            par,
+        );
+        result
+    };
+    Ok(RitzProducts {
+        vectors: product(&Z.to_owned()),
+        K_vectors: product(&KZ),
+        M_vectors: product(&MZ),
+        lambda,
+    })
+}
+
+/// Subspace-iteration refinement of approximate eigenvectors `Q` (eigenvalues `lambda`),
+/// until the `n_checked` lowest have residual ≤ [`REFINED_RESIDUAL`].
+fn refine(
+    op: &ShiftInvert<'_>,
+    K: &CscMatrix,
+    Q: Mat<f64>,
+    lambda: Vec<f64>,
+    n_checked: usize,
+    K_norm: f64,
+) -> Result<Candidates, StageError> {
+    let (M, par, sigma) = (op.M, op.par, op.sigma());
+    let mut Q = Q;
+    let mut lambda = lambda;
+    let mut candidates = None;
+    for _ in 0..MAX_REFINEMENTS {
+        let mut Z = op.apply(Q.as_ref());
+        // Z ≈ Q / (λ − σ): rescale so that the projected mass matrix is well conditioned.
+        for (j, value) in lambda.iter().enumerate() {
+            let scale = value - sigma;
+            if scale.is_finite() && scale != 0.0 {
+                for i in 0..Z.nrows() {
+                    Z[(i, j)] *= scale;
+                }
+            }
+        }
+        let RitzProducts {
+            lambda: new_lambda,
+            vectors,
+            K_vectors,
+            M_vectors,
+        } = rayleigh_ritz(Z.as_ref(), K, M, par)?;
+        let new_residuals = residuals(
+            &new_lambda,
+            vectors.as_ref(),
+            K_vectors.as_ref(),
+            M_vectors.as_ref(),
+            K_norm,
+        );
+        let worst = new_residuals
+            .iter()
+            .take(n_checked)
+            .fold(0.0f64, |worst, r| worst.max(*r));
+        Q = vectors.clone();
+        lambda = new_lambda.clone();
+        candidates = Some(Candidates {
+            lambda: new_lambda,
+            vectors,
+            residuals: new_residuals,
+        });
+        if worst <= REFINED_RESIDUAL {
+            break;
+        }
+    }
+    candidates.ok_or_else(|| StageError::new("no refinement step ran"))
+}
+
+/// All eigenpairs of a small model, densely: λ ascending, `M`-orthonormal vectors.
+fn dense_candidates(
+    K: &CscMatrix,
+    M: &CscMatrix,
+    par: Par,
+) -> Result<(Vec<f64>, Mat<f64>), StageError> {
+    let to_dense = |A: &CscMatrix| {
+        let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
+        for j in 0..A.n_cols {
+            for entry in A.col_ptr[j]..A.col_ptr[j + 1] {
+                dense[(A.row_idx[entry], j)] = A.values[entry];
+            }
+        }
+        dense
+    };
+    generalized_symmetric_eigen(
+        symmetrised(to_dense(K).as_ref()).as_ref(),
+        symmetrised(to_dense(M).as_ref()).as_ref(),
+        par,
+    )
+}
+
+/// The wanted eigenpairs of `(K, M)` (symmetric, `M` positive definite) in `band`, proved
+/// complete; `dof_of_node` groups DOFs by node for the ordering.
+pub fn solve(
+    K: &CscMatrix,
+    M: &CscMatrix,
+    dof_of_node: &[[Option<u32>; 3]],
+    band: Band,
+    par: Par,
+) -> Result<Eigensolution, StageError> {
+    let n = K.n_rows;
+    if n == 0 {
+        return Err(StageError::new("the model has no DOF"));
+    }
+    check_symmetric(K, n, "K")?;
+    check_symmetric(M, n, "M")?;
+    if band.n_modes == 0 && !band.lambda_hi.is_finite() {
+        return Err(StageError::new(
+            "n_modes = 0 asks for every mode below f_max_hz, but f_max_hz is not set",
+        ));
+    }
+    let mut report = SolveReport {
+        n_dofs: n,
+        ..SolveReport::default()
+    };
+    let K_norm = norm_1(K);
+    let scale = diagonal_eigenvalue_scale(K, M)?;
+
+    let analyse_started = Instant::now();
+    let pencil = ShiftedPencil::new(K, M, dof_of_node)?;
+    report.analyse_seconds = analyse_started.elapsed().as_secs_f64();
+    report.nested_dissection = pencil.nested_dissection;
+    report.factor_entries = pencil.factor_len();
+
+    let sigma_target = if band.lambda_lo > 0.0 {
+        band.lambda_lo
+    } else {
+        -SHIFT_FRACTION * scale
+    };
+    let factor_sigma = factor_at(&pencil, sigma_target, scale, par, &mut report)?;
+    let sigma = factor_sigma.sigma;
+    report.sigma = sigma;
+    if band.lambda_lo <= 0.0 && factor_sigma.negative_pivots > 0 {
+        return Err(StageError::new(format!(
+            "K is not positive semi-definite: {} eigenvalue(s) below sigma = {sigma:e} rad^2/s^2",
+            factor_sigma.negative_pivots
+        )));
+    }
+    let below_sigma = factor_sigma.negative_pivots;
+    let available = n - below_sigma;
+
+    // With an upper bound, count the band first: the Sturm count then fixes how many to find.
+    let band_count = if band.lambda_hi.is_finite() {
+        let factor_hi = factor_at(&pencil, band.lambda_hi, scale, par, &mut report)?;
+        Some((
+            factor_hi.negative_pivots.saturating_sub(below_sigma),
+            factor_hi.sigma,
+        ))
+    } else {
+        None
+    };
+    let n_wanted = match band_count {
+        Some((count, _)) if band.n_modes == 0 => count,
+        Some((count, _)) => band.n_modes.min(count),
+        None => band.n_modes.min(available),
+    };
+    if n_wanted == 0 {
+        return Ok(Eigensolution {
+            lambda: Vec::new(),
+            shapes: Mat::zeros(n, 0),
+            residuals: Vec::new(),
+            report,
+        });
+    }
+    // When the whole band is wanted, the Sturm shift is its top: its count is known already.
+    let band_shift = band_count.filter(|(count, _)| *count == n_wanted);
+    let absolute_gap = 1e-9 * scale;
+
+    let n_needed = n_wanted + BLOCK_SIZE;
+    let dense = n <= DENSE_LIMIT || (3 * n_needed > n && n <= 3 * DENSE_LIMIT);
+    report.dense = dense;
+    if !dense && 3 * n_needed > n {
+        return Err(StageError::new(format!(
+            "{n_wanted} modes are too many for a model of {n} DOFs: ask for at most {}",
+            n / 3 - BLOCK_SIZE
+        )));
+    }
+
+    let op = ShiftInvert {
+        factor: &factor_sigma,
+        M,
+        par,
+        n_solves: Default::default(),
+    };
+    // Dense: every eigenpair at once; the lowest wanted ones (and a few more, for the Sturm
+    // gap) are then refined like Lanczos vectors.
+    let dense_start = if dense {
+        let all = dense_candidates(K, M, par)?;
+        let columns: Vec<usize> = (0..n)
+            .filter(|&j| band.lambda_lo <= 0.0 || all.0[j] >= sigma)
+            .take(n_needed)
+            .collect();
+        Some((
+            columns.iter().map(|&j| all.0[j]).collect::<Vec<f64>>(),
+            select_columns(all.1.as_ref(), &columns),
+        ))
+    } else {
+        None
+    };
+    let mut candidates = Candidates {
+        lambda: Vec::new(),
+        vectors: Mat::zeros(n, 0),
+        residuals: Vec::new(),
+    };
+    let mut sturm_failure = None;
+    for attempt in 0..MAX_ATTEMPTS {
+        report.attempts = attempt + 1;
+        let (Q, lambda) = if let Some((lambda, vectors)) = &dense_start {
+            (vectors.clone(), lambda.clone())
+        } else {
+            let lanczos_started = Instant::now();
+            let max_basis = (2 * n_needed).max(n_needed + 10 * BLOCK_SIZE).min(n / 3);
+            let options = LanczosOptions {
+                block_size: BLOCK_SIZE,
+                max_basis,
+                tolerance: LANCZOS_TOLERANCE,
+                max_restarts: 8,
+                seed: 0x5eed_0000 + attempt as u64,
+            };
+            let locked_lambda = candidates.lambda.clone();
+            let n_missing =
+                sturm_failure.map_or(0, |(expected, found): (usize, usize)| expected - found);
+            let previous_shift = report.sturm_shift;
+            let done = |theta_descending: &[f64]| {
+                let mut lambda: Vec<f64> = theta_descending
+                    .iter()
+                    .filter(|theta| **theta > 0.0)
+                    .map(|theta| sigma + 1.0 / theta)
+                    .collect();
+                let new_below_previous_shift = lambda
+                    .iter()
+                    .filter(|value| **value < previous_shift)
+                    .count();
+                if new_below_previous_shift < n_missing {
+                    return false;
+                }
+                lambda.extend_from_slice(&locked_lambda);
+                lambda.sort_by(f64::total_cmp);
+                match band_shift {
+                    Some((count, tau)) => {
+                        lambda.iter().filter(|value| **value < tau).count() >= count
+                            && lambda.iter().any(|value| *value >= tau)
+                    }
+                    None => {
+                        lambda.len() > n_wanted
+                            && gap_at_or_above(&lambda, n_wanted, absolute_gap).is_some()
+                    }
+                }
+            };
+            let ritz = block_lanczos(&op, candidates.vectors.as_ref(), options, &done)?;
+            report.basis_size = report.basis_size.max(ritz.basis_size);
+            report.restarts += ritz.restarts;
+            report.lanczos_seconds += lanczos_started.elapsed().as_secs_f64();
+            let n_previous = candidates.lambda.len();
+            let mut Q = Mat::<f64>::zeros(n, n_previous + ritz.vectors.ncols());
+            Q.as_mut()
+                .subcols_mut(0, n_previous)
+                .copy_from(&candidates.vectors);
+            Q.as_mut()
+                .subcols_mut(n_previous, ritz.vectors.ncols())
+                .copy_from(&ritz.vectors);
+            let mut lambda = candidates.lambda.clone();
+            lambda.extend(ritz.theta.iter().map(|theta| sigma + 1.0 / theta));
+            (Q, lambda)
+        };
+        let refine_started = Instant::now();
+        candidates = refine(&op, K, Q, lambda, n_wanted, K_norm)?;
+        report.refine_seconds += refine_started.elapsed().as_secs_f64();
+
+        // Sturm check: count the eigenvalues in [σ, τ) and compare with those found there.
+        let found_above_sigma: Vec<f64> = candidates
+            .lambda
+            .iter()
+            .copied()
+            .filter(|value| *value >= sigma || band.lambda_lo <= 0.0)
+            .collect();
+        let (tau, expected) = match band_shift {
+            Some((count, tau)) => (tau, count),
+            None => {
+                let tau = match gap_at_or_above(&found_above_sigma, n_wanted, absolute_gap) {
+                    Some(j) => 0.5 * (found_above_sigma[j - 1] + found_above_sigma[j]),
+                    // Every eigenvalue above σ was found: count them all.
+                    None if found_above_sigma.len() == available => {
+                        2.0 * found_above_sigma.last().copied().unwrap_or(0.0).abs() + scale
+                    }
+                    None => {
+                        return Err(StageError::new(format!(
+                            "found {} eigenvalues but no gap above the {n_wanted}th to place a Sturm shift",
+                            found_above_sigma.len()
+                        )));
+                    }
+                };
+                let factor_tau = factor_at(&pencil, tau, scale, par, &mut report)?;
+                (
+                    factor_tau.sigma,
+                    factor_tau.negative_pivots.saturating_sub(below_sigma),
+                )
+            }
+        };
+        let found = found_above_sigma
+            .iter()
+            .filter(|value| **value < tau)
+            .count();
+        report.sturm_shift = tau;
+        report.sturm_count = expected;
+        report.found_below_sturm_shift = found;
+        if found == expected {
+            sturm_failure = None;
+            break;
+        }
+        sturm_failure = Some((expected, found));
+        if dense_start.is_some() || found > expected {
+            break;
+        }
+    }
+    report.n_solves = op.n_solves.load(std::sync::atomic::Ordering::Relaxed);
+    if let Some((expected, found)) = sturm_failure {
+        let worst = candidates
+            .residuals
+            .iter()
+            .fold(0.0f64, |worst, r| worst.max(*r));
+        return Err(StageError::new(format!(
+            "Sturm count: {expected} eigenvalues lie in [{sigma:e}, {:e}) rad^2/s^2 but {found} were found (worst residual {worst:.2e})",
+            report.sturm_shift
+        )));
+    }
+
+    let selected: Vec<usize> = (0..candidates.lambda.len())
+        .filter(|&j| {
+            let value = candidates.lambda[j];
+            (band.lambda_lo <= 0.0 || value >= band.lambda_lo) && value <= band.lambda_hi
+        })
+        .take(n_wanted)
+        .collect();
+    if selected.len() < n_wanted {
+        return Err(StageError::new(format!(
+            "{n_wanted} modes wanted in the band but only {} were found",
+            selected.len()
+        )));
+    }
+    let lambda: Vec<f64> = selected.iter().map(|&j| candidates.lambda[j]).collect();
+    let residuals: Vec<f64> = selected.iter().map(|&j| candidates.residuals[j]).collect();
+    let worst = residuals.iter().fold(0.0f64, |worst, r| worst.max(*r));
+    report.worst_residual = worst;
+    if !(worst <= RESIDUAL_TOLERANCE) {
+        let mode = residuals
+            .iter()
+            .position(|r| !(*r <= RESIDUAL_TOLERANCE))
+            .unwrap_or(0);
+        return Err(StageError::new(format!(
+            "mode {} (omega^2 = {:e}) has residual {:.2e} > {RESIDUAL_TOLERANCE:e} (worst {worst:.2e})",
+            mode + 1,
+            lambda[mode],
+            residuals[mode]
+        )));
+    }
+    let shapes = select_columns(candidates.vectors.as_ref(), &selected);
+    Ok(Eigensolution {
+        lambda,
+        shapes,
+        residuals,
+        report,
+    })
+}

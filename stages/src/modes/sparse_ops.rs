@@ -1,0 +1,117 @@
+//! Sparse products of the symmetric model matrices with blocks of vectors, and checks of the
+//! properties the eigensolver relies on.
+
+use faer::reborrow::ReborrowMut;
+use faer::{Mat, MatRef};
+use rayon::prelude::*;
+
+use crate::model::CscMatrix;
+use crate::stage::StageError;
+
+/// Rows per parallel task in a product: large enough to amortise scheduling.
+const ROWS_PER_TASK: usize = 4096;
+
+/// `Y = A X` for a symmetric `A` stored with both triangles. Row `j` of `A X` is column `j` of
+/// `A` dotted with `x` (symmetry), so each output entry is one sequential sum: parallel and
+/// deterministic.
+pub fn symmetric_mul(A: &CscMatrix, X: MatRef<'_, f64>) -> Mat<f64> {
+    let n = A.n_rows;
+    let mut Y = Mat::<f64>::zeros(n, X.ncols());
+    Y.par_col_iter_mut().enumerate().for_each(|(k, mut y)| {
+        let x_col = X.col(k);
+        let x: Vec<f64>;
+        let x = match x_col.try_as_col_major() {
+            Some(contiguous) => contiguous.as_slice(),
+            None => {
+                x = x_col.iter().copied().collect();
+                &x
+            }
+        };
+        let y = y
+            .rb_mut()
+            .try_as_col_major_mut()
+            .expect("a column of an owned matrix is contiguous")
+            .as_slice_mut();
+        y.par_chunks_mut(ROWS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, y_chunk)| {
+                let first_row = chunk * ROWS_PER_TASK;
+                for (offset, y_j) in y_chunk.iter_mut().enumerate() {
+                    let j = first_row + offset;
+                    let mut sum = 0.0;
+                    for entry in A.col_ptr[j]..A.col_ptr[j + 1] {
+                        sum += A.values[entry] * x[A.row_idx[entry]];
+                    }
+                    *y_j = sum;
+                }
+            });
+    });
+    Y
+}
+
+/// The diagonal of `A`.
+pub fn diagonal(A: &CscMatrix) -> Vec<f64> {
+    (0..A.n_cols)
+        .map(|j| {
+            let rows = &A.row_idx[A.col_ptr[j]..A.col_ptr[j + 1]];
+            rows.binary_search(&j)
+                .map_or(0.0, |position| A.values[A.col_ptr[j] + position])
+        })
+        .collect()
+}
+
+/// Checks that `A` is a well-formed square CSC matrix of size `n` with sorted rows, finite
+/// values and symmetric to roundoff; `name` is used in the message.
+pub fn check_symmetric(A: &CscMatrix, n: usize, name: &str) -> Result<(), StageError> {
+    if A.n_rows != n || A.n_cols != n || A.col_ptr.len() != n + 1 {
+        return Err(StageError::new(format!(
+            "{name} is {}×{} but the model has {n} DOFs",
+            A.n_rows, A.n_cols
+        )));
+    }
+    let nnz = A.col_ptr[n];
+    if A.row_idx.len() != nnz || A.values.len() != nnz || A.col_ptr[0] != 0 {
+        return Err(StageError::new(format!(
+            "{name} is malformed: {} column pointers end at {nnz} but it stores {} row indices and {} values",
+            n + 1,
+            A.row_idx.len(),
+            A.values.len()
+        )));
+    }
+    let scale = A
+        .values
+        .iter()
+        .fold(0.0f64, |max, value| max.max(value.abs()));
+    let problem = (0..n).into_par_iter().find_map_first(|j| {
+        let (start, end) = (A.col_ptr[j], A.col_ptr[j + 1]);
+        if end < start {
+            return Some(format!("{name} is malformed: column {j} has a negative length"));
+        }
+        let rows = &A.row_idx[start..end];
+        if rows.windows(2).any(|pair| pair[0] >= pair[1]) || rows.iter().any(|&row| row >= n) {
+            return Some(format!(
+                "{name} is malformed: rows of column {j} are unsorted or out of range"
+            ));
+        }
+        for (offset, &i) in rows.iter().enumerate() {
+            let value = A.values[start + offset];
+            if !value.is_finite() {
+                return Some(format!("{name}[{i}, {j}] = {value} is not finite"));
+            }
+            let transposed_rows = &A.row_idx[A.col_ptr[i]..A.col_ptr[i + 1]];
+            let transposed = transposed_rows
+                .binary_search(&j)
+                .map_or(0.0, |position| A.values[A.col_ptr[i] + position]);
+            if (value - transposed).abs() > 1e-12 * scale {
+                return Some(format!(
+                    "{name} is not symmetric: {name}[{i}, {j}] = {value:e} but {name}[{j}, {i}] = {transposed:e}"
+                ));
+            }
+        }
+        None
+    });
+    match problem {
+        Some(message) => Err(StageError::new(message)),
+        None => Ok(()),
+    }
+}
