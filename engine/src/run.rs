@@ -465,9 +465,10 @@ impl Executor<'_> {
                 }
                 // Meshes, models and modes feed other stages; people see them through the
                 // tables, figures and documents those stages write.
-                Artifact::Mesh(_) | Artifact::Model(_) | Artifact::RealModes(_) => {
-                    files = Vec::new()
-                }
+                Artifact::Mesh(_)
+                | Artifact::Model(_)
+                | Artifact::RealModes(_)
+                | Artifact::Equilibrium(_) => files = Vec::new(),
             }
             for (file, bytes) in &files {
                 let path = self.options.out_dir.join(file);

@@ -5,6 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::equilibrium::Equilibrium;
 use crate::mesh::Mesh;
 use crate::model::{Model, RealModes};
 use crate::table::Table;
@@ -22,6 +23,7 @@ pub enum Artifact {
     Mesh(Box<Mesh>),
     Model(Box<Model>),
     RealModes(Box<RealModes>),
+    Equilibrium(Box<Equilibrium>),
 }
 
 /// Bytes of a file format, with the extension it is written under.
@@ -47,6 +49,7 @@ pub enum ArtifactType {
     Mesh,
     Model,
     RealModes,
+    Equilibrium,
 }
 
 impl ArtifactType {
@@ -58,6 +61,7 @@ impl ArtifactType {
             ArtifactType::Mesh => "mesh",
             ArtifactType::Model => "model",
             ArtifactType::RealModes => "real modes",
+            ArtifactType::Equilibrium => "equilibrium",
         }
     }
 }
@@ -82,6 +86,7 @@ impl Artifact {
             Artifact::Mesh(_) => ArtifactType::Mesh,
             Artifact::Model(_) => ArtifactType::Model,
             Artifact::RealModes(_) => ArtifactType::RealModes,
+            Artifact::Equilibrium(_) => ArtifactType::Equilibrium,
         }
     }
 

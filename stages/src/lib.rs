@@ -12,6 +12,7 @@
 pub mod artifact;
 pub mod assemble;
 pub mod contact;
+pub mod equilibrium;
 pub mod export;
 pub mod mesh;
 pub mod model;
@@ -36,6 +37,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(mesh::gmsh::GmshImport),
         Arc::new(assemble::Assemble),
         Arc::new(modes::Modes),
+        Arc::new(equilibrium::SlidingEquilibrium),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),

@@ -1,4 +1,6 @@
-//! Degrees of freedom: three displacements per node, minus those of the clamped node sets,
+//! Degrees of freedom: three displacements per node, minus those of the clamped node sets
+//! (all three, or only the axes written after a colon: `pad_backs:xy` guides the pad backs
+//! in-plane and leaves them free along z),
 //! numbered node by node (node-major), so that a node's free DOFs are consecutive and the
 //! sparse matrices have one dense 3×3 block per pair of neighbouring nodes.
 
@@ -19,10 +21,32 @@ pub type DofOfNode = Vec<[Option<u32>; 3]>;
 
 /// The DOF numbering (see [`DofOfNode`]) and the number of free DOFs.
 pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, usize), StageError> {
-    let missing: Vec<&str> = clamped_sets
+    let mut entries = Vec::with_capacity(clamped_sets.len());
+    for entry in clamped_sets {
+        let (name, axes) = match entry.split_once(':') {
+            Some((name, axes)) => (name.trim(), axes.trim()),
+            None => (entry.as_str(), "xyz"),
+        };
+        let mut mask = [false; 3];
+        for axis in axes.chars() {
+            let idx = "xyz".find(axis).ok_or_else(|| {
+                StageError::new(format!(
+                    "clamped `{entry}`: axes must be letters among x, y, z, found `{axis}`"
+                ))
+            })?;
+            mask[idx] = true;
+        }
+        if mask == [false; 3] {
+            return Err(StageError::new(format!(
+                "clamped `{entry}`: no axis after the colon"
+            )));
+        }
+        entries.push((name, mask));
+    }
+    let missing: Vec<&str> = entries
         .iter()
-        .filter(|name| !mesh.node_sets.contains_key(name.as_str()))
-        .map(String::as_str)
+        .map(|(name, _)| *name)
+        .filter(|name| !mesh.node_sets.contains_key(*name))
         .collect();
     if !missing.is_empty() {
         let available: Vec<&str> = mesh.node_sets.keys().map(String::as_str).collect();
@@ -37,15 +61,17 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
         )));
     }
     let n_nodes = mesh.n_nodes();
-    let mut clamped = vec![false; n_nodes];
-    for name in clamped_sets {
-        for &node in &mesh.node_sets[name.as_str()] {
+    let mut clamped = vec![[false; 3]; n_nodes];
+    for (name, mask) in &entries {
+        for &node in &mesh.node_sets[*name] {
             let slot = clamped.get_mut(node as usize).ok_or_else(|| {
                 StageError::new(format!(
                     "node set `{name}` names node {node}, but the mesh has {n_nodes} nodes"
                 ))
             })?;
-            *slot = true;
+            for axis in 0..3 {
+                slot[axis] |= mask[axis];
+            }
         }
     }
     let mut in_element = vec![false; n_nodes];
@@ -59,7 +85,7 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
     // A free node outside every element has neither mass nor stiffness: M and K would be
     // singular. That is a broken mesh, not something to solve around.
     let orphans: Vec<usize> = (0..n_nodes)
-        .filter(|&node| !in_element[node] && !clamped[node])
+        .filter(|&node| !in_element[node] && clamped[node] != [true; 3])
         .collect();
     if let Some(first) = orphans.first() {
         return Err(StageError::new(format!(
@@ -69,13 +95,15 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
     }
     let mut next_dof: u32 = 0;
     let mut dof_of_node = Vec::with_capacity(n_nodes);
-    for is_clamped in clamped {
-        if is_clamped {
-            dof_of_node.push([None; 3]);
-        } else {
-            dof_of_node.push([Some(next_dof), Some(next_dof + 1), Some(next_dof + 2)]);
-            next_dof += 3;
+    for axes_clamped in clamped {
+        let mut dofs = [None; 3];
+        for axis in 0..3 {
+            if !axes_clamped[axis] {
+                dofs[axis] = Some(next_dof);
+                next_dof += 1;
+            }
         }
+        dof_of_node.push(dofs);
     }
     Ok((dof_of_node, next_dof as usize))
 }

@@ -65,7 +65,7 @@ impl Stage for Assemble {
             ty: ParamType::Str,
             default: Some(Value::Str("hub,pad_backs".into())),
             unit: "",
-            doc: "comma-separated node sets whose DOFs are fixed; empty for a free body",
+            doc: "comma-separated node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body",
         });
         params
     }

@@ -5,7 +5,9 @@
 //! W = H K⁻¹ Hᵀ:  g = q + A r,  A = W_nn + μ W_nt,  q = g₀ + (H K⁻¹ F)_n.
 //! Signorini's law is then the linear complementarity problem
 //!
-//!     r ≥ 0,   g = q + A r ≥ 0,   rᵀ g = 0.
+//! ```text
+//! r ≥ 0,   g = q + A r ≥ 0,   rᵀ g = 0
+//! ```
 //!
 //! - [`fixed_point`]: the seed paper's augmented-Lagrangian iteration
 //!   r ← proj_{R+}(r − ρ ∘ g(r)) with ρᵢ = ω / Aᵢᵢ (the diagonal approximation of the
