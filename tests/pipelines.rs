@@ -5,7 +5,7 @@ mod common;
 use std::path::Path;
 
 use arrow::array::{Array, Int64Array};
-use common::{Workspace, read_parquet, strings};
+use common::{Workspace, floats, read_parquet, strings};
 
 fn pipeline(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -36,6 +36,42 @@ fn quick_study_runs_and_is_coarse() {
     );
     assert_eq!(dofs, 3 * (5 * 48 * 3 + 4 * 27));
     assert!(dofs < 3_000);
+
+    let modes = read_parquet(&workspace.path().join("out/modes/table.parquet"));
+    assert_eq!(modes.num_rows(), 12);
+    let frequencies = floats(&modes, "freq_hz");
+    assert!(
+        frequencies.windows(2).all(|pair| pair[0] <= pair[1]),
+        "{frequencies:?}"
+    );
+    assert!(
+        frequencies[0] > 10.0,
+        "clamped: no rigid-body mode, got {frequencies:?}"
+    );
+    assert!(
+        floats(&modes, "residual")
+            .iter()
+            .all(|residual| *residual <= 1e-8)
+    );
+
+    let summary = read_parquet(&workspace.path().join("out/equilibrium/summary.parquet"));
+    let value = |name: &str| {
+        let index = strings(&summary, "quantity")
+            .iter()
+            .position(|quantity| quantity == name)
+            .unwrap();
+        floats(&summary, "value")[index]
+    };
+    assert!(value("complementarity_residual") <= 1e-10);
+    assert!(value("equation_residual") <= 1e-10);
+    assert!(value("closed_pairs") > 0.0);
+    assert!(
+        (value("friction_force_total_N") - 0.38 * value("normal_force_total_N")).abs()
+            <= 1e-9 * value("normal_force_total_N")
+    );
+    let contact = read_parquet(&workspace.path().join("out/equilibrium/contact.parquet"));
+    assert_eq!(contact.num_rows(), 4 * 9);
+    assert!(workspace.path().join("out/mode_shapes/vtu.vtu").exists());
 }
 
 #[test]
