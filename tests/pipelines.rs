@@ -94,13 +94,21 @@ fn every_pipeline_validates() {
 
 #[test]
 fn the_readme_example_is_a_valid_study() {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
     let start = readme.find("```yaml\n").expect("a yaml example") + "```yaml\n".len();
     let example = &readme[start..start + readme[start..].find("```").unwrap()];
     let workspace = Workspace::new();
     workspace.write("example.yaml", example);
     let output = workspace.squeal(&["validate", "example.yaml"]);
     let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    assert!(stdout.contains("(4 stages, 12 instances for the targets)"), "{stdout}");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("(4 stages, 12 instances for the targets)"),
+        "{stdout}"
+    );
 }

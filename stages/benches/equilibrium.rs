@@ -1,0 +1,61 @@
+//! Sliding equilibrium of the default brake (`mesh.brake` defaults, about 31,500 DOFs):
+//! factorisation, condensation and iteration times, and the iteration counts of both solvers.
+//! Run with `cargo bench -p squeal-stages --bench equilibrium`.
+
+use std::collections::BTreeMap;
+
+use squeal_stages::assemble::{Assemble, assemble_model};
+use squeal_stages::contact::lcp::LcpSettings;
+use squeal_stages::equilibrium::{Solver, solve};
+use squeal_stages::mesh::brake::{BrakeGeometry, brake};
+use squeal_stages::{Params, Stage, Value};
+
+fn main() {
+    let mesh = brake(&BrakeGeometry::default()).expect("default brake");
+    let values: BTreeMap<String, Value> = Assemble
+        .params()
+        .into_iter()
+        .map(|spec| (spec.name.to_string(), spec.default.expect("defaults")))
+        .collect();
+    let clamped = vec!["hub".to_string(), "pad_backs".to_string()];
+    let started = std::time::Instant::now();
+    let (model, _) = assemble_model(&mesh, &Params(values), &clamped).expect("assembly");
+    println!(
+        "default brake: {} free DOFs, {} contact pairs; assembly {:.3} s",
+        model.n_dofs(),
+        mesh.contact_pairs.len(),
+        started.elapsed().as_secs_f64()
+    );
+    println!(
+        "{:<20} {:>10} {:>12} {:>12} {:>12} {:>12} {:>10}",
+        "solver", "iterations", "factor s", "condense s", "iterate s", "residual", "closed"
+    );
+    for (name, solver, settings) in [
+        (
+            "semi-smooth Newton",
+            Solver::SemismoothNewton,
+            LcpSettings::default(),
+        ),
+        (
+            "fixed point",
+            Solver::FixedPoint,
+            LcpSettings {
+                relaxation: 0.5,
+                max_iterations: 200_000,
+                ..LcpSettings::default()
+            },
+        ),
+    ] {
+        let (equilibrium, report) =
+            solve(&model, 0.38, 4.0, 1e-4, solver, &settings).expect("equilibrium");
+        println!(
+            "{name:<20} {:>10} {:>12.3} {:>12.3} {:>12.4} {:>12.2e} {:>10}",
+            report.lcp.iterations,
+            report.seconds[0],
+            report.seconds[1],
+            report.seconds[2],
+            report.lcp.residual(),
+            equilibrium.closed.iter().filter(|closed| **closed).count()
+        );
+    }
+}
