@@ -169,12 +169,14 @@ pub fn solve(
         mu,
         omega,
     };
+    let seconds = [factor_seconds, condense_seconds, iterate_seconds];
     Ok((
         equilibrium,
         Report {
             solver,
             lcp,
             equation_residual,
+            seconds,
         },
     ))
 }
