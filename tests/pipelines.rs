@@ -72,6 +72,8 @@ fn quick_study_runs_and_is_coarse() {
     let contact = read_parquet(&workspace.path().join("out/equilibrium/contact.parquet"));
     assert_eq!(contact.num_rows(), 4 * 9);
     assert!(workspace.path().join("out/mode_shapes/vtu.vtu").exists());
+    let vtu = std::fs::read_to_string(workspace.path().join("out/equilibrium/vtu.vtu")).unwrap();
+    assert!(vtu.contains("Name=\"contact_pressure\"") && vtu.contains("Name=\"displacement\""));
 }
 
 #[test]

@@ -321,6 +321,11 @@ impl Stage for SlidingEquilibrium {
                 ArtifactType::Table,
                 "solver, iterations, residuals, total forces",
             ),
+            PortSpec::one(
+                "vtu",
+                ArtifactType::Document,
+                "displacement, contact pressure and gap for ParaView",
+            ),
         ]
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
@@ -346,6 +351,10 @@ impl Stage for SlidingEquilibrium {
         )?;
         let contact = contact_table(model, &equilibrium);
         let summary = summary_table(&equilibrium, &report, &model.mesh);
+        let vtu = crate::export::document(
+            "vtu",
+            crate::export::vtu::equilibrium_vtu(model, &equilibrium)?,
+        );
         Ok(Outputs::from([
             (
                 "equilibrium".to_string(),
@@ -353,6 +362,7 @@ impl Stage for SlidingEquilibrium {
             ),
             ("contact".to_string(), Artifact::Table(contact)),
             ("summary".to_string(), Artifact::Table(summary)),
+            ("vtu".to_string(), vtu),
         ]))
     }
 }

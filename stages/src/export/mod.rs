@@ -38,7 +38,7 @@ fn wrong_type(port: &str, expected: &str, found: &Artifact) -> StageError {
     ))
 }
 
-fn document(extension: &str, text: String) -> Artifact {
+pub fn document(extension: &str, text: String) -> Artifact {
     Artifact::Document(Document {
         extension: extension.to_string(),
         bytes: text.into_bytes(),

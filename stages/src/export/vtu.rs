@@ -38,6 +38,7 @@ use std::fmt::Write;
 
 use super::{check_dof_map, document, mesh_input, model_input, real_modes_input};
 use crate::artifact::ArtifactType;
+use crate::equilibrium::Equilibrium;
 use crate::mesh::Mesh;
 use crate::model::{Model, RealModes};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
@@ -184,7 +185,6 @@ pub fn modes_vtu(model: &Model, modes: &RealModes, max_modes: usize) -> Result<S
             modes.shapes.len()
         )));
     }
-    let n_nodes = model.mesh.n_nodes();
     let mut point_data = Vec::new();
     for (mode_idx, (omega, shape)) in modes
         .omega
@@ -200,17 +200,64 @@ pub fn modes_vtu(model: &Model, modes: &RealModes, max_modes: usize) -> Result<S
                 shape.len()
             )));
         }
-        let mut displacement = vec![0.0; 3 * n_nodes];
-        for (node, dofs) in model.dof_of_node.iter().enumerate() {
-            for (axis, dof) in dofs.iter().enumerate() {
-                if let Some(dof) = dof {
-                    displacement[3 * node + axis] = shape[*dof as usize];
-                }
+        let name = format!("mode_{number:04}_{:.1}Hz", omega / (2.0 * PI));
+        point_data.push(DataArray::new(
+            name,
+            3,
+            Values::Float64(nodal_vectors(model, shape)),
+        ));
+    }
+    write_grid(&model.mesh, &point_data).map_err(StageError::new)
+}
+
+/// A field over the free DOFs as one 3-vector per node, zero on clamped DOFs.
+fn nodal_vectors(model: &Model, field: &[f64]) -> Vec<f64> {
+    let mut vectors = vec![0.0; 3 * model.mesh.n_nodes()];
+    for (node, dofs) in model.dof_of_node.iter().enumerate() {
+        for (axis, dof) in dofs.iter().enumerate() {
+            if let Some(dof) = dof {
+                vectors[3 * node + axis] = field[*dof as usize];
             }
         }
-        let name = format!("mode_{number:04}_{:.1}Hz", omega / (2.0 * PI));
-        point_data.push(DataArray::new(name, 3, Values::Float64(displacement)));
     }
+    vectors
+}
+
+/// The VTU text of a sliding equilibrium: the displacement (elastic part, without the pads'
+/// rigid approach) and, on both nodes of each contact pair, the contact pressure r_n / area (Pa)
+/// and the normal gap (m).
+pub fn equilibrium_vtu(model: &Model, equilibrium: &Equilibrium) -> Result<String, StageError> {
+    check_dof_map(model)?;
+    if equilibrium.u.len() != model.n_dofs()
+        || equilibrium.r_n.len() != model.mesh.contact_pairs.len()
+    {
+        return Err(StageError::new(
+            "the equilibrium does not belong to this model",
+        ));
+    }
+    let n_nodes = model.mesh.n_nodes();
+    let (mut pressure, mut gap) = (vec![0.0; n_nodes], vec![0.0; n_nodes]);
+    for ((pair, r_n), pair_gap) in model
+        .mesh
+        .contact_pairs
+        .iter()
+        .zip(&equilibrium.r_n)
+        .zip(&equilibrium.gap)
+    {
+        for node in [pair.disc_node, pair.pad_node] {
+            pressure[node as usize] = r_n / pair.area;
+            gap[node as usize] = *pair_gap;
+        }
+    }
+    let point_data = vec![
+        DataArray::new(
+            "displacement",
+            3,
+            Values::Float64(nodal_vectors(model, &equilibrium.u)),
+        ),
+        DataArray::new("contact_pressure", 1, Values::Float64(pressure)),
+        DataArray::new("contact_gap", 1, Values::Float64(gap)),
+    ];
     write_grid(&model.mesh, &point_data).map_err(StageError::new)
 }
 
