@@ -5,6 +5,7 @@
 //! the registry the binary builds from [`all_kinds`].
 
 pub mod artifact;
+pub mod signal;
 pub mod stage;
 pub mod table;
 pub mod testing;
@@ -20,7 +21,9 @@ pub use table::{Column, ColumnData, Table};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
-    vec![Arc::new(table::Gather)]
+    let mut kinds: Vec<Arc<dyn Stage>> = vec![Arc::new(table::Gather)];
+    kinds.extend(signal::kinds());
+    kinds
 }
 
 /// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).

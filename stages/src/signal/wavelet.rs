@@ -1,0 +1,946 @@
+//! `wavelet`: Morlet continuous wavelet transform of one column of a signal table.
+//!
+//! # Definition
+//!
+//! Mother wavelet and daughters (design §3.7):
+//!
+//! ```text
+//! φ(t)      = e^{i k₀ t} e^{−t²/2}
+//! φ_{a,b}(t) = a^{−1/2} φ((t − b)/a)
+//! W(a, b)   = ∫ s(t) φ*_{a,b}(t) dt
+//! ```
+//!
+//! **Scale ↔ frequency**: `a = k₀ / (2π f)`. The Fourier transform of the daughter,
+//! `φ̂_{a,b}(ω) = a^{1/2} √(2π) e^{−(aω − k₀)²/2} e^{−iωb}`, peaks at `ω = k₀/a`, i.e. at
+//! `f = k₀/(2π a)`. For a tone `cos(2π f₀ t)`, `|W|²/a` is largest exactly at `f = f₀`;
+//! `|W|²` itself (the `power` output) carries the `a^{−1/2}` normalisation and peaks slightly
+//! lower, at `f₀ · 2k₀ / (k₀ + √(k₀² + 2))` (0.9865 f₀ for k₀ = 6). Both facts are tested.
+//!
+//! # Discretisation
+//!
+//! With samples `s_n = s(t₀ + n Δt)`, the integral is the rectangle rule
+//! `W(a, t_m) = Δt Σ_n s_n a^{−1/2} φ*((t_n − t_m)/a)`, a discrete correlation. It is
+//! evaluated by FFT: the signal is zero-padded to `P` samples and transformed once
+//! (`S_k`, real-to-complex FFT); for each scale the product `S_k Ĝ_k` is formed with the
+//! *analytic* transform of the sampled daughter,
+//! `Ĝ_k = Σ_j a^{1/2} √(2π) e^{−(a ω_j − k₀)²/2}` over every frequency `ω_j = 2π j/(P Δt)`
+//! with `j ≡ k (mod P)` — the negative frequencies and the aliased images that the sampling
+//! folds onto bin `k` (Poisson summation), so the FFT evaluation equals the rectangle rule, not
+//! an approximation of it. Terms below `e^{−CUTOFF²/2}` (≈ 3e−18) of the peak are skipped.
+//! An inverse FFT gives `W(a, t_m)` for every `m`.
+//!
+//! *Padding*: the daughter's envelope `e^{−τ²/(2a²)}` is below the same cut-off beyond
+//! `|τ| = CUTOFF · a`, so `P ≥ N + CUTOFF · a_max / Δt` keeps the circular correlation free of
+//! wrap-around. Scales wider than the whole record (every point of them inside the cone of
+//! influence) are not padded for: the padding stops at the widest scale that has a point
+//! outside the cone.
+//!
+//! *Decimation* (`dt_out_s`): the output keeps every `D`-th sample, `D = round(dt_out_s/Δt)`.
+//! With `P = D L`, keeping `W` at `m = q D` is an inverse FFT of length `L` of the spectrum
+//! folded modulo `L` (`Y_r = Σ_{k ≡ r (mod L)} S_k Ĝ_k`): exact, and `D` times cheaper.
+//!
+//! Scales are independent and run in parallel (rayon).
+//!
+//! # Cone of influence
+//!
+//! The e-folding time of the Morlet power at scale `a` is `√2 a` (Torrence & Compo 1998):
+//! a point is **in the cone of influence** (`in_coi = true`, edge effects matter, read with
+//! care) when it lies within `√2 a` of either end of the record.
+
+use std::sync::Arc;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use rayon::prelude::*;
+use realfft::RealFftPlanner;
+use rustfft::num_complex::Complex64;
+use rustfft::{Fft, FftPlanner};
+
+use super::figure::{self, DrawResult, Drawing, drawing_error};
+use super::{UniformSeries, log_spaced, uniform_series};
+use crate::artifact::{Artifact, ArtifactType};
+use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::table::Table;
+
+/// Where the Gaussian factors are cut: `e^{−CUTOFF²/2}` ≈ 2.6e−18 of their peak, below the
+/// round-off of f64 sums.
+const CUTOFF: f64 = 9.0;
+
+/// Largest power table the stage builds (rows = frequencies × output times); beyond it the
+/// user should decimate with `dt_out_s` rather than exhaust memory.
+const MAX_POWER_ROWS: usize = 100_000_000;
+
+/// Scale of the Morlet daughter whose spectrum peaks at `freq_hz` (see the module doc).
+pub fn scale_of_frequency(k0: f64, freq_hz: f64) -> f64 {
+    k0 / (2.0 * std::f64::consts::PI * freq_hz)
+}
+
+/// The e-folding time of the Morlet power at scale `scale`: the half-width of the cone of
+/// influence.
+pub fn e_folding_time(scale: f64) -> f64 {
+    std::f64::consts::SQRT_2 * scale
+}
+
+/// A signal prepared for Morlet transforms at any scale: its padded spectrum and the inverse
+/// FFT plan, shared read-only by the parallel workers.
+pub struct MorletCwt {
+    k0: f64,
+    dt: f64,
+    n_padded: usize,
+    n_folded: usize,
+    n_out: usize,
+    /// `S_k`, k = 0..P, Hermitian-completed so the band loop needs no conjugation branch.
+    spectrum: Vec<Complex64>,
+    inverse: Arc<dyn Fft<f64>>,
+}
+
+/// Per-worker buffers for one scale at a time.
+struct Workspace {
+    folded: Vec<Complex64>,
+    scratch: Vec<Complex64>,
+}
+
+impl MorletCwt {
+    /// Prepares `signal` (sampled every `dt` seconds) for scales up to `max_scale`, keeping every
+    /// `decimation`-th output sample.
+    pub fn new(signal: &[f64], dt: f64, k0: f64, max_scale: f64, decimation: usize) -> Self {
+        let n_samples = signal.len();
+        let decimation = decimation.max(1);
+        // Padding beyond the widest scale with a point outside the cone of influence buys
+        // nothing: those scales are wholly inside it.
+        let widest_useful_scale = (n_samples - 1) as f64 * dt / (2.0 * std::f64::consts::SQRT_2);
+        let pad_scale = max_scale.min(widest_useful_scale);
+        let pad = (CUTOFF * pad_scale / dt).ceil() as usize + 1;
+        let n_folded = next_fast_len((n_samples + pad).div_ceil(decimation));
+        let n_padded = n_folded * decimation;
+
+        let mut padded = vec![0.0; n_padded];
+        padded[..n_samples].copy_from_slice(signal);
+        let forward = RealFftPlanner::<f64>::new().plan_fft_forward(n_padded);
+        let mut half = forward.make_output_vec();
+        forward
+            .process(&mut padded, &mut half)
+            .expect("buffers sized by the plan");
+        let mut spectrum = vec![Complex64::new(0.0, 0.0); n_padded];
+        spectrum[..half.len()].copy_from_slice(&half);
+        for k in half.len()..n_padded {
+            spectrum[k] = spectrum[n_padded - k].conj();
+        }
+
+        let inverse = FftPlanner::<f64>::new().plan_fft_inverse(n_folded);
+        MorletCwt {
+            k0,
+            dt,
+            n_padded,
+            n_folded,
+            n_out: (n_samples - 1) / decimation + 1,
+            spectrum,
+            inverse,
+        }
+    }
+
+    /// Number of output times (every `decimation`-th sample, the first included).
+    pub fn n_out(&self) -> usize {
+        self.n_out
+    }
+
+    fn workspace(&self) -> Workspace {
+        Workspace {
+            folded: vec![Complex64::new(0.0, 0.0); self.n_folded],
+            scratch: vec![Complex64::new(0.0, 0.0); self.inverse.get_inplace_scratch_len()],
+        }
+    }
+
+    /// Fills `work.folded` with `W(scale, t_{qD})`, q = 0..n_out (and padding after).
+    fn transform_into(&self, scale: f64, work: &mut Workspace) {
+        let folded = &mut work.folded;
+        folded.fill(Complex64::new(0.0, 0.0));
+        let omega_step = 2.0 * std::f64::consts::PI / (self.n_padded as f64 * self.dt);
+        // x_j = a ω_j − k₀ is linear in the (unwrapped) frequency index j.
+        let x_step = scale * omega_step;
+        let j_center = self.k0 / x_step;
+        let j_half_width = CUTOFF / x_step;
+        let j_first = (j_center - j_half_width).ceil() as i64;
+        let j_last = (j_center + j_half_width).floor() as i64;
+
+        let n_padded = self.n_padded as i64;
+        let n_folded = self.n_folded as i64;
+        let mut k = j_first.rem_euclid(n_padded) as usize;
+        let mut r = j_first.rem_euclid(n_folded) as usize;
+        for j in j_first..=j_last {
+            let x = x_step * j as f64 - self.k0;
+            folded[r] += self.spectrum[k] * (-0.5 * x * x).exp();
+            k += 1;
+            if k == self.n_padded {
+                k = 0;
+            }
+            r += 1;
+            if r == self.n_folded {
+                r = 0;
+            }
+        }
+        self.inverse.process_with_scratch(folded, &mut work.scratch);
+        // Ĝ's constant a^{1/2} √(2π) and the inverse DFT's 1/P. The rectangle rule's Δt is
+        // already in Ĝ: Poisson summation of the Δt-weighted samples gives the analytic transform.
+        let factor = (2.0 * std::f64::consts::PI * scale).sqrt() / self.n_padded as f64;
+        for value in &mut folded[..self.n_out] {
+            *value *= factor;
+        }
+    }
+
+    /// `W(scale, t_{qD})` for q = 0..n_out.
+    pub fn coefficients(&self, scale: f64) -> Vec<Complex64> {
+        let mut work = self.workspace();
+        self.transform_into(scale, &mut work);
+        work.folded.truncate(self.n_out);
+        work.folded
+    }
+
+    /// `|W|²` at every scale (rows) and output time (columns), scales in parallel.
+    pub fn power(&self, scales: &[f64]) -> Vec<Vec<f64>> {
+        scales
+            .par_iter()
+            .map_init(
+                || self.workspace(),
+                |work, &scale| {
+                    self.transform_into(scale, work);
+                    work.folded[..self.n_out]
+                        .iter()
+                        .map(|value| value.norm_sqr())
+                        .collect()
+                },
+            )
+            .collect()
+    }
+}
+
+/// Smallest `n ≥ min_len` whose prime factors are 2, 3, 5 and 7: sizes the FFT is fast on.
+pub fn next_fast_len(min_len: usize) -> usize {
+    let mut best = min_len.max(1).next_power_of_two();
+    let mut p7 = 1;
+    while p7 < best {
+        let mut p5 = p7;
+        while p5 < best {
+            let mut p3 = p5;
+            while p3 < best {
+                let mut candidate = p3;
+                while candidate < min_len {
+                    candidate *= 2;
+                }
+                best = best.min(candidate);
+                p3 *= 3;
+            }
+            p5 *= 5;
+        }
+        p7 *= 7;
+    }
+    best
+}
+
+/// `wavelet`: Morlet CWT power of one column on a log-spaced frequency grid.
+pub struct Wavelet;
+
+impl Stage for Wavelet {
+    fn kind(&self) -> &'static str {
+        "wavelet"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Morlet wavelet power of one signal column on a log-spaced time-frequency grid, with its cone of influence"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec {
+                name: "column",
+                ty: ParamType::Str,
+                default: None,
+                unit: "",
+                doc: "the signal column to transform",
+            },
+            ParamSpec::float("k0", 6.0, "", "Morlet central wavenumber k₀ (rad)").at_least(0.0),
+            ParamSpec::float("f_min_hz", 0.0, "Hz", "lowest frequency of the grid")
+                .at_least(0.0)
+                .required(),
+            ParamSpec::float("f_max_hz", 0.0, "Hz", "highest frequency, at most Nyquist")
+                .at_least(0.0)
+                .required(),
+            ParamSpec::int("n_freqs", 100, "number of frequencies, log-spaced").at_least(1.0),
+            ParamSpec::float(
+                "dt_out_s",
+                0.0,
+                "s",
+                "output time step, rounded to a multiple of the sample step (0: every sample)",
+            )
+            .at_least(0.0),
+            ParamSpec::float(
+                "map_range_db",
+                60.0,
+                "dB",
+                "colour range of the map below its maximum",
+            )
+            .at_least(1.0),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::one(
+            "signal",
+            ArtifactType::Table,
+            "signal table: time `t` (s, uniform) and signal columns",
+        )]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "power",
+                ArtifactType::Table,
+                "long table: t (s), freq_hz, power = |W|², in_coi (edge effects matter)",
+            ),
+            PortSpec::one(
+                "map",
+                ArtifactType::Figure,
+                "time-frequency map of the power (dB), log frequency axis, cone of influence",
+            ),
+        ]
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let column = params.str("column");
+        let series = uniform_series(inputs.table("signal")?, column)?;
+        let grid = TransformGrid::from_params(params, &series)?;
+        let scales: Vec<f64> = grid
+            .freqs_hz
+            .iter()
+            .map(|&freq| scale_of_frequency(grid.k0, freq))
+            .collect();
+        let max_scale = scales.iter().copied().fold(0.0, f64::max);
+        let cwt = MorletCwt::new(
+            series.values,
+            series.dt,
+            grid.k0,
+            max_scale,
+            grid.decimation,
+        );
+        let n_rows = cwt.n_out() * scales.len();
+        if n_rows > MAX_POWER_ROWS {
+            return Err(StageError::new(format!(
+                "the power table would have {n_rows} rows ({} frequencies × {} times): raise dt_out_s",
+                scales.len(),
+                cwt.n_out()
+            )));
+        }
+        let power = cwt.power(&scales);
+        let times: Vec<f64> = (0..cwt.n_out())
+            .map(|q| series.t_first + (q * grid.decimation) as f64 * series.dt)
+            .collect();
+        let map = PowerMap {
+            column,
+            times: &times,
+            freqs_hz: &grid.freqs_hz,
+            power: &power,
+            k0: grid.k0,
+            t_first: series.t_first,
+            t_last: series.t_last(),
+            range_db: params.float("map_range_db"),
+        };
+        let figure = figure::render(&map, figure::DEFAULT_SIZE)?;
+        let table = power_table(&times, &grid.freqs_hz, &scales, &power, &series);
+        Ok(Outputs::from([
+            ("power".to_string(), Artifact::Table(table)),
+            ("map".to_string(), Artifact::Figure(figure)),
+        ]))
+    }
+}
+
+/// The validated frequency grid and output step of one run.
+struct TransformGrid {
+    k0: f64,
+    freqs_hz: Vec<f64>,
+    decimation: usize,
+}
+
+impl TransformGrid {
+    fn from_params(params: &Params, series: &UniformSeries) -> Result<Self, StageError> {
+        let k0 = params.float("k0");
+        let (f_min, f_max) = (params.float("f_min_hz"), params.float("f_max_hz"));
+        let n_freqs = params.int("n_freqs") as usize;
+        let nyquist = 0.5 / series.dt;
+        if k0 <= 0.0 {
+            return Err(StageError::new(format!("k0 = {k0} must be positive")));
+        }
+        if f_min <= 0.0 {
+            return Err(StageError::new(format!(
+                "f_min_hz = {f_min} Hz must be positive"
+            )));
+        }
+        if f_max < f_min {
+            return Err(StageError::new(format!(
+                "f_max_hz = {f_max} Hz is below f_min_hz = {f_min} Hz"
+            )));
+        }
+        if f_max > nyquist * (1.0 + 1e-12) {
+            return Err(StageError::new(format!(
+                "f_max_hz = {f_max} Hz is above the Nyquist frequency {nyquist} Hz of the signal (dt = {} s)",
+                series.dt
+            )));
+        }
+        let decimation = (params.float("dt_out_s") / series.dt).round().max(1.0) as usize;
+        Ok(TransformGrid {
+            k0,
+            freqs_hz: log_spaced(f_min, f_max, n_freqs),
+            decimation: decimation.min(series.len()),
+        })
+    }
+}
+
+fn power_table(
+    times: &[f64],
+    freqs_hz: &[f64],
+    scales: &[f64],
+    power: &[Vec<f64>],
+    series: &UniformSeries,
+) -> Table {
+    let n_rows = times.len() * freqs_hz.len();
+    let mut t_column = Vec::with_capacity(n_rows);
+    let mut freq_column = Vec::with_capacity(n_rows);
+    let mut power_column = Vec::with_capacity(n_rows);
+    let mut coi_column = Vec::with_capacity(n_rows);
+    for ((&freq, &scale), row) in freqs_hz.iter().zip(scales).zip(power) {
+        let e_folding = e_folding_time(scale);
+        for (&t, &value) in times.iter().zip(row) {
+            t_column.push(t);
+            freq_column.push(freq);
+            power_column.push(value);
+            coi_column.push(in_cone_of_influence(
+                t,
+                series.t_first,
+                series.t_last(),
+                e_folding,
+            ));
+        }
+    }
+    Table::new()
+        .with("t", t_column)
+        .with("freq_hz", freq_column)
+        .with("power", power_column)
+        .with("in_coi", coi_column)
+}
+
+/// True when `t` is within one e-folding time of either end of the record.
+pub fn in_cone_of_influence(t: f64, t_first: f64, t_last: f64, e_folding: f64) -> bool {
+    (t - t_first).min(t_last - t) < e_folding
+}
+
+/// The time–frequency heat map: power in dB below its maximum, viridis, log frequency axis,
+/// the cone of influence as white lines.
+struct PowerMap<'a> {
+    column: &'a str,
+    times: &'a [f64],
+    freqs_hz: &'a [f64],
+    power: &'a [Vec<f64>],
+    k0: f64,
+    t_first: f64,
+    t_last: f64,
+    range_db: f64,
+}
+
+/// Heat-map cells drawn at most, per axis: enough for the eye, small enough for an SVG.
+const MAP_MAX_COLUMNS: usize = 400;
+const MAP_MAX_ROWS: usize = 200;
+/// Colour levels of the map; runs of equal level along time are merged into one rectangle.
+const MAP_LEVELS: f64 = 64.0;
+
+impl PowerMap<'_> {
+    /// Max-pools the power onto at most MAP_MAX_ROWS × MAP_MAX_COLUMNS cells (peaks survive).
+    fn pooled(&self) -> (Vec<(usize, usize)>, Vec<(usize, usize)>, Vec<Vec<f64>>) {
+        let row_groups = groups(self.freqs_hz.len(), MAP_MAX_ROWS);
+        let column_groups = groups(self.times.len(), MAP_MAX_COLUMNS);
+        let cells = row_groups
+            .iter()
+            .map(|&(row_first, row_end)| {
+                column_groups
+                    .iter()
+                    .map(|&(column_first, column_end)| {
+                        self.power[row_first..row_end]
+                            .iter()
+                            .flat_map(|row| &row[column_first..column_end])
+                            .copied()
+                            .fold(0.0, f64::max)
+                    })
+                    .collect()
+            })
+            .collect();
+        (row_groups, column_groups, cells)
+    }
+}
+
+/// Splits `n` items into at most `max_groups` contiguous `(first, end)` ranges.
+fn groups(n: usize, max_groups: usize) -> Vec<(usize, usize)> {
+    let n_groups = n.min(max_groups);
+    (0..n_groups)
+        .map(|group| (group * n / n_groups, (group + 1) * n / n_groups))
+        .collect()
+}
+
+impl Drawing for PowerMap<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
+        let (row_groups, column_groups, cells) = self.pooled();
+        let peak = cells.iter().flatten().copied().fold(0.0, f64::max);
+        let level_of = |power: f64| -> f64 {
+            if peak <= 0.0 || power <= 0.0 {
+                return 0.0;
+            }
+            let db = 10.0 * (power / peak).log10();
+            ((1.0 + db / self.range_db).clamp(0.0, 1.0) * (MAP_LEVELS - 1.0)).round()
+        };
+
+        // Cell edges: geometric midpoints in frequency, arithmetic midpoints in time.
+        let n_freqs = self.freqs_hz.len();
+        let ratio = if n_freqs > 1 {
+            (self.freqs_hz[n_freqs - 1] / self.freqs_hz[0]).powf(0.5 / (n_freqs - 1) as f64)
+        } else {
+            1.1
+        };
+        let freq_low = |idx: usize| self.freqs_hz[idx] / ratio;
+        let freq_high = |idx: usize| self.freqs_hz[idx] * ratio;
+        let step = if self.times.len() > 1 {
+            self.times[1] - self.times[0]
+        } else {
+            1.0
+        };
+        let time_low = |idx: usize| self.times[idx] - 0.5 * step;
+        let time_high = |idx: usize| self.times[idx] + 0.5 * step;
+        let x_range = time_low(0)..time_high(self.times.len() - 1);
+        let y_range = freq_low(0)..freq_high(n_freqs - 1);
+
+        let (main, colorbar) = root.split_horizontally(root.dim_in_pixel().0 as i32 - 110);
+        let mut chart = ChartBuilder::on(&main)
+            .caption(
+                format!(
+                    "Morlet wavelet power of `{}` (k₀ = {})",
+                    self.column, self.k0
+                ),
+                (figure::FONT, 22),
+            )
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x_range.clone(), y_range.clone().log_scale())
+            .map_err(drawing_error)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("time (s)")
+            .y_desc("frequency (Hz)")
+            .x_label_formatter(&|t| figure::tick_label(*t))
+            .y_label_formatter(&|f| figure::tick_label(*f))
+            .label_style((figure::FONT, 15))
+            .axis_desc_style((figure::FONT, 16))
+            .draw()
+            .map_err(drawing_error)?;
+
+        let mut rectangles = Vec::new();
+        for (row_idx, &(row_first, row_end)) in row_groups.iter().enumerate() {
+            let (f0, f1) = (freq_low(row_first), freq_high(row_end - 1));
+            let mut run_start = 0;
+            for column_idx in 1..=column_groups.len() {
+                let run_level = level_of(cells[row_idx][run_start]);
+                let run_ends = column_idx == column_groups.len()
+                    || level_of(cells[row_idx][column_idx]) != run_level;
+                if run_ends {
+                    let t0 = time_low(column_groups[run_start].0);
+                    let t1 = time_high(column_groups[column_idx - 1].1 - 1);
+                    let color = figure::viridis(run_level / (MAP_LEVELS - 1.0));
+                    rectangles.push(Rectangle::new([(t0, f0), (t1, f1)], color.filled()));
+                    run_start = column_idx;
+                }
+            }
+        }
+        chart.draw_series(rectangles).map_err(drawing_error)?;
+
+        // The cone of influence: t = t_first + √2 a(f) and t = t_last − √2 a(f).
+        for side in [1.0, -1.0] {
+            let edge = if side > 0.0 {
+                self.t_first
+            } else {
+                self.t_last
+            };
+            let boundary: Vec<(f64, f64)> = self
+                .freqs_hz
+                .iter()
+                .map(|&freq| {
+                    let t = edge + side * e_folding_time(scale_of_frequency(self.k0, freq));
+                    (t.clamp(x_range.start, x_range.end), freq)
+                })
+                .collect();
+            chart
+                .draw_series(LineSeries::new(boundary, WHITE.stroke_width(2)))
+                .map_err(drawing_error)?;
+        }
+
+        // Colour bar, in dB below the maximum.
+        let mut bar = ChartBuilder::on(&colorbar)
+            .margin_top(50)
+            .margin_bottom(57)
+            .margin_right(10)
+            .y_label_area_size(55)
+            .build_cartesian_2d(0.0..1.0, -self.range_db..0.0)
+            .map_err(drawing_error)?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .y_desc("dB")
+            .label_style((figure::FONT, 14))
+            .axis_desc_style((figure::FONT, 15))
+            .draw()
+            .map_err(drawing_error)?;
+        let n_steps = MAP_LEVELS as usize;
+        bar.draw_series((0..n_steps).map(|step| {
+            let low = -self.range_db + self.range_db * step as f64 / n_steps as f64;
+            let high = -self.range_db + self.range_db * (step + 1) as f64 / n_steps as f64;
+            let color = figure::viridis(step as f64 / (n_steps - 1) as f64);
+            Rectangle::new([(0.0, low), (1.0, high)], color.filled())
+        }))
+        .map_err(drawing_error)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+    use std::f64::consts::PI;
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::stage::{Input, Value};
+    use crate::table::ColumnData;
+
+    const K0: f64 = 6.0;
+
+    /// `W(a, t_m) = Δt Σ_n s_n a^{−1/2} φ*((t_n − t_m)/a)`, written out: the independent code path.
+    fn direct_cwt(signal: &[f64], dt: f64, scale: f64, k0: f64) -> Vec<Complex64> {
+        (0..signal.len())
+            .map(|m| {
+                signal
+                    .iter()
+                    .enumerate()
+                    .map(|(n, &value)| {
+                        let x = (n as f64 - m as f64) * dt / scale;
+                        let mother = Complex64::from_polar((-0.5 * x * x).exp(), k0 * x);
+                        value * mother.conj() * dt / scale.sqrt()
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
+    fn max_norm(values: &[Complex64]) -> f64 {
+        values.iter().map(|v| v.norm()).fold(0.0, f64::max)
+    }
+
+    /// A deterministic broadband signal: every scale sees content.
+    fn broadband(n: usize) -> Vec<f64> {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        (0..n)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fft_evaluation_equals_the_direct_sum() {
+        // Tolerance: 1e-9 of the largest coefficient of each scale (round-off is ~1e-14).
+        let (n, dt) = (600, 1e-3);
+        let signal = broadband(n);
+        let freqs = log_spaced(5.0, 500.0, 7); // up to Nyquist: aliased images matter there
+        let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
+        let max_scale = scales.iter().copied().fold(0.0, f64::max);
+        let cwt = MorletCwt::new(&signal, dt, K0, max_scale, 1);
+        for (&freq, &scale) in freqs.iter().zip(&scales) {
+            let fast = cwt.coefficients(scale);
+            let direct = direct_cwt(&signal, dt, scale, K0);
+            let error: Vec<Complex64> = fast.iter().zip(&direct).map(|(a, b)| a - b).collect();
+            let relative = max_norm(&error) / max_norm(&direct);
+            assert!(relative < 1e-9, "{freq} Hz: relative error {relative:e}");
+        }
+    }
+
+    #[test]
+    fn decimated_output_is_every_dth_sample_of_the_full_one() {
+        // Tolerance: 1e-12 relative; folding the spectrum is exact up to round-off.
+        let (n, dt) = (1000, 1e-3);
+        let signal = broadband(n);
+        let scale = scale_of_frequency(K0, 40.0);
+        let full = MorletCwt::new(&signal, dt, K0, scale, 1).coefficients(scale);
+        let decimation = 7;
+        let decimated = MorletCwt::new(&signal, dt, K0, scale, decimation).coefficients(scale);
+        assert_eq!(decimated.len(), (n - 1) / decimation + 1);
+        let peak = max_norm(&full);
+        for (q, value) in decimated.iter().enumerate() {
+            let error = (value - full[q * decimation]).norm() / peak;
+            assert!(error < 1e-12, "sample {q}: {error:e}");
+        }
+    }
+
+    fn tone_table(dt: f64, n: usize, tone: impl Fn(f64) -> f64) -> Table {
+        let time: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let values = time.iter().map(|&t| tone(t)).collect::<Vec<f64>>();
+        Table::new().with("t", time).with("x", values)
+    }
+
+    fn params(f_min: f64, f_max: f64, n_freqs: i64, dt_out: f64) -> Params {
+        Params(BTreeMap::from([
+            ("column".into(), Value::Str("x".into())),
+            ("k0".into(), Value::Float(K0)),
+            ("f_min_hz".into(), Value::Float(f_min)),
+            ("f_max_hz".into(), Value::Float(f_max)),
+            ("n_freqs".into(), Value::Int(n_freqs)),
+            ("dt_out_s".into(), Value::Float(dt_out)),
+            ("map_range_db".into(), Value::Float(60.0)),
+        ]))
+    }
+
+    fn run(table: Table, params: &Params) -> Result<Outputs, StageError> {
+        let inputs = Inputs(BTreeMap::from([(
+            "signal".to_string(),
+            Input::One(Arc::new(Artifact::Table(table))),
+        )]));
+        Wavelet.run(params, &inputs)
+    }
+
+    /// Per output time outside the cone of influence: the frequency of the largest power.
+    struct Ridge {
+        times: Vec<f64>,
+        freqs: Vec<f64>,
+    }
+
+    fn ridge(outputs: &Outputs) -> Ridge {
+        let table = outputs["power"].as_table().unwrap();
+        let column = |name| match table.column(name) {
+            Some(ColumnData::F64(values)) => values.clone(),
+            _ => panic!("no f64 column {name}"),
+        };
+        let (t, freq, power) = (column("t"), column("freq_hz"), column("power"));
+        let Some(ColumnData::Bool(in_coi)) = table.column("in_coi") else {
+            panic!("no in_coi column");
+        };
+        // Rows are grouped by frequency, times ascending within each.
+        let mut best: BTreeMap<u64, (f64, f64, bool)> = BTreeMap::new();
+        for row in 0..t.len() {
+            let entry = best.entry(t[row].to_bits()).or_insert((0.0, 0.0, false));
+            if power[row] > entry.0 {
+                *entry = (power[row], freq[row], in_coi[row]);
+            }
+        }
+        let (times, freqs) = best
+            .iter()
+            .filter(|(_, (_, _, coi))| !coi)
+            .map(|(bits, (_, freq, _))| (f64::from_bits(*bits), *freq))
+            .unzip();
+        Ridge { times, freqs }
+    }
+
+    #[test]
+    fn sinusoid_ridge_sits_at_its_frequency_outside_the_cone() {
+        // Tolerance: one grid step (ratio 1.02) around the power ridge 0.9865 f₀ predicted in
+        // the module doc.
+        let (dt, f0) = (1e-4, 440.0);
+        let table = tone_table(dt, 4000, |t| (2.0 * PI * f0 * t).sin());
+        let outputs = run(table, &params(200.0, 1000.0, 80, 0.0)).unwrap();
+        let grid_ratio = (1000.0f64 / 200.0).powf(1.0 / 79.0);
+        let predicted = f0 * 2.0 * K0 / (K0 + (K0 * K0 + 2.0).sqrt());
+        let ridge = ridge(&outputs);
+        assert!(
+            ridge.times.len() > 3000,
+            "{} points outside the cone",
+            ridge.times.len()
+        );
+        for (t, freq) in ridge.times.iter().zip(&ridge.freqs) {
+            let off = (freq / predicted).ln().abs();
+            assert!(
+                off <= grid_ratio.ln(),
+                "t = {t}: ridge at {freq} Hz, predicted {predicted}"
+            );
+        }
+    }
+
+    #[test]
+    fn scale_frequency_convention_puts_the_normalised_peak_at_the_tone() {
+        // |W|²/a of a tone peaks at a = k₀/(2π f₀) exactly; on a fine grid (ratio 1.001) the
+        // argmax is within one step of f₀, and the |W|² argmax within one step of 0.9865 f₀.
+        let (dt, f0, n) = (1e-4, 300.0, 6000);
+        let signal: Vec<f64> = (0..n)
+            .map(|i| (2.0 * PI * f0 * i as f64 * dt).cos())
+            .collect();
+        let freqs = log_spaced(250.0, 350.0, 337);
+        let step = (350.0f64 / 250.0).ln() / 336.0;
+        let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
+        let cwt = MorletCwt::new(&signal, dt, K0, scales[0], 1);
+        let power = cwt.power(&scales);
+        let middle = n / 2;
+        let argmax = |values: Vec<f64>| {
+            let idx = (0..values.len())
+                .max_by(|&i, &j| values[i].total_cmp(&values[j]))
+                .unwrap();
+            freqs[idx]
+        };
+        let normalised = argmax(
+            power
+                .iter()
+                .zip(&scales)
+                .map(|(row, a)| row[middle] / a)
+                .collect(),
+        );
+        let raw = argmax(power.iter().map(|row| row[middle]).collect());
+        assert!(
+            (normalised / f0).ln().abs() <= step,
+            "|W|²/a peaks at {normalised} Hz"
+        );
+        let predicted = f0 * 2.0 * K0 / (K0 + (K0 * K0 + 2.0).sqrt());
+        assert!(
+            (raw / predicted).ln().abs() <= step,
+            "|W|² peaks at {raw} Hz, predicted {predicted}"
+        );
+        // The analytic amplitude of a unit cosine: |W| = √(2π a)/2 · e^{−(aω₀ − k₀)²/2}; 1e-6.
+        let a0 = scale_of_frequency(K0, f0);
+        let on_tone = MorletCwt::new(&signal, dt, K0, a0, 1).coefficients(a0);
+        let expected = (2.0 * PI * a0).sqrt() / 2.0;
+        let relative = (on_tone[middle].norm() - expected).abs() / expected;
+        assert!(
+            relative < 1e-6,
+            "|W| = {} vs {expected}",
+            on_tone[middle].norm()
+        );
+    }
+
+    #[test]
+    fn two_tones_give_two_ridges() {
+        // Tolerance: each local maximum over frequency within one grid step (ratio 1.02) of the
+        // predicted power ridge of its tone, at every time outside the cone of both.
+        let (dt, f1, f2) = (1e-4, 300.0, 1200.0);
+        let table = tone_table(dt, 5000, |t| {
+            (2.0 * PI * f1 * t).sin() + 0.5 * (2.0 * PI * f2 * t).sin()
+        });
+        let (f_min, f_max, n_freqs) = (100.0, 3000.0, 170);
+        let outputs = run(table, &params(f_min, f_max, n_freqs, 1e-3)).unwrap();
+        let table = outputs["power"].as_table().unwrap();
+        let Some(ColumnData::F64(power)) = table.column("power") else {
+            panic!()
+        };
+        let Some(ColumnData::Bool(in_coi)) = table.column("in_coi") else {
+            panic!()
+        };
+        let freqs = log_spaced(f_min, f_max, n_freqs as usize);
+        let n_times = power.len() / freqs.len();
+        let step = (f_max / f_min).ln() / (n_freqs - 1) as f64;
+        let bias = 2.0 * K0 / (K0 + (K0 * K0 + 2.0).sqrt());
+        let mut checked = 0;
+        for time_idx in 0..n_times {
+            let column: Vec<f64> = (0..freqs.len())
+                .map(|f| power[f * n_times + time_idx])
+                .collect();
+            // The cone narrows as frequency rises: the rows outside it are the upper ones.
+            let first_outside = (0..freqs.len()).find(|&f| !in_coi[f * n_times + time_idx]);
+            let Some(first_outside) = first_outside.filter(|&f| freqs[f] < 250.0) else {
+                continue;
+            };
+            let maxima: Vec<f64> = (first_outside + 1..freqs.len() - 1)
+                .filter(|&f| column[f] > column[f - 1] && column[f] >= column[f + 1])
+                .filter(|&f| column[f] > 1e-3 * column.iter().copied().fold(0.0, f64::max))
+                .map(|f| freqs[f])
+                .collect();
+            assert_eq!(maxima.len(), 2, "time {time_idx}: maxima at {maxima:?}");
+            for (found, tone) in maxima.iter().zip([f1, f2]) {
+                assert!(
+                    (found / (tone * bias)).ln().abs() <= step,
+                    "{found} Hz for {tone} Hz"
+                );
+            }
+            checked += 1;
+        }
+        assert!(checked > 100, "only {checked} times outside the cone");
+    }
+
+    #[test]
+    fn chirp_ridge_follows_the_instantaneous_frequency() {
+        // s = sin(2π (f_a t + c t²/2)), f_inst = f_a + c t. Tolerance: the ridge within 4 % of the
+        // predicted power ridge f_inst · 0.9865 (grid step 1.8 % plus the lag of a sweep across
+        // the wavelet's duration).
+        let (dt, n) = (1e-4, 20000);
+        let duration = n as f64 * dt;
+        let (f_a, f_b) = (200.0, 800.0);
+        let rate = (f_b - f_a) / duration;
+        let table = tone_table(dt, n, |t| (2.0 * PI * (f_a * t + 0.5 * rate * t * t)).sin());
+        let outputs = run(table, &params(100.0, 1500.0, 150, 5e-3)).unwrap();
+        let bias = 2.0 * K0 / (K0 + (K0 * K0 + 2.0).sqrt());
+        let ridge = ridge(&outputs);
+        assert!(ridge.times.len() > 300, "{} points", ridge.times.len());
+        for (t, freq) in ridge.times.iter().zip(&ridge.freqs) {
+            let expected = (f_a + rate * t) * bias;
+            assert!(
+                (freq / expected - 1.0).abs() < 0.04,
+                "t = {t}: {freq} Hz vs {expected}"
+            );
+        }
+    }
+
+    #[test]
+    fn cone_of_influence_is_the_e_folding_time_from_either_edge() {
+        let (dt, n) = (1e-3, 1001); // a one-second record
+        let table = tone_table(dt, n, |t| (2.0 * PI * 50.0 * t).sin());
+        let outputs = run(table, &params(10.0, 10.0, 1, 0.0)).unwrap();
+        let table = outputs["power"].as_table().unwrap();
+        let Some(ColumnData::Bool(in_coi)) = table.column("in_coi") else {
+            panic!()
+        };
+        let e_folding = e_folding_time(scale_of_frequency(K0, 10.0)); // 0.135 s
+        let first_outside = in_coi.iter().position(|coi| !coi).unwrap();
+        assert_eq!(first_outside, (e_folding / dt).ceil() as usize);
+        let last_outside = in_coi.iter().rposition(|coi| !coi).unwrap();
+        assert_eq!(last_outside, n - 1 - (e_folding / dt).ceil() as usize);
+    }
+
+    #[test]
+    fn bad_grids_are_refused_with_the_figures() {
+        let table = tone_table(1e-3, 100, |t| t);
+        let err = run(table.clone(), &params(10.0, 800.0, 10, 0.0)).unwrap_err();
+        assert!(err.message.contains("Nyquist frequency 500"), "{err}");
+        let err = run(table.clone(), &params(100.0, 10.0, 10, 0.0)).unwrap_err();
+        assert!(err.message.contains("below f_min_hz"), "{err}");
+        let err = run(table, &params(0.0, 10.0, 10, 0.0)).unwrap_err();
+        assert!(err.message.contains("positive"), "{err}");
+    }
+
+    #[test]
+    fn next_fast_len_has_small_factors() {
+        assert_eq!(next_fast_len(1), 1);
+        assert_eq!(next_fast_len(1025), 1029); // 3 · 7³
+        assert_eq!(next_fast_len(100_001), 100_352); // 2^11 · 7²
+        for n in [17, 97, 1000, 65_537] {
+            let mut m = next_fast_len(n);
+            assert!(m >= n);
+            for p in [2, 3, 5, 7] {
+                while m % p == 0 {
+                    m /= p;
+                }
+            }
+            assert_eq!(m, 1);
+        }
+    }
+
+    #[test]
+    fn map_renders_for_a_small_transform() {
+        let table = tone_table(1e-4, 2000, |t| (2.0 * PI * 500.0 * t).sin());
+        let outputs = run(table, &params(100.0, 2000.0, 40, 0.0)).unwrap();
+        let Artifact::Figure(figure) = &outputs["map"] else {
+            panic!("map is not a figure")
+        };
+        assert!(figure.svg.contains("Morlet wavelet power"));
+        assert!(figure.png.len() > 1000);
+    }
+}
