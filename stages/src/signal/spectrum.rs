@@ -352,7 +352,7 @@ impl Drawing for SpectrumPlot<'_> {
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
-                    "Power spectrum of `{}` (last {} s, {} window)",
+                    "Power spectrum of {} (last {} s, {} window)",
                     self.column,
                     figure::tick_label(self.window_s),
                     self.window_name

@@ -640,6 +640,7 @@ impl Drawing for ProjectionPlot<'_> {
             let mut mesh = chart.configure_mesh();
             mesh.disable_x_mesh()
                 .y_labels(3)
+                .light_line_style(WHITE)
                 .y_desc(format!(
                     "shape {} ({:.1} %)",
                     shape_idx + 1,

@@ -426,6 +426,22 @@ fn power_table(
         .with("in_coi", coi_column)
 }
 
+/// The 1–2–5 values (…, 100, 200, 500, 1000, …) between `low` and `high`: ticks of a log axis.
+fn one_two_five_ticks(low: f64, high: f64) -> Vec<f64> {
+    let mut ticks = Vec::new();
+    let mut decade = 10f64.powf(low.log10().floor());
+    while decade <= high {
+        for multiple in [1.0, 2.0, 5.0] {
+            let tick = multiple * decade;
+            if tick >= low && tick <= high {
+                ticks.push(tick);
+            }
+        }
+        decade *= 10.0;
+    }
+    ticks
+}
+
 /// True when `t` is within one e-folding time of either end of the record.
 pub fn in_cone_of_influence(t: f64, t_first: f64, t_last: f64, e_folding: f64) -> bool {
     (t - t_first).min(t_last - t) < e_folding
@@ -516,16 +532,19 @@ impl Drawing for PowerMap<'_> {
         let (main, colorbar) = root.split_horizontally(root.dim_in_pixel().0 as i32 - 110);
         let mut chart = ChartBuilder::on(&main)
             .caption(
-                format!(
-                    "Morlet wavelet power of `{}` (k₀ = {})",
-                    self.column, self.k0
-                ),
+                format!("Morlet wavelet power of {} (k₀ = {})", self.column, self.k0),
                 (figure::FONT, 22),
             )
             .margin(12)
             .x_label_area_size(45)
             .y_label_area_size(70)
-            .build_cartesian_2d(x_range.clone(), y_range.clone().log_scale())
+            .build_cartesian_2d(
+                x_range.clone(),
+                y_range
+                    .clone()
+                    .log_scale()
+                    .with_key_points(one_two_five_ticks(y_range.start, y_range.end)),
+            )
             .map_err(drawing_error)?;
         chart
             .configure_mesh()
