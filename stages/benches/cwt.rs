@@ -50,10 +50,9 @@ fn kernel(n_samples: usize, n_freqs: usize, runs: usize) {
         .iter()
         .map(|&f| scale_of_frequency(K0, f))
         .collect();
-    let max_scale = scales.iter().copied().fold(0.0, f64::max);
     let seconds = min_time(runs, || {
-        let cwt = MorletCwt::new(&values, DT, K0, max_scale, 1);
-        black_box(cwt.power(&scales));
+        let cwt = MorletCwt::new(&values, DT, K0, &scales, 1);
+        black_box(cwt.power());
     });
     println!(
         "cwt power, every sample: {n_samples:>9} samples x {n_freqs} freqs: {seconds:8.3} s (min of {runs})"

@@ -81,35 +81,208 @@ pub fn e_folding_time(scale: f64) -> f64 {
     std::f64::consts::SQRT_2 * scale
 }
 
-/// A signal prepared for Morlet transforms at any scale: its padded spectrum and the inverse
-/// FFT plan, shared read-only by the parallel workers.
-pub struct MorletCwt {
-    k0: f64,
-    dt: f64,
+/// Blocks no shorter than this: below it, per-block overheads outweigh the FFT savings.
+const MIN_BLOCK_LEN: usize = 1024;
+/// Blocks no longer than this: past it the FFT no longer fits in cache and one transform of
+/// the whole record is as cheap per output sample (measured: 0.21–0.33 ns per point and
+/// butterfly level for 2–16 k points, 0.46 ns at 110 k).
+const MAX_BLOCK_LEN: usize = 16_384;
+
+/// How one scale is evaluated (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Evaluation {
+    WholeRecord,
+    /// Overlap-save blocks, index into [`MorletCwt::block_groups`].
+    Blocks(usize),
+}
+
+/// The signal's spectrum zero-padded to `P = D L` samples, with the inverse plan of length `L`.
+struct RecordSpectrum {
     n_padded: usize,
     n_folded: usize,
-    n_out: usize,
     /// `S_k`, k = 0..P, Hermitian-completed so the band loop needs no conjugation branch.
     spectrum: Vec<Complex64>,
     inverse: Arc<dyn Fft<f64>>,
 }
 
+/// The signal cut into overlapping blocks of one length, each block's spectrum computed once
+/// and shared by every scale evaluated with this length.
+struct BlockGroup {
+    block_len: usize,
+    /// Samples at each end of a block whose outputs would wrap around: `block_len / 8`, at
+    /// least the half-support of every scale in the group.
+    margin: usize,
+    /// Valid outputs per block, `block_len − 2 margin`; block `b` yields samples from `b hop`.
+    hop: usize,
+    /// Spectra of the blocks, one after the other.
+    spectra: Vec<Complex64>,
+    inverse: Arc<dyn Fft<f64>>,
+}
+
+/// A signal prepared for Morlet transforms at a set of scales: spectra and inverse plans,
+/// shared read-only by the parallel workers.
+pub struct MorletCwt {
+    k0: f64,
+    dt: f64,
+    scales: Vec<f64>,
+    evaluations: Vec<Evaluation>,
+    n_samples: usize,
+    n_out: usize,
+    record: Option<RecordSpectrum>,
+    block_groups: Vec<BlockGroup>,
+}
+
 /// Per-worker buffers for one scale at a time.
 struct Workspace {
-    folded: Vec<Complex64>,
+    buffer: Vec<Complex64>,
+    gain: Vec<f64>,
     scratch: Vec<Complex64>,
 }
 
 impl MorletCwt {
-    /// Prepares `signal` (sampled every `dt` seconds) for scales up to `max_scale`, keeping every
-    /// `decimation`-th output sample.
-    pub fn new(signal: &[f64], dt: f64, k0: f64, max_scale: f64, decimation: usize) -> Self {
+    /// Prepares `signal` (sampled every `dt` seconds) for the Morlet transform at `scales`
+    /// (seconds), keeping every `decimation`-th output sample.
+    pub fn new(signal: &[f64], dt: f64, k0: f64, scales: &[f64], decimation: usize) -> Self {
         let n_samples = signal.len();
         let decimation = decimation.max(1);
+        let mut block_lens: Vec<usize> = Vec::new();
+        let mut widest_record_scale: Option<f64> = None;
+        let evaluations = scales
+            .iter()
+            .map(|&scale| {
+                let half_support = (CUTOFF * scale / dt).ceil() as usize + 1;
+                let block_len = (8 * half_support).next_power_of_two().max(MIN_BLOCK_LEN);
+                // Blocks pay off when outputs are not decimated and the record spans several.
+                if decimation == 1 && block_len <= MAX_BLOCK_LEN && 4 * block_len <= n_samples {
+                    let group = match block_lens.iter().position(|&len| len == block_len) {
+                        Some(group) => group,
+                        None => {
+                            block_lens.push(block_len);
+                            block_lens.len() - 1
+                        }
+                    };
+                    Evaluation::Blocks(group)
+                } else {
+                    widest_record_scale = Some(widest_record_scale.unwrap_or(0.0).max(scale));
+                    Evaluation::WholeRecord
+                }
+            })
+            .collect();
+        let record =
+            widest_record_scale.map(|scale| RecordSpectrum::new(signal, dt, scale, decimation));
+        let block_groups = block_lens
+            .iter()
+            .map(|&block_len| BlockGroup::new(signal, block_len))
+            .collect();
+        MorletCwt {
+            k0,
+            dt,
+            scales: scales.to_vec(),
+            evaluations,
+            n_samples,
+            n_out: (n_samples - 1) / decimation + 1,
+            record,
+            block_groups,
+        }
+    }
+
+    /// Number of output times (every `decimation`-th sample, the first included).
+    pub fn n_out(&self) -> usize {
+        self.n_out
+    }
+
+    fn workspace(&self) -> Workspace {
+        let mut buffer_len = 0;
+        let mut scratch_len = 0;
+        if let Some(record) = &self.record {
+            buffer_len = record.n_folded;
+            scratch_len = record.inverse.get_inplace_scratch_len();
+        }
+        for group in &self.block_groups {
+            buffer_len = buffer_len.max(group.block_len);
+            scratch_len = scratch_len.max(group.inverse.get_inplace_scratch_len());
+        }
+        let max_block = self.block_groups.iter().map(|g| g.block_len).max();
+        Workspace {
+            buffer: vec![Complex64::new(0.0, 0.0); buffer_len],
+            gain: vec![0.0; max_block.unwrap_or(0)],
+            scratch: vec![Complex64::new(0.0, 0.0); scratch_len],
+        }
+    }
+
+    /// Calls `emit(q, W(scale, t_{qD}))` for every output q (in increasing order).
+    fn transform(
+        &self,
+        scale_idx: usize,
+        work: &mut Workspace,
+        emit: impl FnMut(usize, Complex64),
+    ) {
+        let scale = self.scales[scale_idx];
+        match self.evaluations[scale_idx] {
+            Evaluation::WholeRecord => {
+                let record = self.record.as_ref().expect("built when a scale needs it");
+                record.transform(self.k0, self.dt, scale, self.n_out, work, emit);
+            }
+            Evaluation::Blocks(group) => {
+                self.block_groups[group].transform(
+                    self.k0,
+                    self.dt,
+                    scale,
+                    self.n_samples,
+                    work,
+                    emit,
+                );
+            }
+        }
+    }
+
+    /// `W(scales[scale_idx], t_{qD})` for q = 0..n_out.
+    pub fn coefficients(&self, scale_idx: usize) -> Vec<Complex64> {
+        let mut work = self.workspace();
+        let mut coefficients = vec![Complex64::new(0.0, 0.0); self.n_out];
+        self.transform(scale_idx, &mut work, |q, value| coefficients[q] = value);
+        coefficients
+    }
+
+    /// `|W|²` at every scale (rows) and output time (columns), scales in parallel.
+    pub fn power(&self) -> Vec<Vec<f64>> {
+        (0..self.scales.len())
+            .into_par_iter()
+            .map_init(
+                || self.workspace(),
+                |work, scale_idx| {
+                    let mut row = vec![0.0; self.n_out];
+                    self.transform(scale_idx, work, |q, value| row[q] = value.norm_sqr());
+                    row
+                },
+            )
+            .collect()
+    }
+
+    #[cfg(test)]
+    fn uses_blocks(&self, scale_idx: usize) -> bool {
+        matches!(self.evaluations[scale_idx], Evaluation::Blocks(_))
+    }
+}
+
+/// The unwrapped frequency indices `j` where the daughter's Gaussian `e^{−(a ω_j − k₀)²/2}`,
+/// `ω_j = j ω_step`, is above the cut-off, and the step of `x_j = a ω_j − k₀` per index.
+fn gaussian_band(k0: f64, scale: f64, omega_step: f64) -> (std::ops::RangeInclusive<i64>, f64) {
+    let x_step = scale * omega_step;
+    let j_center = k0 / x_step;
+    let j_half_width = CUTOFF / x_step;
+    let j_first = (j_center - j_half_width).ceil() as i64;
+    let j_last = (j_center + j_half_width).floor() as i64;
+    (j_first..=j_last, x_step)
+}
+
+impl RecordSpectrum {
+    fn new(signal: &[f64], dt: f64, widest_scale: f64, decimation: usize) -> Self {
+        let n_samples = signal.len();
         // Padding beyond the widest scale with a point outside the cone of influence buys
         // nothing: those scales are wholly inside it.
         let widest_useful_scale = (n_samples - 1) as f64 * dt / (2.0 * std::f64::consts::SQRT_2);
-        let pad_scale = max_scale.min(widest_useful_scale);
+        let pad_scale = widest_scale.min(widest_useful_scale);
         let pad = (CUTOFF * pad_scale / dt).ceil() as usize + 1;
         let n_folded = next_fast_len((n_samples + pad).div_ceil(decimation));
         let n_padded = n_folded * decimation;
@@ -126,49 +299,31 @@ impl MorletCwt {
         for k in half.len()..n_padded {
             spectrum[k] = spectrum[n_padded - k].conj();
         }
-
-        let inverse = FftPlanner::<f64>::new().plan_fft_inverse(n_folded);
-        MorletCwt {
-            k0,
-            dt,
+        RecordSpectrum {
             n_padded,
             n_folded,
-            n_out: (n_samples - 1) / decimation + 1,
             spectrum,
-            inverse,
+            inverse: FftPlanner::<f64>::new().plan_fft_inverse(n_folded),
         }
     }
 
-    /// Number of output times (every `decimation`-th sample, the first included).
-    pub fn n_out(&self) -> usize {
-        self.n_out
-    }
-
-    fn workspace(&self) -> Workspace {
-        Workspace {
-            folded: vec![Complex64::new(0.0, 0.0); self.n_folded],
-            scratch: vec![Complex64::new(0.0, 0.0); self.inverse.get_inplace_scratch_len()],
-        }
-    }
-
-    /// Fills `work.folded` with `W(scale, t_{qD})`, q = 0..n_out (and padding after).
-    fn transform_into(&self, scale: f64, work: &mut Workspace) {
-        let folded = &mut work.folded;
+    fn transform(
+        &self,
+        k0: f64,
+        dt: f64,
+        scale: f64,
+        n_out: usize,
+        work: &mut Workspace,
+        mut emit: impl FnMut(usize, Complex64),
+    ) {
+        let folded = &mut work.buffer[..self.n_folded];
         folded.fill(Complex64::new(0.0, 0.0));
-        let omega_step = 2.0 * std::f64::consts::PI / (self.n_padded as f64 * self.dt);
-        // x_j = a ω_j − k₀ is linear in the (unwrapped) frequency index j.
-        let x_step = scale * omega_step;
-        let j_center = self.k0 / x_step;
-        let j_half_width = CUTOFF / x_step;
-        let j_first = (j_center - j_half_width).ceil() as i64;
-        let j_last = (j_center + j_half_width).floor() as i64;
-
-        let n_padded = self.n_padded as i64;
-        let n_folded = self.n_folded as i64;
-        let mut k = j_first.rem_euclid(n_padded) as usize;
-        let mut r = j_first.rem_euclid(n_folded) as usize;
-        for j in j_first..=j_last {
-            let x = x_step * j as f64 - self.k0;
+        let omega_step = 2.0 * std::f64::consts::PI / (self.n_padded as f64 * dt);
+        let (band, x_step) = gaussian_band(k0, scale, omega_step);
+        let mut k = band.start().rem_euclid(self.n_padded as i64) as usize;
+        let mut r = band.start().rem_euclid(self.n_folded as i64) as usize;
+        for j in band {
+            let x = x_step * j as f64 - k0;
             folded[r] += self.spectrum[k] * (-0.5 * x * x).exp();
             k += 1;
             if k == self.n_padded {
@@ -183,56 +338,102 @@ impl MorletCwt {
         // Ĝ's constant a^{1/2} √(2π) and the inverse DFT's 1/P. The rectangle rule's Δt is
         // already in Ĝ: Poisson summation of the Δt-weighted samples gives the analytic transform.
         let factor = (2.0 * std::f64::consts::PI * scale).sqrt() / self.n_padded as f64;
-        for value in &mut folded[..self.n_out] {
-            *value *= factor;
+        for (q, value) in folded[..n_out].iter().enumerate() {
+            emit(q, value * factor);
         }
-    }
-
-    /// `W(scale, t_{qD})` for q = 0..n_out.
-    pub fn coefficients(&self, scale: f64) -> Vec<Complex64> {
-        let mut work = self.workspace();
-        self.transform_into(scale, &mut work);
-        work.folded.truncate(self.n_out);
-        work.folded
-    }
-
-    /// `|W|²` at every scale (rows) and output time (columns), scales in parallel.
-    pub fn power(&self, scales: &[f64]) -> Vec<Vec<f64>> {
-        scales
-            .par_iter()
-            .map_init(
-                || self.workspace(),
-                |work, &scale| {
-                    self.transform_into(scale, work);
-                    work.folded[..self.n_out]
-                        .iter()
-                        .map(|value| value.norm_sqr())
-                        .collect()
-                },
-            )
-            .collect()
     }
 }
 
-/// Smallest `n ≥ min_len` whose prime factors are 2, 3, 5 and 7: sizes the FFT is fast on.
-pub fn next_fast_len(min_len: usize) -> usize {
-    let mut best = min_len.max(1).next_power_of_two();
-    let mut p7 = 1;
-    while p7 < best {
-        let mut p5 = p7;
-        while p5 < best {
-            let mut p3 = p5;
-            while p3 < best {
-                let mut candidate = p3;
-                while candidate < min_len {
-                    candidate *= 2;
+impl BlockGroup {
+    fn new(signal: &[f64], block_len: usize) -> Self {
+        let margin = block_len / 8;
+        let hop = block_len - 2 * margin;
+        let n_blocks = signal.len().div_ceil(hop);
+        let forward = FftPlanner::<f64>::new().plan_fft_forward(block_len);
+        let mut spectra = vec![Complex64::new(0.0, 0.0); n_blocks * block_len];
+        spectra.par_chunks_mut(block_len).enumerate().for_each_init(
+            || vec![Complex64::new(0.0, 0.0); forward.get_inplace_scratch_len()],
+            |scratch, (block, spectrum)| {
+                // Block b holds samples b hop − margin … b hop − margin + block_len − 1.
+                let first = (block * hop) as i64 - margin as i64;
+                for (i, value) in spectrum.iter_mut().enumerate() {
+                    let sample = first + i as i64;
+                    if sample >= 0 && (sample as usize) < signal.len() {
+                        *value = Complex64::new(signal[sample as usize], 0.0);
+                    }
                 }
-                best = best.min(candidate);
-                p3 *= 3;
-            }
-            p5 *= 5;
+                forward.process_with_scratch(spectrum, scratch);
+            },
+        );
+        BlockGroup {
+            block_len,
+            margin,
+            hop,
+            spectra,
+            inverse: FftPlanner::<f64>::new().plan_fft_inverse(block_len),
         }
-        p7 *= 7;
+    }
+
+    fn transform(
+        &self,
+        k0: f64,
+        dt: f64,
+        scale: f64,
+        n_samples: usize,
+        work: &mut Workspace,
+        mut emit: impl FnMut(usize, Complex64),
+    ) {
+        let block_len = self.block_len;
+        // The block-length DFT of the sampled daughter is real: the Gaussian summed over the
+        // frequencies that alias onto each bin.
+        let gain = &mut work.gain[..block_len];
+        gain.fill(0.0);
+        let omega_step = 2.0 * std::f64::consts::PI / (block_len as f64 * dt);
+        let (band, x_step) = gaussian_band(k0, scale, omega_step);
+        let mut k = band.start().rem_euclid(block_len as i64) as usize;
+        for j in band {
+            let x = x_step * j as f64 - k0;
+            gain[k] += (-0.5 * x * x).exp();
+            k += 1;
+            if k == block_len {
+                k = 0;
+            }
+        }
+        let factor = (2.0 * std::f64::consts::PI * scale).sqrt() / block_len as f64;
+        for value in gain.iter_mut() {
+            *value *= factor;
+        }
+        let buffer = &mut work.buffer[..block_len];
+        for (block, spectrum) in self.spectra.chunks_exact(block_len).enumerate() {
+            for ((out, s), g) in buffer.iter_mut().zip(spectrum).zip(gain.iter()) {
+                *out = s * g;
+            }
+            self.inverse.process_with_scratch(buffer, &mut work.scratch);
+            let first_output = block * self.hop;
+            let n_valid = self.hop.min(n_samples - first_output);
+            for (offset, value) in buffer[self.margin..self.margin + n_valid]
+                .iter()
+                .enumerate()
+            {
+                emit(first_output + offset, *value);
+            }
+        }
+    }
+}
+
+/// Smallest `n ≥ min_len` of the form `2^p 3^q`: the FFT sizes rustfft is fastest on
+/// (measured: 110 592 = 2^12 3^3 beats both 108 864 = 2^6 3^5 7 and 131 072 = 2^17).
+pub fn next_fast_len(min_len: usize) -> usize {
+    let min_len = min_len.max(1);
+    let mut best = min_len.next_power_of_two();
+    let mut power_of_three = 1;
+    while power_of_three < best {
+        let mut candidate = power_of_three;
+        while candidate < min_len {
+            candidate *= 2;
+        }
+        best = best.min(candidate);
+        power_of_three *= 3;
     }
     best
 }
@@ -313,14 +514,7 @@ impl Stage for Wavelet {
             .iter()
             .map(|&freq| scale_of_frequency(grid.k0, freq))
             .collect();
-        let max_scale = scales.iter().copied().fold(0.0, f64::max);
-        let cwt = MorletCwt::new(
-            series.values,
-            series.dt,
-            grid.k0,
-            max_scale,
-            grid.decimation,
-        );
+        let cwt = MorletCwt::new(series.values, series.dt, grid.k0, &scales, grid.decimation);
         let n_rows = cwt.n_out() * scales.len();
         if n_rows > MAX_POWER_ROWS {
             return Err(StageError::new(format!(
@@ -329,7 +523,7 @@ impl Stage for Wavelet {
                 cwt.n_out()
             )));
         }
-        let power = cwt.power(&scales);
+        let power = cwt.power();
         let times: Vec<f64> = (0..cwt.n_out())
             .map(|q| series.t_first + (q * grid.decimation) as f64 * series.dt)
             .collect();
@@ -637,17 +831,19 @@ mod tests {
 
     const K0: f64 = 6.0;
 
-    /// `W(a, t_m) = Δt Σ_n s_n a^{−1/2} φ*((t_n − t_m)/a)`, written out: the independent code path.
+    /// `W(a, t_m) = Δt Σ_n s_n a^{−1/2} φ*((t_n − t_m)/a)`, written out: the independent code
+    /// path. Terms beyond |t_n − t_m| = 12 a (envelope e^{−72} ≈ 5e−32) are left out.
     fn direct_cwt(signal: &[f64], dt: f64, scale: f64, k0: f64) -> Vec<Complex64> {
+        let reach = (12.0 * scale / dt).ceil() as usize;
         (0..signal.len())
             .map(|m| {
-                signal
-                    .iter()
-                    .enumerate()
-                    .map(|(n, &value)| {
+                let first = m.saturating_sub(reach);
+                let end = (m + reach + 1).min(signal.len());
+                (first..end)
+                    .map(|n| {
                         let x = (n as f64 - m as f64) * dt / scale;
                         let mother = Complex64::from_polar((-0.5 * x * x).exp(), k0 * x);
-                        value * mother.conj() * dt / scale.sqrt()
+                        signal[n] * mother.conj() * dt / scale.sqrt()
                     })
                     .sum()
             })
@@ -671,17 +867,20 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn fft_evaluation_equals_the_direct_sum() {
+    /// Checks every scale of `freqs` against [`direct_cwt`]; `expect_blocks` says which
+    /// evaluation each scale must take, so both code paths are covered.
+    fn check_against_direct_sum(n: usize, dt: f64, freqs: &[f64], expect_blocks: &[bool]) {
         // Tolerance: 1e-9 of the largest coefficient of each scale (round-off is ~1e-14).
-        let (n, dt) = (600, 1e-3);
         let signal = broadband(n);
-        let freqs = log_spaced(5.0, 500.0, 7); // up to Nyquist: aliased images matter there
         let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
-        let max_scale = scales.iter().copied().fold(0.0, f64::max);
-        let cwt = MorletCwt::new(&signal, dt, K0, max_scale, 1);
-        for (&freq, &scale) in freqs.iter().zip(&scales) {
-            let fast = cwt.coefficients(scale);
+        let cwt = MorletCwt::new(&signal, dt, K0, &scales, 1);
+        for (scale_idx, (&freq, &scale)) in freqs.iter().zip(&scales).enumerate() {
+            assert_eq!(
+                cwt.uses_blocks(scale_idx),
+                expect_blocks[scale_idx],
+                "{freq} Hz"
+            );
+            let fast = cwt.coefficients(scale_idx);
             let direct = direct_cwt(&signal, dt, scale, K0);
             let error: Vec<Complex64> = fast.iter().zip(&direct).map(|(a, b)| a - b).collect();
             let relative = max_norm(&error) / max_norm(&direct);
@@ -690,14 +889,29 @@ mod tests {
     }
 
     #[test]
+    fn whole_record_evaluation_equals_the_direct_sum() {
+        // Up to Nyquist (500 Hz), where the aliased images of the daughter's spectrum matter.
+        let freqs = log_spaced(5.0, 500.0, 7);
+        check_against_direct_sum(600, 1e-3, &freqs, &[false; 7]);
+    }
+
+    #[test]
+    fn block_evaluation_equals_the_direct_sum() {
+        // Short scales on a long record go through overlap-save blocks of 1024 and 2048; the
+        // widest one through the whole record.
+        let freqs = [30.0, 60.0, 150.0, 500.0];
+        check_against_direct_sum(9000, 1e-3, &freqs, &[false, true, true, true]);
+    }
+
+    #[test]
     fn decimated_output_is_every_dth_sample_of_the_full_one() {
         // Tolerance: 1e-12 relative; folding the spectrum is exact up to round-off.
         let (n, dt) = (1000, 1e-3);
         let signal = broadband(n);
         let scale = scale_of_frequency(K0, 40.0);
-        let full = MorletCwt::new(&signal, dt, K0, scale, 1).coefficients(scale);
+        let full = MorletCwt::new(&signal, dt, K0, &[scale], 1).coefficients(0);
         let decimation = 7;
-        let decimated = MorletCwt::new(&signal, dt, K0, scale, decimation).coefficients(scale);
+        let decimated = MorletCwt::new(&signal, dt, K0, &[scale], decimation).coefficients(0);
         assert_eq!(decimated.len(), (n - 1) / decimation + 1);
         let peak = max_norm(&full);
         for (q, value) in decimated.iter().enumerate() {
@@ -799,8 +1013,8 @@ mod tests {
         let freqs = log_spaced(250.0, 350.0, 337);
         let step = (350.0f64 / 250.0).ln() / 336.0;
         let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
-        let cwt = MorletCwt::new(&signal, dt, K0, scales[0], 1);
-        let power = cwt.power(&scales);
+        let cwt = MorletCwt::new(&signal, dt, K0, &scales, 1);
+        let power = cwt.power();
         let middle = n / 2;
         let argmax = |values: Vec<f64>| {
             let idx = (0..values.len())
@@ -827,7 +1041,7 @@ mod tests {
         );
         // The analytic amplitude of a unit cosine: |W| = √(2π a)/2 · e^{−(aω₀ − k₀)²/2}; 1e-6.
         let a0 = scale_of_frequency(K0, f0);
-        let on_tone = MorletCwt::new(&signal, dt, K0, a0, 1).coefficients(a0);
+        let on_tone = MorletCwt::new(&signal, dt, K0, &[a0], 1).coefficients(0);
         let expected = (2.0 * PI * a0).sqrt() / 2.0;
         let relative = (on_tone[middle].norm() - expected).abs() / expected;
         assert!(
@@ -938,12 +1152,12 @@ mod tests {
     #[test]
     fn next_fast_len_has_small_factors() {
         assert_eq!(next_fast_len(1), 1);
-        assert_eq!(next_fast_len(1025), 1029); // 3 · 7³
-        assert_eq!(next_fast_len(100_001), 100_352); // 2^11 · 7²
+        assert_eq!(next_fast_len(1025), 1152); // 2^7 3^2
+        assert_eq!(next_fast_len(108_595), 110_592); // 2^12 3^3
         for n in [17, 97, 1000, 65_537] {
             let mut m = next_fast_len(n);
             assert!(m >= n);
-            for p in [2, 3, 5, 7] {
+            for p in [2, 3] {
                 while m % p == 0 {
                     m /= p;
                 }
