@@ -244,19 +244,17 @@ impl MorletCwt {
         coefficients
     }
 
-    /// `|W|²` at every scale (rows) and output time (columns), scales in parallel.
-    pub fn power(&self) -> Vec<Vec<f64>> {
-        (0..self.scales.len())
-            .into_par_iter()
-            .map_init(
-                || self.workspace(),
-                |work, scale_idx| {
-                    let mut row = vec![0.0; self.n_out];
-                    self.transform(scale_idx, work, |q, value| row[q] = value.norm_sqr());
-                    row
-                },
-            )
-            .collect()
+    /// `|W|²`, scale-major: `power[s n_out + q]` at scale `s` and output time `q`. Scales run
+    /// in parallel, each writing its own row of the one allocation.
+    pub fn power(&self) -> Vec<f64> {
+        let mut power = vec![0.0; self.scales.len() * self.n_out];
+        power.par_chunks_mut(self.n_out).enumerate().for_each_init(
+            || self.workspace(),
+            |work, (scale_idx, row)| {
+                self.transform(scale_idx, work, |q, value| row[q] = value.norm_sqr());
+            },
+        );
+        power
     }
 
     #[cfg(test)]
@@ -538,7 +536,7 @@ impl Stage for Wavelet {
             range_db: params.float("map_range_db"),
         };
         let figure = figure::render(&map, figure::DEFAULT_SIZE)?;
-        let table = power_table(&times, &grid.freqs_hz, &scales, &power, &series);
+        let table = power_table(&times, &grid.freqs_hz, &scales, power, &series);
         Ok(Outputs::from([
             ("power".to_string(), Artifact::Table(table)),
             ("map".to_string(), Artifact::Figure(figure)),
@@ -587,36 +585,32 @@ impl TransformGrid {
     }
 }
 
+/// The long table, frequency-major like `power` (which becomes its column without a copy).
 fn power_table(
     times: &[f64],
     freqs_hz: &[f64],
     scales: &[f64],
-    power: &[Vec<f64>],
+    power: Vec<f64>,
     series: &UniformSeries,
 ) -> Table {
-    let n_rows = times.len() * freqs_hz.len();
+    let n_rows = power.len();
     let mut t_column = Vec::with_capacity(n_rows);
     let mut freq_column = Vec::with_capacity(n_rows);
-    let mut power_column = Vec::with_capacity(n_rows);
     let mut coi_column = Vec::with_capacity(n_rows);
-    for ((&freq, &scale), row) in freqs_hz.iter().zip(scales).zip(power) {
+    for (&freq, &scale) in freqs_hz.iter().zip(scales) {
         let e_folding = e_folding_time(scale);
-        for (&t, &value) in times.iter().zip(row) {
-            t_column.push(t);
-            freq_column.push(freq);
-            power_column.push(value);
-            coi_column.push(in_cone_of_influence(
-                t,
-                series.t_first,
-                series.t_last(),
-                e_folding,
-            ));
-        }
+        t_column.extend_from_slice(times);
+        freq_column.extend(std::iter::repeat_n(freq, times.len()));
+        coi_column.extend(
+            times
+                .iter()
+                .map(|&t| in_cone_of_influence(t, series.t_first, series.t_last(), e_folding)),
+        );
     }
     Table::new()
         .with("t", t_column)
         .with("freq_hz", freq_column)
-        .with("power", power_column)
+        .with("power", power)
         .with("in_coi", coi_column)
 }
 
@@ -647,7 +641,8 @@ struct PowerMap<'a> {
     column: &'a str,
     times: &'a [f64],
     freqs_hz: &'a [f64],
-    power: &'a [Vec<f64>],
+    /// Frequency-major, `times.len()` values per frequency.
+    power: &'a [f64],
     k0: f64,
     t_first: f64,
     t_last: f64,
@@ -663,6 +658,7 @@ const MAP_LEVELS: f64 = 64.0;
 impl PowerMap<'_> {
     /// Max-pools the power onto at most MAP_MAX_ROWS × MAP_MAX_COLUMNS cells (peaks survive).
     fn pooled(&self) -> (Vec<(usize, usize)>, Vec<(usize, usize)>, Vec<Vec<f64>>) {
+        let n_times = self.times.len();
         let row_groups = groups(self.freqs_hz.len(), MAP_MAX_ROWS);
         let column_groups = groups(self.times.len(), MAP_MAX_COLUMNS);
         let cells = row_groups
@@ -671,8 +667,8 @@ impl PowerMap<'_> {
                 column_groups
                     .iter()
                     .map(|&(column_first, column_end)| {
-                        self.power[row_first..row_end]
-                            .iter()
+                        self.power[row_first * n_times..row_end * n_times]
+                            .chunks_exact(n_times)
                             .flat_map(|row| &row[column_first..column_end])
                             .copied()
                             .fold(0.0, f64::max)
@@ -1014,7 +1010,11 @@ mod tests {
         let step = (350.0f64 / 250.0).ln() / 336.0;
         let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
         let cwt = MorletCwt::new(&signal, dt, K0, &scales, 1);
-        let power = cwt.power();
+        let power: Vec<Vec<f64>> = cwt
+            .power()
+            .chunks(cwt.n_out())
+            .map(<[f64]>::to_vec)
+            .collect();
         let middle = n / 2;
         let argmax = |values: Vec<f64>| {
             let idx = (0..values.len())
