@@ -89,8 +89,23 @@ fn main() {
         "Morlet k0 = {K0}, dt = {DT} s, {F_MIN}..{F_MAX} Hz log-spaced, {} rayon threads",
         rayon::current_num_threads()
     );
-    kernel(100_000, 300, 7);
-    kernel(1_000_000, 256, 3);
-    stage(100_000, 300, 0.0, 3);
-    stage(1_000_000, 256, 1e-4, 3);
+    // `cargo bench --bench cwt -- kernel` runs the cases whose name holds "kernel".
+    let filters: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|arg| !arg.starts_with('-'))
+        .collect();
+    let wanted =
+        |name: &str| filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()));
+    if wanted("kernel-100k") {
+        kernel(100_000, 300, 7);
+    }
+    if wanted("kernel-1M") {
+        kernel(1_000_000, 256, 3);
+    }
+    if wanted("stage-100k") {
+        stage(100_000, 300, 0.0, 3);
+    }
+    if wanted("stage-1M") {
+        stage(1_000_000, 256, 1e-4, 3);
+    }
 }

@@ -109,8 +109,8 @@ struct RecordSpectrum {
 /// and shared by every scale evaluated with this length.
 struct BlockGroup {
     block_len: usize,
-    /// Samples at each end of a block whose outputs would wrap around: `block_len / 8`, at
-    /// least the half-support of every scale in the group.
+    /// Samples at each end of a block whose outputs would wrap around: the widest
+    /// half-support of the group's scales, at most `block_len / 8`.
     margin: usize,
     /// Valid outputs per block, `block_len − 2 margin`; block `b` yields samples from `b hop`.
     hop: usize,
@@ -145,7 +145,8 @@ impl MorletCwt {
     pub fn new(signal: &[f64], dt: f64, k0: f64, scales: &[f64], decimation: usize) -> Self {
         let n_samples = signal.len();
         let decimation = decimation.max(1);
-        let mut block_lens: Vec<usize> = Vec::new();
+        // (block length, the widest half-support among its scales): one group each.
+        let mut block_shapes: Vec<(usize, usize)> = Vec::new();
         let mut widest_record_scale: Option<f64> = None;
         let evaluations = scales
             .iter()
@@ -154,13 +155,14 @@ impl MorletCwt {
                 let block_len = (8 * half_support).next_power_of_two().max(MIN_BLOCK_LEN);
                 // Blocks pay off when outputs are not decimated and the record spans several.
                 if decimation == 1 && block_len <= MAX_BLOCK_LEN && 4 * block_len <= n_samples {
-                    let group = match block_lens.iter().position(|&len| len == block_len) {
+                    let group = match block_shapes.iter().position(|&(len, _)| len == block_len) {
                         Some(group) => group,
                         None => {
-                            block_lens.push(block_len);
-                            block_lens.len() - 1
+                            block_shapes.push((block_len, 0));
+                            block_shapes.len() - 1
                         }
                     };
+                    block_shapes[group].1 = block_shapes[group].1.max(half_support);
                     Evaluation::Blocks(group)
                 } else {
                     widest_record_scale = Some(widest_record_scale.unwrap_or(0.0).max(scale));
@@ -170,9 +172,9 @@ impl MorletCwt {
             .collect();
         let record =
             widest_record_scale.map(|scale| RecordSpectrum::new(signal, dt, scale, decimation));
-        let block_groups = block_lens
+        let block_groups = block_shapes
             .iter()
-            .map(|&block_len| BlockGroup::new(signal, block_len))
+            .map(|&(block_len, margin)| BlockGroup::new(signal, block_len, margin))
             .collect();
         MorletCwt {
             k0,
@@ -210,12 +212,13 @@ impl MorletCwt {
         }
     }
 
-    /// Calls `emit(q, W(scale, t_{qD}))` for every output q (in increasing order).
+    /// Hands the coefficients over in runs: `emit(q, values, factor)` means
+    /// `W(scale, t_{(q+i)D}) = factor · values[i]`. Runs cover q = 0..n_out in order.
     fn transform(
         &self,
         scale_idx: usize,
         work: &mut Workspace,
-        emit: impl FnMut(usize, Complex64),
+        emit: impl FnMut(usize, &[Complex64], f64),
     ) {
         let scale = self.scales[scale_idx];
         match self.evaluations[scale_idx] {
@@ -240,20 +243,45 @@ impl MorletCwt {
     pub fn coefficients(&self, scale_idx: usize) -> Vec<Complex64> {
         let mut work = self.workspace();
         let mut coefficients = vec![Complex64::new(0.0, 0.0); self.n_out];
-        self.transform(scale_idx, &mut work, |q, value| coefficients[q] = value);
+        self.transform(scale_idx, &mut work, |first, values, factor| {
+            for (out, value) in coefficients[first..first + values.len()]
+                .iter_mut()
+                .zip(values)
+            {
+                *out = value * factor;
+            }
+        });
         coefficients
     }
 
-    /// `|W|²`, scale-major: `power[s n_out + q]` at scale `s` and output time `q`. Scales run
-    /// in parallel, each writing its own row of the one allocation.
+    /// `|W|²`, scale-major: `power[s n_out + q]` at scale `s` and output time `q`.
+    ///
+    /// As many workers as rayon threads, each with its own buffers, take the next scale still
+    /// to do until none is left: the scales' costs differ, and buffers made per rayon job
+    /// (megabytes each for long records) would spend more time faulting in fresh pages than
+    /// transforming. Workers are spawned tasks, so busy threads are not waited for.
     pub fn power(&self) -> Vec<f64> {
         let mut power = vec![0.0; self.scales.len() * self.n_out];
-        power.par_chunks_mut(self.n_out).enumerate().for_each_init(
-            || self.workspace(),
-            |work, (scale_idx, row)| {
-                self.transform(scale_idx, work, |q, value| row[q] = value.norm_sqr());
-            },
-        );
+        let rows = std::sync::Mutex::new(power.chunks_mut(self.n_out).enumerate());
+        let next_row = || rows.lock().expect("no worker panics holding it").next();
+        let n_workers = rayon::current_num_threads().clamp(1, self.scales.len().max(1));
+        rayon::scope(|scope| {
+            for _ in 0..n_workers {
+                scope.spawn(|_| {
+                    let mut work = self.workspace();
+                    while let Some((scale_idx, row)) = next_row() {
+                        self.transform(scale_idx, &mut work, |first, values, factor| {
+                            let factor_squared = factor * factor;
+                            for (out, value) in
+                                row[first..first + values.len()].iter_mut().zip(values)
+                            {
+                                *out = value.norm_sqr() * factor_squared;
+                            }
+                        });
+                    }
+                });
+            }
+        });
         power
     }
 
@@ -312,7 +340,7 @@ impl RecordSpectrum {
         scale: f64,
         n_out: usize,
         work: &mut Workspace,
-        mut emit: impl FnMut(usize, Complex64),
+        mut emit: impl FnMut(usize, &[Complex64], f64),
     ) {
         let folded = &mut work.buffer[..self.n_folded];
         folded.fill(Complex64::new(0.0, 0.0));
@@ -336,15 +364,12 @@ impl RecordSpectrum {
         // Ĝ's constant a^{1/2} √(2π) and the inverse DFT's 1/P. The rectangle rule's Δt is
         // already in Ĝ: Poisson summation of the Δt-weighted samples gives the analytic transform.
         let factor = (2.0 * std::f64::consts::PI * scale).sqrt() / self.n_padded as f64;
-        for (q, value) in folded[..n_out].iter().enumerate() {
-            emit(q, value * factor);
-        }
+        emit(0, &folded[..n_out], factor);
     }
 }
 
 impl BlockGroup {
-    fn new(signal: &[f64], block_len: usize) -> Self {
-        let margin = block_len / 8;
+    fn new(signal: &[f64], block_len: usize, margin: usize) -> Self {
         let hop = block_len - 2 * margin;
         let n_blocks = signal.len().div_ceil(hop);
         let forward = FftPlanner::<f64>::new().plan_fft_forward(block_len);
@@ -379,7 +404,7 @@ impl BlockGroup {
         scale: f64,
         n_samples: usize,
         work: &mut Workspace,
-        mut emit: impl FnMut(usize, Complex64),
+        mut emit: impl FnMut(usize, &[Complex64], f64),
     ) {
         let block_len = self.block_len;
         // The block-length DFT of the sampled daughter is real: the Gaussian summed over the
@@ -388,7 +413,17 @@ impl BlockGroup {
         gain.fill(0.0);
         let omega_step = 2.0 * std::f64::consts::PI / (block_len as f64 * dt);
         let (band, x_step) = gaussian_band(k0, scale, omega_step);
-        let mut k = band.start().rem_euclid(block_len as i64) as usize;
+        // The bins the band covers, as up to two ranges (it may wrap past the last bin).
+        let band_len = (band.end() - band.start() + 1).max(0) as usize;
+        let band_first = band.start().rem_euclid(block_len as i64) as usize;
+        let covered: [std::ops::Range<usize>; 2] = if band_len >= block_len {
+            [0..block_len, 0..0]
+        } else if band_first + band_len <= block_len {
+            [band_first..band_first + band_len, 0..0]
+        } else {
+            [band_first..block_len, 0..band_first + band_len - block_len]
+        };
+        let mut k = band_first;
         for j in band {
             let x = x_step * j as f64 - k0;
             gain[k] += (-0.5 * x * x).exp();
@@ -398,23 +433,27 @@ impl BlockGroup {
             }
         }
         let factor = (2.0 * std::f64::consts::PI * scale).sqrt() / block_len as f64;
-        for value in gain.iter_mut() {
-            *value *= factor;
-        }
         let buffer = &mut work.buffer[..block_len];
         for (block, spectrum) in self.spectra.chunks_exact(block_len).enumerate() {
-            for ((out, s), g) in buffer.iter_mut().zip(spectrum).zip(gain.iter()) {
-                *out = s * g;
+            // Only the covered bins are nonzero: narrow bands read a fraction of the spectrum.
+            buffer.fill(Complex64::new(0.0, 0.0));
+            for range in covered.iter().cloned() {
+                for ((out, s), g) in buffer[range.clone()]
+                    .iter_mut()
+                    .zip(&spectrum[range.clone()])
+                    .zip(&gain[range])
+                {
+                    *out = s * g;
+                }
             }
             self.inverse.process_with_scratch(buffer, &mut work.scratch);
             let first_output = block * self.hop;
             let n_valid = self.hop.min(n_samples - first_output);
-            for (offset, value) in buffer[self.margin..self.margin + n_valid]
-                .iter()
-                .enumerate()
-            {
-                emit(first_output + offset, *value);
-            }
+            emit(
+                first_output,
+                &buffer[self.margin..self.margin + n_valid],
+                factor,
+            );
         }
     }
 }
