@@ -102,7 +102,8 @@ pub fn uniform_series<'a>(table: &'a Table, column: &str) -> Result<UniformSerie
     let typical_step = *steps.select_nth_unstable_by(middle, f64::total_cmp).1;
     for row in 1..time.len() {
         let step = time[row] - time[row - 1];
-        if !((step - typical_step).abs() <= UNIFORM_STEP_TOLERANCE * typical_step) {
+        let deviation = (step - typical_step).abs();
+        if deviation.is_nan() || deviation > UNIFORM_STEP_TOLERANCE * typical_step {
             return Err(StageError::new(format!(
                 "time is not uniformly sampled: t[{row}] − t[{}] = {step} where the typical step is {typical_step}",
                 row - 1

@@ -304,6 +304,13 @@ pub fn mass_svd(x: &Mat<f64>, mass: &MassMatrix) -> Result<MassSvd, StageError> 
     })
 }
 
+/// The two columns of one mode in a wide table, as they are found.
+#[derive(Default)]
+struct ModeColumns<'a> {
+    real: Option<&'a [f64]>,
+    imag: Option<&'a [f64]>,
+}
+
 /// Complex modes read from a wide table, with their frequencies.
 pub struct ComplexModes {
     pub numbers: Vec<i64>,
@@ -314,7 +321,7 @@ pub struct ComplexModes {
 
 impl ComplexModes {
     pub fn from_tables(modes: &Table, frequencies: &Table) -> Result<ComplexModes, StageError> {
-        let mut parts: BTreeMap<i64, (Option<&[f64]>, Option<&[f64]>)> = BTreeMap::new();
+        let mut parts: BTreeMap<i64, ModeColumns> = BTreeMap::new();
         for column in modes.columns() {
             let Some(rest) = column.name.strip_prefix("mode_") else {
                 continue;
@@ -340,9 +347,9 @@ impl ComplexModes {
             };
             let entry = parts.entry(number).or_default();
             if is_real {
-                entry.0 = Some(values);
+                entry.real = Some(values);
             } else {
-                entry.1 = Some(values);
+                entry.imag = Some(values);
             }
         }
         if parts.is_empty() {
@@ -368,8 +375,8 @@ impl ComplexModes {
         let mut imag = Mat::<f64>::zeros(n_dofs, n_modes);
         let mut numbers = Vec::with_capacity(n_modes);
         let mut freqs_hz = Vec::with_capacity(n_modes);
-        for (idx, (&number, &(re, im))) in parts.iter().enumerate() {
-            let (Some(re), Some(im)) = (re, im) else {
+        for (idx, (&number, columns)) in parts.iter().enumerate() {
+            let (Some(re), Some(im)) = (columns.real, columns.imag) else {
                 return Err(StageError::new(format!(
                     "modes: mode {number} needs both mode_{number:04}_re and mode_{number:04}_im"
                 )));
@@ -410,7 +417,7 @@ impl ComplexModes {
                 self.imag.col_as_slice(mode_idx),
                 m_imag.col_as_slice(mode_idx),
             );
-            if !(norm_squared > 0.0) {
+            if norm_squared.is_nan() || norm_squared <= 0.0 {
                 return Err(StageError::new(format!(
                     "modes: mode {number} has M-norm² {norm_squared:e}"
                 )));

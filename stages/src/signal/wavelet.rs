@@ -696,7 +696,7 @@ const MAP_LEVELS: f64 = 64.0;
 
 impl PowerMap<'_> {
     /// Max-pools the power onto at most MAP_MAX_ROWS × MAP_MAX_COLUMNS cells (peaks survive).
-    fn pooled(&self) -> (Vec<(usize, usize)>, Vec<(usize, usize)>, Vec<Vec<f64>>) {
+    fn pooled(&self) -> PooledPower {
         let n_times = self.times.len();
         let row_groups = groups(self.freqs_hz.len(), MAP_MAX_ROWS);
         let column_groups = groups(self.times.len(), MAP_MAX_COLUMNS);
@@ -715,8 +715,20 @@ impl PowerMap<'_> {
                     .collect()
             })
             .collect();
-        (row_groups, column_groups, cells)
+        PooledPower {
+            row_groups,
+            column_groups,
+            cells,
+        }
     }
+}
+
+/// The map's cells: `cells[row][column]` is the largest power over the frequencies
+/// `row_groups[row]` and the times `column_groups[column]` (`(first, end)` index ranges).
+struct PooledPower {
+    row_groups: Vec<(usize, usize)>,
+    column_groups: Vec<(usize, usize)>,
+    cells: Vec<Vec<f64>>,
 }
 
 /// Splits `n` items into at most `max_groups` contiguous `(first, end)` ranges.
@@ -729,7 +741,11 @@ fn groups(n: usize, max_groups: usize) -> Vec<(usize, usize)> {
 
 impl Drawing for PowerMap<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
-        let (row_groups, column_groups, cells) = self.pooled();
+        let PooledPower {
+            row_groups,
+            column_groups,
+            cells,
+        } = self.pooled();
         let peak = cells.iter().flatten().copied().fold(0.0, f64::max);
         let level_of = |power: f64| -> f64 {
             if peak <= 0.0 || power <= 0.0 {
@@ -1197,7 +1213,7 @@ mod tests {
             let mut m = next_fast_len(n);
             assert!(m >= n);
             for p in [2, 3] {
-                while m % p == 0 {
+                while m.is_multiple_of(p) {
                     m /= p;
                 }
             }
