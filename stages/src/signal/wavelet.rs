@@ -39,7 +39,15 @@
 //! With `P = D L`, keeping `W` at `m = q D` is an inverse FFT of length `L` of the spectrum
 //! folded modulo `L` (`Y_r = Σ_{k ≡ r (mod L)} S_k Ĝ_k`): exact, and `D` times cheaper.
 //!
-//! Scales are independent and run in parallel (rayon).
+//! *Short scales* (every sample kept): a daughter of half-support `K = CUTOFF a / Δt` samples
+//! needs no transform of the whole record. Overlap-save blocks of `B` samples (a power of two,
+//! `8K ≤ B`, 1 024 ≤ B ≤ 16 384) overlapping by the group's widest `2K` give `B − 2K` exact
+//! outputs each; the same identities hold with `P` replaced by `B`. FFTs of that size stay in
+//! cache and cost half as much per point as one over a long record. Each block's spectrum is
+//! computed once and shared by all the scales that use that block length; only the bins the
+//! daughter's band covers are multiplied.
+//!
+//! Scales are independent: workers (one per rayon thread) take them in turn.
 //!
 //! # Cone of influence
 //!
@@ -552,14 +560,6 @@ impl Stage for Wavelet {
             .map(|&freq| scale_of_frequency(grid.k0, freq))
             .collect();
         let cwt = MorletCwt::new(series.values, series.dt, grid.k0, &scales, grid.decimation);
-        let n_rows = cwt.n_out() * scales.len();
-        if n_rows > MAX_POWER_ROWS {
-            return Err(StageError::new(format!(
-                "the power table would have {n_rows} rows ({} frequencies × {} times): raise dt_out_s",
-                scales.len(),
-                cwt.n_out()
-            )));
-        }
         let power = cwt.power();
         let times: Vec<f64> = (0..cwt.n_out())
             .map(|q| series.t_first + (q * grid.decimation) as f64 * series.dt)
@@ -615,11 +615,19 @@ impl TransformGrid {
                 series.dt
             )));
         }
-        let decimation = (params.float("dt_out_s") / series.dt).round().max(1.0) as usize;
+        let decimation =
+            ((params.float("dt_out_s") / series.dt).round().max(1.0) as usize).min(series.len());
+        let n_times = (series.len() - 1) / decimation + 1;
+        let n_rows = n_times.saturating_mul(n_freqs);
+        if n_rows > MAX_POWER_ROWS {
+            return Err(StageError::new(format!(
+                "the power table would have {n_rows} rows ({n_freqs} frequencies × {n_times} times), more than {MAX_POWER_ROWS}: raise dt_out_s"
+            )));
+        }
         Ok(TransformGrid {
             k0,
             freqs_hz: log_spaced(f_min, f_max, n_freqs),
-            decimation: decimation.min(series.len()),
+            decimation,
         })
     }
 }
@@ -1200,8 +1208,13 @@ mod tests {
         assert!(err.message.contains("Nyquist frequency 500"), "{err}");
         let err = run(table.clone(), &params(100.0, 10.0, 10, 0.0)).unwrap_err();
         assert!(err.message.contains("below f_min_hz"), "{err}");
-        let err = run(table, &params(0.0, 10.0, 10, 0.0)).unwrap_err();
+        let err = run(table.clone(), &params(0.0, 10.0, 10, 0.0)).unwrap_err();
         assert!(err.message.contains("positive"), "{err}");
+        let err = run(table, &params(10.0, 100.0, 2_000_000, 0.0)).unwrap_err();
+        assert!(
+            err.message.contains("(2000000 frequencies × 100 times)"),
+            "{err}"
+        );
     }
 
     #[test]
