@@ -1,8 +1,10 @@
 //! The science of squeal, and the contract every stage implements.
 //!
 //! This crate knows nothing of YAML, DAGs, caches or files: a stage is a pure function of its
-//! parameters and its input artifacts ([`stage::Stage::run`]). The engine finds stages through
-//! the registry the binary builds from [`all_kinds`].
+//! parameters and its input artifacts ([`stage::Stage::run`]). The one exception is
+//! `signal.read` ([`signal::read`]), which reads a user's Parquet or CSV file and therefore
+//! declares itself impure, so the engine never caches it. The engine finds stages through the
+//! registry the binary builds from [`all_kinds`].
 
 pub mod artifact;
 pub mod signal;

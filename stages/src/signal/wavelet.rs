@@ -956,10 +956,10 @@ mod tests {
 
     #[test]
     fn block_evaluation_equals_the_direct_sum() {
-        // Short scales on a long record go through overlap-save blocks of 1024 and 2048; the
-        // widest one through the whole record.
-        let freqs = [30.0, 60.0, 150.0, 500.0];
-        check_against_direct_sum(9000, 1e-3, &freqs, &[false, true, true, true]);
+        // Short scales on a long record go through overlap-save blocks of 1024 (sharing the
+        // margin of the wider one); the widest scale through the whole record.
+        let freqs = [40.0, 150.0, 500.0];
+        check_against_direct_sum(4200, 1e-3, &freqs, &[false, true, true]);
     }
 
     #[test]
@@ -1065,12 +1065,12 @@ mod tests {
     fn scale_frequency_convention_puts_the_normalised_peak_at_the_tone() {
         // |W|²/a of a tone peaks at a = k₀/(2π f₀) exactly; on a fine grid (ratio 1.001) the
         // argmax is within one step of f₀, and the |W|² argmax within one step of 0.9865 f₀.
-        let (dt, f0, n) = (1e-4, 300.0, 6000);
+        let (dt, f0, n) = (1e-4, 300.0, 3000);
         let signal: Vec<f64> = (0..n)
             .map(|i| (2.0 * PI * f0 * i as f64 * dt).cos())
             .collect();
-        let freqs = log_spaced(250.0, 350.0, 337);
-        let step = (350.0f64 / 250.0).ln() / 336.0;
+        let freqs = log_spaced(290.0, 305.0, 53);
+        let step = (305.0f64 / 290.0).ln() / 52.0;
         let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
         let cwt = MorletCwt::new(&signal, dt, K0, &scales, 1);
         let power: Vec<Vec<f64>> = cwt
