@@ -270,6 +270,7 @@ impl MorletCwt {
     /// transforming. Workers are spawned tasks, so busy threads are not waited for.
     pub fn power(&self) -> Vec<f64> {
         let mut power = vec![0.0; self.scales.len() * self.n_out];
+        advise_huge_pages(&mut power);
         let rows = std::sync::Mutex::new(power.chunks_mut(self.n_out).enumerate());
         let next_row = || rows.lock().expect("no worker panics holding it").next();
         let n_workers = rayon::current_num_threads().clamp(1, self.scales.len().max(1));
@@ -297,6 +298,35 @@ impl MorletCwt {
     fn uses_blocks(&self, scale_idx: usize) -> bool {
         matches!(self.evaluations[scale_idx], Evaluation::Blocks(_))
     }
+}
+
+/// Asks Linux to back the 2 MiB-aligned part of a fresh, untouched buffer with transparent
+/// huge pages. Filling hundreds of megabytes of output otherwise costs one page fault per
+/// 4 KiB, a quarter of the transform's time (measured); with huge pages, one per 2 MiB.
+/// Advice only: where the kernel declines, or elsewhere than Linux, nothing changes.
+fn advise_huge_pages(buffer: &mut [f64]) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE_PAGE: usize = 2 << 20;
+        let start = buffer.as_mut_ptr() as usize;
+        let end = start + std::mem::size_of_val(buffer);
+        let aligned_start = start.next_multiple_of(HUGE_PAGE);
+        let aligned_end = end / HUGE_PAGE * HUGE_PAGE;
+        if aligned_start < aligned_end {
+            // SAFETY: the range lies inside `buffer`, which we own mutably; madvise with
+            // MADV_HUGEPAGE changes neither its contents nor its mapping, only how the kernel
+            // backs pages on first touch. Its result is advice and is ignored on purpose.
+            unsafe {
+                libc::madvise(
+                    aligned_start as *mut libc::c_void,
+                    aligned_end - aligned_start,
+                    libc::MADV_HUGEPAGE,
+                );
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = buffer;
 }
 
 /// The unwrapped frequency indices `j` where the daughter's Gaussian `e^{−(a ω_j − k₀)²/2}`,
