@@ -1,8 +1,10 @@
 //! The science of squeal, and the contract every stage implements.
 //!
 //! This crate knows nothing of YAML, DAGs, caches or files: a stage is a pure function of its
-//! parameters and its input artifacts ([`stage::Stage::run`]). The engine finds stages through
-//! the registry the binary builds from [`all_kinds`].
+//! parameters and its input artifacts ([`stage::Stage::run`]). The one exception is
+//! `signal.read` ([`signal::read`]), which reads a user's Parquet or CSV file and therefore
+//! declares itself impure, so the engine never caches it. The engine finds stages through the
+//! registry the binary builds from [`all_kinds`].
 
 #![allow(non_snake_case)]
 // matrices are named as in the equations: M, K, C
@@ -17,6 +19,7 @@ pub mod export;
 pub mod mesh;
 pub mod model;
 pub mod modes;
+pub mod signal;
 pub mod stage;
 pub mod table;
 pub mod testing;
@@ -32,7 +35,7 @@ pub use table::{Column, ColumnData, Table};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
-    vec![
+    let mut kinds: Vec<Arc<dyn Stage>> = vec![
         Arc::new(mesh::brake::MeshBrake),
         Arc::new(mesh::gmsh::GmshImport),
         Arc::new(assemble::Assemble),
@@ -42,7 +45,9 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),
         Arc::new(table::Gather),
-    ]
+    ];
+    kinds.extend(signal::kinds());
+    kinds
 }
 
 /// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).

@@ -1,0 +1,544 @@
+//! `signal.read`: a time series from a user's Parquet or CSV file, as a signal table.
+//!
+//! **Not pure.** This is the one stage of the crate that reads a file: its result depends on
+//! bytes the engine does not hash, so it declares [`Stage::pure`] `false` and the engine never
+//! caches it (it reruns every time; its *output* digest still lets unchanged data stop the
+//! cascade downstream). A relative `path` is resolved against the working directory of the
+//! process.
+//!
+//! The file holds a time column (seconds, strictly increasing) and signal columns. The output
+//! table names the time column `t` whatever its name in the file, and keeps the signal columns
+//! (all of them, or those listed in `columns`) in file order, as f64.
+//!
+//! - **Parquet**: any integer or floating-point column type; nulls are errors. Pandas' index
+//!   columns (`__index_level_N__`) are skipped unless listed.
+//! - **CSV**: a header line of column names, then one line of numbers per sample, separated by
+//!   commas. Blank lines and lines starting with `#` are skipped; names may be double-quoted.
+//!
+//! Errors name the file, the column and the row (0-based data row for Parquet, 1-based line
+//! number for CSV, as an editor shows it).
+
+use std::fs::File;
+use std::path::Path;
+
+use arrow::array::{Array, Float64Array};
+use arrow::compute::cast;
+use arrow::datatypes::DataType;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+use super::TIME_COLUMN;
+use crate::artifact::ArtifactType;
+use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::table::{Table, single_output};
+
+const FORMATS: &[&str] = &["auto", "csv", "parquet"];
+
+/// `signal.read`: a signal table from a Parquet or CSV file (impure, never cached).
+pub struct Read;
+
+impl Stage for Read {
+    fn kind(&self) -> &'static str {
+        "signal.read"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Read a time series (time column + signal columns) from a Parquet or CSV file; never cached"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::path(
+                "path",
+                "the CSV or Parquet file (relative to the study's folder)",
+            ),
+            ParamSpec {
+                name: "time_column",
+                ty: ParamType::Str,
+                default: Some(crate::Value::Str(TIME_COLUMN.into())),
+                unit: "",
+                doc: "the time column (s, strictly increasing); named `t` in the output",
+            },
+            ParamSpec {
+                name: "columns",
+                ty: ParamType::Str,
+                default: Some(crate::Value::Str(String::new())),
+                unit: "",
+                doc: "signal columns to keep, comma-separated (empty: every other column)",
+            },
+            ParamSpec::choice(
+                "format",
+                FORMATS,
+                "auto",
+                "file format; auto: by extension (.parquet, .pq or .csv)",
+            ),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        Vec::new()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::one(
+            "signal",
+            ArtifactType::Table,
+            "signal table: time `t` (s) and the signal columns (f64)",
+        )]
+    }
+    fn pure(&self) -> bool {
+        false
+    }
+    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        let request = ReadRequest {
+            path: Path::new(params.str("path")),
+            time_column: params.str("time_column"),
+            columns: params
+                .str("columns")
+                .split(',')
+                .map(str::trim)
+                .filter(|name| !name.is_empty())
+                .collect(),
+        };
+        let format = match params.str("format") {
+            "auto" => Format::from_extension(request.path)?,
+            "csv" => Format::Csv,
+            _ => Format::Parquet,
+        };
+        let table = match format {
+            Format::Csv => read_csv(&request)?,
+            Format::Parquet => read_parquet(&request)?,
+        };
+        Ok(single_output("signal", table))
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Csv,
+    Parquet,
+}
+
+impl Format {
+    fn from_extension(path: &Path) -> Result<Format, StageError> {
+        let extension = path
+            .extension()
+            .and_then(|ext| ext.to_str())
+            .map(str::to_ascii_lowercase);
+        match extension.as_deref() {
+            Some("csv") => Ok(Format::Csv),
+            Some("parquet" | "pq") => Ok(Format::Parquet),
+            _ => Err(StageError::new(format!(
+                "{}: unknown extension; set `format` to csv or parquet",
+                path.display()
+            ))),
+        }
+    }
+}
+
+struct ReadRequest<'a> {
+    path: &'a Path,
+    time_column: &'a str,
+    /// Empty: every column but the time column.
+    columns: Vec<&'a str>,
+}
+
+impl ReadRequest<'_> {
+    fn error(&self, message: impl std::fmt::Display) -> StageError {
+        StageError::new(format!("{}: {message}", self.path.display()))
+    }
+
+    /// Indices (into `available`) of the time column and of the signal columns to keep.
+    fn select(
+        &self,
+        available: &[String],
+        skip_by_default: impl Fn(&str) -> bool,
+    ) -> Result<(usize, Vec<usize>), StageError> {
+        let find = |name: &str| {
+            available
+                .iter()
+                .position(|column| column == name)
+                .ok_or_else(|| {
+                    self.error(format_args!(
+                        "no column `{name}` (columns: {})",
+                        available.join(", ")
+                    ))
+                })
+        };
+        let time_idx = find(self.time_column)?;
+        let signal_idx: Vec<usize> = if self.columns.is_empty() {
+            (0..available.len())
+                .filter(|&idx| idx != time_idx && !skip_by_default(&available[idx]))
+                .collect()
+        } else {
+            self.columns
+                .iter()
+                .map(|name| find(name))
+                .collect::<Result<_, _>>()?
+        };
+        if signal_idx.is_empty() {
+            return Err(self.error("no signal column besides the time column"));
+        }
+        for &idx in &signal_idx {
+            if available[idx] == TIME_COLUMN && idx != time_idx {
+                return Err(self.error(format_args!(
+                    "signal column `{TIME_COLUMN}` would clash with the time column, which is renamed `{TIME_COLUMN}`"
+                )));
+            }
+        }
+        Ok((time_idx, signal_idx))
+    }
+
+    /// The output table, after checking that time strictly increases. `row_name` formats a
+    /// data row index as the file's reader would see it.
+    fn finish(
+        &self,
+        names: Vec<String>,
+        time: Vec<f64>,
+        signals: Vec<Vec<f64>>,
+        row_name: impl Fn(usize) -> String,
+    ) -> Result<Table, StageError> {
+        if time.is_empty() {
+            return Err(self.error("no data rows"));
+        }
+        if let Some(row) = (1..time.len()).find(|&row| time[row] <= time[row - 1]) {
+            return Err(self.error(format_args!(
+                "time column `{}` does not increase at {}: {} after {}",
+                self.time_column,
+                row_name(row),
+                time[row],
+                time[row - 1]
+            )));
+        }
+        let mut table = Table::new().with(TIME_COLUMN, time);
+        for (name, values) in names.into_iter().zip(signals) {
+            table = table.with(name, values);
+        }
+        Ok(table)
+    }
+}
+
+fn read_csv(request: &ReadRequest) -> Result<Table, StageError> {
+    let text = std::fs::read_to_string(request.path).map_err(|err| request.error(err))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(idx, line)| (idx + 1, line.trim()))
+        .filter(|(_, line)| !line.is_empty() && !line.starts_with('#'));
+    let Some((_, header)) = lines.next() else {
+        return Err(request.error("empty file: no header line"));
+    };
+    let available: Vec<String> = header
+        .split(',')
+        .map(|name| name.trim().trim_matches('"').to_string())
+        .collect();
+    let (time_idx, signal_idx) = request.select(&available, |_| false)?;
+
+    let mut line_numbers = Vec::new();
+    let mut time = Vec::new();
+    let mut signals: Vec<Vec<f64>> = vec![Vec::new(); signal_idx.len()];
+    let mut fields: Vec<&str> = Vec::with_capacity(available.len());
+    for (line_number, line) in lines {
+        fields.clear();
+        fields.extend(line.split(',').map(str::trim));
+        if fields.len() != available.len() {
+            return Err(request.error(format_args!(
+                "line {line_number} has {} fields, the header has {}",
+                fields.len(),
+                available.len()
+            )));
+        }
+        let number = |idx: usize| -> Result<f64, StageError> {
+            let field = fields[idx];
+            match field.parse::<f64>() {
+                Ok(value) if value.is_finite() => Ok(value),
+                _ => Err(request.error(format_args!(
+                    "line {line_number} column `{}`: \"{field}\" is not a finite number",
+                    available[idx]
+                ))),
+            }
+        };
+        time.push(number(time_idx)?);
+        for (signal, &idx) in signals.iter_mut().zip(&signal_idx) {
+            signal.push(number(idx)?);
+        }
+        line_numbers.push(line_number);
+    }
+    let names = signal_idx
+        .iter()
+        .map(|&idx| available[idx].clone())
+        .collect();
+    request.finish(names, time, signals, |row| {
+        format!("line {}", line_numbers[row])
+    })
+}
+
+fn read_parquet(request: &ReadRequest) -> Result<Table, StageError> {
+    let file = File::open(request.path).map_err(|err| request.error(err))?;
+    let builder =
+        ParquetRecordBatchReaderBuilder::try_new(file).map_err(|err| request.error(err))?;
+    let available: Vec<String> = builder
+        .schema()
+        .fields()
+        .iter()
+        .map(|field| field.name().clone())
+        .collect();
+    let (time_idx, signal_idx) =
+        request.select(&available, |name| name.starts_with("__index_level_"))?;
+    let schema = builder.schema().clone();
+    for &idx in std::iter::once(&time_idx).chain(&signal_idx) {
+        let data_type = schema.field(idx).data_type();
+        if !is_plain_number(data_type) {
+            return Err(request.error(format_args!(
+                "column `{}` is {data_type}, not numeric",
+                available[idx]
+            )));
+        }
+    }
+    let reader = builder.build().map_err(|err| request.error(err))?;
+
+    let mut time = Vec::new();
+    let mut signals: Vec<Vec<f64>> = vec![Vec::new(); signal_idx.len()];
+    let mut rows_before = 0;
+    for batch in reader {
+        let batch = batch.map_err(|err| request.error(err))?;
+        let append = |idx: usize, out: &mut Vec<f64>| -> Result<(), StageError> {
+            let as_f64 =
+                cast(batch.column(idx), &DataType::Float64).map_err(|err| request.error(err))?;
+            let values = as_f64
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .expect("cast to Float64 gives a Float64Array");
+            for row in 0..values.len() {
+                if values.is_null(row) || !values.value(row).is_finite() {
+                    let shown = if values.is_null(row) {
+                        "null".to_string()
+                    } else {
+                        values.value(row).to_string()
+                    };
+                    return Err(request.error(format_args!(
+                        "column `{}` row {} is {shown}, not a finite number",
+                        available[idx],
+                        rows_before + row
+                    )));
+                }
+                out.push(values.value(row));
+            }
+            Ok(())
+        };
+        append(time_idx, &mut time)?;
+        for (signal, &idx) in signals.iter_mut().zip(&signal_idx) {
+            append(idx, signal)?;
+        }
+        rows_before += batch.num_rows();
+    }
+    let names = signal_idx
+        .iter()
+        .map(|&idx| available[idx].clone())
+        .collect();
+    request.finish(names, time, signals, |row| format!("row {row}"))
+}
+
+/// Integer and floating-point types: the ones that mean a number of SI units.
+fn is_plain_number(data_type: &DataType) -> bool {
+    matches!(
+        data_type,
+        DataType::Int8
+            | DataType::Int16
+            | DataType::Int32
+            | DataType::Int64
+            | DataType::UInt8
+            | DataType::UInt16
+            | DataType::UInt32
+            | DataType::UInt64
+            | DataType::Float16
+            | DataType::Float32
+            | DataType::Float64
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+    use std::sync::Arc;
+
+    use arrow::array::{ArrayRef, Int32Array, StringArray};
+    use arrow::datatypes::{Field, Schema};
+    use arrow::record_batch::RecordBatch;
+    use parquet::arrow::ArrowWriter;
+
+    use super::*;
+    use crate::stage::Value;
+    use crate::table::ColumnData;
+
+    fn params(path: &Path, time_column: &str, columns: &str) -> Params {
+        Params(BTreeMap::from([
+            (
+                "path".into(),
+                Value::Str(path.to_string_lossy().into_owned()),
+            ),
+            ("time_column".into(), Value::Str(time_column.into())),
+            ("columns".into(), Value::Str(columns.into())),
+            ("format".into(), Value::Str("auto".into())),
+        ]))
+    }
+
+    fn read(path: &Path, time_column: &str, columns: &str) -> Result<Table, StageError> {
+        let outputs = Read.run(&params(path, time_column, columns), &Inputs::default())?;
+        Ok(outputs["signal"].as_table().expect("a table").clone())
+    }
+
+    fn f64s(table: &Table, name: &str) -> Vec<f64> {
+        match table.column(name) {
+            Some(ColumnData::F64(values)) => values.clone(),
+            other => panic!("column {name}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn is_impure() {
+        assert!(!Read.pure());
+    }
+
+    #[test]
+    fn csv_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("signal.csv");
+        let time: Vec<f64> = (0..50).map(|i| i as f64 * 1e-4).collect();
+        let force: Vec<f64> = time.iter().map(|t| (1e4 * t).sin() * 1e3).collect();
+        let mut text = String::from("# brake test rig\n\"time\", force, label_free\n");
+        for (t, f) in time.iter().zip(&force) {
+            // `{}` prints the shortest representation that round-trips exactly.
+            text.push_str(&format!("{t},{f},{}\n", 2.0 * f));
+        }
+        text.push('\n');
+        std::fs::write(&path, text).unwrap();
+        let table = read(&path, "time", "").unwrap();
+        assert_eq!(f64s(&table, "t"), time);
+        assert_eq!(f64s(&table, "force"), force);
+        let names: Vec<&str> = table.columns().iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["t", "force", "label_free"]);
+        let only_force = read(&path, "time", "force").unwrap();
+        assert_eq!(only_force.columns().len(), 2);
+    }
+
+    fn write_parquet(path: &Path, columns: Vec<(&str, ArrayRef)>) {
+        let fields: Vec<Field> = columns
+            .iter()
+            .map(|(name, array)| Field::new(*name, array.data_type().clone(), true))
+            .collect();
+        let batch = RecordBatch::try_new(
+            Arc::new(Schema::new(fields)),
+            columns.into_iter().map(|(_, array)| array).collect(),
+        )
+        .unwrap();
+        let mut writer =
+            ArrowWriter::try_new(File::create(path).unwrap(), batch.schema(), None).unwrap();
+        writer.write(&batch).unwrap();
+        writer.close().unwrap();
+    }
+
+    #[test]
+    fn parquet_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("signal.parquet");
+        let time: Vec<f64> = (0..300).map(|i| 0.5 + i as f64 * 1e-5).collect();
+        let velocity: Vec<f64> = time.iter().map(|t| (3e4 * t).cos()).collect();
+        let counts: Vec<i32> = (0..300).collect();
+        write_parquet(
+            &path,
+            vec![
+                ("t", Arc::new(Float64Array::from(time.clone()))),
+                ("velocity", Arc::new(Float64Array::from(velocity.clone()))),
+                ("counts", Arc::new(Int32Array::from(counts))),
+            ],
+        );
+        let table = read(&path, "t", "").unwrap();
+        assert_eq!(f64s(&table, "t"), time);
+        assert_eq!(f64s(&table, "velocity"), velocity);
+        assert_eq!(f64s(&table, "counts")[299], 299.0);
+    }
+
+    #[test]
+    fn missing_file_is_named() {
+        let err = read(Path::new("no/such/file.csv"), "t", "").unwrap_err();
+        assert!(err.message.starts_with("no/such/file.csv: "), "{err}");
+    }
+
+    #[test]
+    fn missing_columns_are_named_with_the_ones_there() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.csv");
+        std::fs::write(&path, "time,x\n0,1\n1,2\n").unwrap();
+        let err = read(&path, "t", "").unwrap_err();
+        assert!(
+            err.message.ends_with("no column `t` (columns: time, x)"),
+            "{err}"
+        );
+        let err = read(&path, "time", "y").unwrap_err();
+        assert!(err.message.contains("no column `y`"), "{err}");
+    }
+
+    #[test]
+    fn non_monotonic_time_names_the_line_and_row() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("a.csv");
+        std::fs::write(&csv, "t,x\n0,1\n0.1,2\n\n0.1,3\n").unwrap();
+        let err = read(&csv, "t", "").unwrap_err();
+        assert!(
+            err.message
+                .contains("does not increase at line 5: 0.1 after 0.1"),
+            "{err}"
+        );
+
+        let parquet = dir.path().join("a.parquet");
+        write_parquet(
+            &parquet,
+            vec![
+                ("t", Arc::new(Float64Array::from(vec![0.0, 2.0, 1.0]))),
+                ("x", Arc::new(Float64Array::from(vec![0.0, 0.0, 0.0]))),
+            ],
+        );
+        let err = read(&parquet, "t", "").unwrap_err();
+        assert!(
+            err.message
+                .contains("does not increase at row 2: 1 after 2"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn non_numeric_values_name_file_column_and_row() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("a.csv");
+        std::fs::write(&csv, "t,x\n0,1\n1,abc\n").unwrap();
+        let err = read(&csv, "t", "").unwrap_err();
+        let expected = format!(
+            "{}: line 3 column `x`: \"abc\" is not a finite number",
+            csv.display()
+        );
+        assert_eq!(err.message, expected);
+        std::fs::write(&csv, "t,x\n0,1\n1\n").unwrap();
+        let err = read(&csv, "t", "").unwrap_err();
+        assert!(
+            err.message
+                .contains("line 3 has 1 fields, the header has 2"),
+            "{err}"
+        );
+
+        let parquet = dir.path().join("a.parquet");
+        write_parquet(
+            &parquet,
+            vec![
+                ("t", Arc::new(Float64Array::from(vec![0.0, 1.0]))),
+                ("x", Arc::new(Float64Array::from(vec![Some(1.0), None]))),
+                ("label", Arc::new(StringArray::from(vec!["a", "b"]))),
+            ],
+        );
+        let err = read(&parquet, "t", "").unwrap_err();
+        assert!(
+            err.message.contains("column `label` is Utf8, not numeric"),
+            "{err}"
+        );
+        let err = read(&parquet, "t", "x").unwrap_err();
+        assert!(err.message.contains("column `x` row 1 is null"), "{err}");
+    }
+}

@@ -1,0 +1,956 @@
+//! `svd_projection`: principal shapes of a set of snapshots in the mass inner product, and their
+//! projection on the complex modes (which modes a limit cycle is made of; figure 5 of the seed).
+//!
+//! # Mass-weighted SVD
+//!
+//! With snapshots as columns, `X` (n DOFs × m snapshots), and the mass matrix `M` (symmetric
+//! positive definite, sparse), the SVD in the mass inner product `⟨u, v⟩_M = uᵀ M v` is
+//!
+//! ```text
+//! X = Ψ Σ Vᵀ,    Ψᵀ M Ψ = I,    Vᵀ V = I,    σ₁ ≥ σ₂ ≥ … ≥ 0
+//! ```
+//!
+//! It is computed without factorising `M` (whose Cholesky factor of a 3D mesh fills in): an
+//! M-orthonormal basis `Q` of the snapshots by classical Gram–Schmidt in the M inner product,
+//! run twice per column ("twice is enough": orthogonality to round-off), gives `X = Q R`
+//! with `Qᵀ M Q = I` and `R` small (m × m, upper triangular). The dense SVD `R = U Σ Vᵀ`
+//! (faer) then gives `Ψ = Q U`. This needs one sparse product `M w` per snapshot. Each shape's
+//! sign is fixed so that its largest component is positive. `energy_fraction = σ_k² / Σ σ²`:
+//! the share of `‖X‖²_M` (the kinetic-energy-like norm of the snapshots) the shape carries.
+//!
+//! # Projection on the complex modes
+//!
+//! For a complex mode `φ = φ_re + i φ_im` and a principal shape `ψ` (M-unit):
+//!
+//! ```text
+//! coefficient = |⟨φ, ψ⟩_M| / ‖φ‖_M = |φᴴ M ψ| / √(φᴴ M φ)
+//! ```
+//!
+//! a number in [0, 1] that does not depend on how the modes were normalised. A real shape
+//! lying in the plane of a mode whose real and imaginary parts are M-orthogonal with equal
+//! norms scores `1/√2`: a real vector is half `φ`, half its conjugate `φ̄`. Over a set of modes
+//! that are M-orthogonal together with their conjugates, a shape's squared coefficients add up
+//! to at most 1/2 (Bessel), with equality when it lies in their span.
+//!
+//! # Inputs
+//!
+//! - `snapshots`: wide table, one row per DOF, one f64 column per snapshot in time order
+//!   (non-f64 columns, e.g. a DOF index, are ignored).
+//! - `modes`: wide table, one row per DOF, f64 columns `mode_NNNN_re` and `mode_NNNN_im`.
+//! - `frequencies`: long table, `mode` (i64, the `NNNN` above) and `freq_hz` (f64); other
+//!   columns are ignored.
+//! - `mass`: either COO triplets `row`, `col` (i64, 0-based DOFs) and `value` (f64) holding
+//!   the full symmetric matrix (both triangles; duplicates add up, as in assembly), or a single
+//!   f64 column `diagonal` (a lumped mass, one row per DOF).
+
+use std::collections::BTreeMap;
+
+use faer::Mat;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::figure::{self, DrawResult, Drawing, drawing_error};
+use crate::artifact::{Artifact, ArtifactType};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::{ColumnData, Table};
+
+/// Relative asymmetry of `M` tolerated (to the largest entry): values read back from text
+/// files may differ in their last digits.
+const SYMMETRY_TOLERANCE: f64 = 1e-9;
+
+/// A symmetric positive definite mass matrix, sparse.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MassMatrix {
+    Diagonal(Vec<f64>),
+    /// Compressed sparse rows, duplicates summed, columns sorted within each row.
+    Sparse {
+        row_starts: Vec<usize>,
+        cols: Vec<usize>,
+        values: Vec<f64>,
+    },
+}
+
+impl MassMatrix {
+    /// Reads either representation (module doc) for a model of `n_dofs` DOFs.
+    pub fn from_table(table: &Table, n_dofs: usize) -> Result<MassMatrix, StageError> {
+        if let (Some(rows), Some(cols), Some(values)) = (
+            table.column("row"),
+            table.column("col"),
+            table.column("value"),
+        ) {
+            let (ColumnData::I64(rows), ColumnData::I64(cols), ColumnData::F64(values)) =
+                (rows, cols, values)
+            else {
+                return Err(StageError::new(
+                    "mass: `row` and `col` must be i64 and `value` f64",
+                ));
+            };
+            return MassMatrix::from_triplets(rows, cols, values, n_dofs);
+        }
+        if let Some(column) = table.column("diagonal") {
+            let ColumnData::F64(diagonal) = column else {
+                return Err(StageError::new("mass: `diagonal` must be f64"));
+            };
+            if diagonal.len() != n_dofs {
+                return Err(StageError::new(format!(
+                    "mass: {} diagonal entries for {n_dofs} DOFs",
+                    diagonal.len()
+                )));
+            }
+            if let Some(row) = diagonal.iter().position(|&m| !(m > 0.0 && m.is_finite())) {
+                return Err(StageError::new(format!(
+                    "mass: diagonal entry {row} is {}, not positive",
+                    diagonal[row]
+                )));
+            }
+            return Ok(MassMatrix::Diagonal(diagonal.clone()));
+        }
+        Err(StageError::new(
+            "mass: expected columns `row`, `col`, `value` (COO) or `diagonal`",
+        ))
+    }
+
+    pub fn from_triplets(
+        rows: &[i64],
+        cols: &[i64],
+        values: &[f64],
+        n_dofs: usize,
+    ) -> Result<MassMatrix, StageError> {
+        let mut entries = Vec::with_capacity(values.len());
+        for (idx, ((&row, &col), &value)) in rows.iter().zip(cols).zip(values).enumerate() {
+            let in_range = |dof: i64| dof >= 0 && (dof as usize) < n_dofs;
+            if !in_range(row) || !in_range(col) {
+                return Err(StageError::new(format!(
+                    "mass: entry {idx} at ({row}, {col}) is outside the {n_dofs} DOFs"
+                )));
+            }
+            if !value.is_finite() {
+                return Err(StageError::new(format!(
+                    "mass: entry {idx} at ({row}, {col}) is {value}"
+                )));
+            }
+            entries.push((row as usize, col as usize, value));
+        }
+        entries.sort_by_key(|&(row, col, _)| (row, col));
+        let mut row_starts = vec![0; n_dofs + 1];
+        let mut cols_out: Vec<usize> = Vec::with_capacity(entries.len());
+        let mut values_out: Vec<f64> = Vec::with_capacity(entries.len());
+        let mut previous = None;
+        for (row, col, value) in entries {
+            if previous == Some((row, col)) {
+                *values_out.last_mut().expect("a previous entry") += value;
+            } else {
+                cols_out.push(col);
+                values_out.push(value);
+                row_starts[row + 1] += 1;
+                previous = Some((row, col));
+            }
+        }
+        for row in 0..n_dofs {
+            row_starts[row + 1] += row_starts[row];
+        }
+        let matrix = MassMatrix::Sparse {
+            row_starts,
+            cols: cols_out,
+            values: values_out,
+        };
+        matrix.check_symmetric()?;
+        Ok(matrix)
+    }
+
+    fn check_symmetric(&self) -> Result<(), StageError> {
+        let MassMatrix::Sparse {
+            row_starts,
+            cols,
+            values,
+        } = self
+        else {
+            return Ok(());
+        };
+        let largest = values.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let entry = |row: usize, col: usize| -> f64 {
+            let range = row_starts[row]..row_starts[row + 1];
+            match cols[range.clone()].binary_search(&col) {
+                Ok(offset) => values[range.start + offset],
+                Err(_) => 0.0,
+            }
+        };
+        for row in 0..row_starts.len() - 1 {
+            for idx in row_starts[row]..row_starts[row + 1] {
+                let col = cols[idx];
+                let mirror = entry(col, row);
+                if (values[idx] - mirror).abs() > SYMMETRY_TOLERANCE * largest {
+                    return Err(StageError::new(format!(
+                        "mass: not symmetric, M[{row}, {col}] = {} but M[{col}, {row}] = {mirror} (give both triangles)",
+                        values[idx]
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `out = M x`.
+    pub fn apply(&self, x: &[f64], out: &mut [f64]) {
+        match self {
+            MassMatrix::Diagonal(diagonal) => {
+                for ((out, m), x) in out.iter_mut().zip(diagonal).zip(x) {
+                    *out = m * x;
+                }
+            }
+            MassMatrix::Sparse {
+                row_starts,
+                cols,
+                values,
+            } => {
+                for (row, out) in out.iter_mut().enumerate() {
+                    let range = row_starts[row]..row_starts[row + 1];
+                    *out = cols[range.clone()]
+                        .iter()
+                        .zip(&values[range])
+                        .map(|(&col, value)| value * x[col])
+                        .sum();
+                }
+            }
+        }
+    }
+
+    /// `M X`, column by column.
+    pub fn apply_columns(&self, x: &Mat<f64>) -> Mat<f64> {
+        let mut out = Mat::<f64>::zeros(x.nrows(), x.ncols());
+        for col in 0..x.ncols() {
+            self.apply(x.col_as_slice(col), out.col_as_slice_mut(col));
+        }
+        out
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
+}
+
+/// `X = Ψ Σ Vᵀ` with `Ψᵀ M Ψ = I` (module doc). Shapes are the columns of `shapes`.
+pub struct MassSvd {
+    pub singular_values: Vec<f64>,
+    pub shapes: Mat<f64>,
+    pub right: Mat<f64>,
+}
+
+/// The mass-weighted SVD of the snapshot columns of `x` (n × m).
+pub fn mass_svd(x: &Mat<f64>, mass: &MassMatrix) -> Result<MassSvd, StageError> {
+    let (n_dofs, n_snapshots) = (x.nrows(), x.ncols());
+    let mut q = Mat::<f64>::zeros(n_dofs, n_snapshots);
+    let mut mq = Mat::<f64>::zeros(n_dofs, n_snapshots);
+    let mut r = Mat::<f64>::zeros(n_snapshots, n_snapshots);
+    let mut w = vec![0.0; n_dofs];
+    let mut mw = vec![0.0; n_dofs];
+    for k in 0..n_snapshots {
+        w.copy_from_slice(x.col_as_slice(k));
+        mass.apply(&w, &mut mw);
+        let norm_squared = dot(&w, &mw);
+        if norm_squared < 0.0 || (norm_squared == 0.0 && w.iter().any(|&v| v != 0.0)) {
+            return Err(StageError::new(format!(
+                "mass matrix is not positive definite: xᵀ M x = {norm_squared:e} for snapshot {k}"
+            )));
+        }
+        for _pass in 0..2 {
+            for j in 0..k {
+                let coefficient = dot(mq.col_as_slice(j), &w);
+                r[(j, k)] += coefficient;
+                for (w, q) in w.iter_mut().zip(q.col_as_slice(j)) {
+                    *w -= coefficient * q;
+                }
+            }
+        }
+        mass.apply(&w, &mut mw);
+        let norm = dot(&w, &mw).max(0.0).sqrt();
+        r[(k, k)] = norm;
+        if norm > 0.0 {
+            for ((q, mq), (w, mw)) in q
+                .col_as_slice_mut(k)
+                .iter_mut()
+                .zip(mq.col_as_slice_mut(k).iter_mut())
+                .zip(w.iter().zip(&mw))
+            {
+                *q = w / norm;
+                *mq = mw / norm;
+            }
+        }
+    }
+    let svd = r.svd().map_err(|err| {
+        StageError::new(format!(
+            "SVD of the {n_snapshots}×{n_snapshots} factor failed: {err:?}"
+        ))
+    })?;
+    let mut shapes = q.as_ref() * svd.U();
+    let mut right = svd.V().to_owned();
+    let singular_values: Vec<f64> = (0..n_snapshots).map(|k| svd.S()[k]).collect();
+    for k in 0..n_snapshots {
+        let column = shapes.col_as_slice(k);
+        let largest = column
+            .iter()
+            .copied()
+            .max_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .unwrap_or(0.0);
+        if largest < 0.0 {
+            shapes.col_as_slice_mut(k).iter_mut().for_each(|v| *v = -*v);
+            right.col_as_slice_mut(k).iter_mut().for_each(|v| *v = -*v);
+        }
+    }
+    Ok(MassSvd {
+        singular_values,
+        shapes,
+        right,
+    })
+}
+
+/// The two columns of one mode in a wide table, as they are found.
+#[derive(Default)]
+struct ModeColumns<'a> {
+    real: Option<&'a [f64]>,
+    imag: Option<&'a [f64]>,
+}
+
+/// Complex modes read from a wide table, with their frequencies.
+pub struct ComplexModes {
+    pub numbers: Vec<i64>,
+    pub freqs_hz: Vec<f64>,
+    pub real: Mat<f64>,
+    pub imag: Mat<f64>,
+}
+
+impl ComplexModes {
+    pub fn from_tables(modes: &Table, frequencies: &Table) -> Result<ComplexModes, StageError> {
+        let mut parts: BTreeMap<i64, ModeColumns> = BTreeMap::new();
+        for column in modes.columns() {
+            let Some(rest) = column.name.strip_prefix("mode_") else {
+                continue;
+            };
+            let (number, is_real) = if let Some(number) = rest.strip_suffix("_re") {
+                (number, true)
+            } else if let Some(number) = rest.strip_suffix("_im") {
+                (number, false)
+            } else {
+                continue;
+            };
+            let number: i64 = number.parse().map_err(|_| {
+                StageError::new(format!(
+                    "modes: column `{}` has no mode number",
+                    column.name
+                ))
+            })?;
+            let ColumnData::F64(values) = &column.data else {
+                return Err(StageError::new(format!(
+                    "modes: column `{}` is not f64",
+                    column.name
+                )));
+            };
+            let entry = parts.entry(number).or_default();
+            if is_real {
+                entry.real = Some(values);
+            } else {
+                entry.imag = Some(values);
+            }
+        }
+        if parts.is_empty() {
+            return Err(StageError::new(
+                "modes: no `mode_NNNN_re` / `mode_NNNN_im` columns",
+            ));
+        }
+        let mode_column = match frequencies.column("mode") {
+            Some(ColumnData::I64(values)) => values,
+            _ => return Err(StageError::new("frequencies: no i64 column `mode`")),
+        };
+        let freq_column = super::f64_column(frequencies, "freq_hz")
+            .map_err(|err| StageError::new(format!("frequencies: {err}")))?;
+        let freq_of: BTreeMap<i64, f64> = mode_column
+            .iter()
+            .copied()
+            .zip(freq_column.iter().copied())
+            .collect();
+
+        let n_dofs = modes.n_rows();
+        let n_modes = parts.len();
+        let mut real = Mat::<f64>::zeros(n_dofs, n_modes);
+        let mut imag = Mat::<f64>::zeros(n_dofs, n_modes);
+        let mut numbers = Vec::with_capacity(n_modes);
+        let mut freqs_hz = Vec::with_capacity(n_modes);
+        for (idx, (&number, columns)) in parts.iter().enumerate() {
+            let (Some(re), Some(im)) = (columns.real, columns.imag) else {
+                return Err(StageError::new(format!(
+                    "modes: mode {number} needs both mode_{number:04}_re and mode_{number:04}_im"
+                )));
+            };
+            let freq = freq_of
+                .get(&number)
+                .ok_or_else(|| StageError::new(format!("frequencies: no row for mode {number}")))?;
+            real.col_as_slice_mut(idx).copy_from_slice(re);
+            imag.col_as_slice_mut(idx).copy_from_slice(im);
+            numbers.push(number);
+            freqs_hz.push(*freq);
+        }
+        Ok(ComplexModes {
+            numbers,
+            freqs_hz,
+            real,
+            imag,
+        })
+    }
+
+    /// `|φ_jᴴ M ψ_k| / ‖φ_j‖_M` for every mode j (rows) and M-unit shape k (columns).
+    pub fn coefficients(
+        &self,
+        shapes: &Mat<f64>,
+        mass: &MassMatrix,
+    ) -> Result<Mat<f64>, StageError> {
+        let m_shapes = mass.apply_columns(shapes);
+        let real_part = self.real.transpose() * m_shapes.as_ref();
+        let imag_part = self.imag.transpose() * m_shapes.as_ref();
+        let m_real = mass.apply_columns(&self.real);
+        let m_imag = mass.apply_columns(&self.imag);
+        let mut coefficients = Mat::<f64>::zeros(self.numbers.len(), shapes.ncols());
+        for (mode_idx, &number) in self.numbers.iter().enumerate() {
+            let norm_squared = dot(
+                self.real.col_as_slice(mode_idx),
+                m_real.col_as_slice(mode_idx),
+            ) + dot(
+                self.imag.col_as_slice(mode_idx),
+                m_imag.col_as_slice(mode_idx),
+            );
+            if norm_squared.is_nan() || norm_squared <= 0.0 {
+                return Err(StageError::new(format!(
+                    "modes: mode {number} has M-norm² {norm_squared:e}"
+                )));
+            }
+            let norm = norm_squared.sqrt();
+            for shape_idx in 0..shapes.ncols() {
+                coefficients[(mode_idx, shape_idx)] =
+                    real_part[(mode_idx, shape_idx)].hypot(imag_part[(mode_idx, shape_idx)]) / norm;
+            }
+        }
+        Ok(coefficients)
+    }
+}
+
+/// `svd_projection`: principal shapes of the last snapshots, projected on the complex modes.
+pub struct SvdProjection;
+
+impl Stage for SvdProjection {
+    fn kind(&self) -> &'static str {
+        "svd_projection"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Principal shapes of snapshots in the mass inner product, projected on the complex modes"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::int(
+                "n_last_snapshots",
+                0,
+                "snapshots used, the last ones (0: all)",
+            )
+            .at_least(0.0),
+            ParamSpec::int("n_shapes", 4, "principal shapes projected and plotted").at_least(1.0),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "snapshots",
+                ArtifactType::Table,
+                "wide: one row per DOF, one f64 column per snapshot",
+            ),
+            PortSpec::one(
+                "modes",
+                ArtifactType::Table,
+                "wide: one row per DOF, mode_NNNN_re and mode_NNNN_im",
+            ),
+            PortSpec::one(
+                "frequencies",
+                ArtifactType::Table,
+                "long: mode (i64), freq_hz",
+            ),
+            PortSpec::one(
+                "mass",
+                ArtifactType::Table,
+                "COO row, col, value (both triangles) or a `diagonal` column",
+            ),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "principal",
+                ArtifactType::Table,
+                "shape, singular_value, energy_fraction",
+            ),
+            PortSpec::one(
+                "projection",
+                ArtifactType::Table,
+                "shape, mode, freq_hz, coefficient = |φᴴMψ| / ‖φ‖_M",
+            ),
+            PortSpec::one(
+                "shapes",
+                ArtifactType::Table,
+                "wide: one row per DOF, shape_NNNN (M-unit), the first n_shapes",
+            ),
+            PortSpec::one(
+                "figure",
+                ArtifactType::Figure,
+                "projection coefficient against mode frequency, one panel per shape",
+            ),
+        ]
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let snapshot_table = inputs.table("snapshots")?;
+        let mut snapshot_columns: Vec<(&str, &[f64])> = snapshot_table
+            .columns()
+            .iter()
+            .filter_map(|column| match &column.data {
+                ColumnData::F64(values) => Some((column.name.as_str(), values.as_slice())),
+                _ => None,
+            })
+            .collect();
+        let n_last = params.int("n_last_snapshots") as usize;
+        if n_last > 0 && n_last < snapshot_columns.len() {
+            snapshot_columns.drain(..snapshot_columns.len() - n_last);
+        }
+        let n_dofs = snapshot_table.n_rows();
+        let n_snapshots = snapshot_columns.len();
+        if n_snapshots == 0 || n_dofs == 0 {
+            return Err(StageError::new(format!(
+                "snapshots: {n_snapshots} f64 column(s) of {n_dofs} row(s): need at least one of each"
+            )));
+        }
+        if let Some((name, values)) = snapshot_columns
+            .iter()
+            .find(|(_, values)| values.iter().any(|v| !v.is_finite()))
+        {
+            let row = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+            return Err(StageError::new(format!(
+                "snapshots: column `{name}` row {row} is {}",
+                values[row]
+            )));
+        }
+        let modes_table = inputs.table("modes")?;
+        if modes_table.n_rows() != n_dofs {
+            return Err(StageError::new(format!(
+                "modes have {} rows but snapshots have {n_dofs} DOFs",
+                modes_table.n_rows()
+            )));
+        }
+        let mass = MassMatrix::from_table(inputs.table("mass")?, n_dofs)?;
+        let modes = ComplexModes::from_tables(modes_table, inputs.table("frequencies")?)?;
+
+        let x = Mat::from_fn(n_dofs, n_snapshots, |row, col| snapshot_columns[col].1[row]);
+        let svd = mass_svd(&x, &mass)?;
+        let n_shapes = (params.int("n_shapes") as usize).min(n_snapshots);
+        let shapes = svd.shapes.subcols(0, n_shapes).to_owned();
+        let coefficients = modes.coefficients(&shapes, &mass)?;
+
+        let total_energy: f64 = svd.singular_values.iter().map(|s| s * s).sum();
+        let energy_fraction: Vec<f64> = svd
+            .singular_values
+            .iter()
+            .map(|s| {
+                if total_energy > 0.0 {
+                    s * s / total_energy
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let principal = Table::new()
+            .with("shape", (1..=n_snapshots as i64).collect::<Vec<i64>>())
+            .with("singular_value", svd.singular_values.clone())
+            .with("energy_fraction", energy_fraction.clone());
+
+        let n_modes = modes.numbers.len();
+        let mut projection_shape = Vec::with_capacity(n_shapes * n_modes);
+        let mut projection_mode = Vec::with_capacity(n_shapes * n_modes);
+        let mut projection_freq = Vec::with_capacity(n_shapes * n_modes);
+        let mut projection_coefficient = Vec::with_capacity(n_shapes * n_modes);
+        for shape_idx in 0..n_shapes {
+            for mode_idx in 0..n_modes {
+                projection_shape.push(shape_idx as i64 + 1);
+                projection_mode.push(modes.numbers[mode_idx]);
+                projection_freq.push(modes.freqs_hz[mode_idx]);
+                projection_coefficient.push(coefficients[(mode_idx, shape_idx)]);
+            }
+        }
+        let projection = Table::new()
+            .with("shape", projection_shape)
+            .with("mode", projection_mode)
+            .with("freq_hz", projection_freq)
+            .with("coefficient", projection_coefficient);
+
+        let mut shapes_table = Table::new();
+        for shape_idx in 0..n_shapes {
+            shapes_table = shapes_table.with(
+                format!("shape_{:04}", shape_idx + 1),
+                shapes.col_as_slice(shape_idx).to_vec(),
+            );
+        }
+
+        let plot = ProjectionPlot {
+            freqs_hz: &modes.freqs_hz,
+            coefficients: &coefficients,
+            energy_fraction: &energy_fraction,
+        };
+        let height = (180 * n_shapes as u32 + 80).clamp(300, 1400);
+        let figure = figure::render(&plot, (figure::DEFAULT_SIZE.0, height))?;
+        Ok(BTreeMap::from([
+            ("principal".to_string(), Artifact::Table(principal)),
+            ("projection".to_string(), Artifact::Table(projection)),
+            ("shapes".to_string(), Artifact::Table(shapes_table)),
+            ("figure".to_string(), Artifact::Figure(figure)),
+        ]))
+    }
+}
+
+/// One panel per principal shape: a bar per mode at its frequency, as tall as the coefficient.
+struct ProjectionPlot<'a> {
+    freqs_hz: &'a [f64],
+    coefficients: &'a Mat<f64>,
+    energy_fraction: &'a [f64],
+}
+
+impl Drawing for ProjectionPlot<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
+        let n_shapes = self.coefficients.ncols();
+        let root = root
+            .titled(
+                "Projection of the principal shapes on the complex modes",
+                (figure::FONT, 22),
+            )
+            .map_err(drawing_error)?;
+        let panels = root.split_evenly((n_shapes, 1));
+        let f_high = self.freqs_hz.iter().copied().fold(0.0, f64::max).max(1.0) * 1.05;
+        let f_low = self
+            .freqs_hz
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
+            .min(0.0);
+        let bar_half_width = (f_high - f_low) / 400.0;
+        for (shape_idx, panel) in panels.iter().enumerate() {
+            let is_last = shape_idx + 1 == n_shapes;
+            let mut chart = ChartBuilder::on(panel)
+                .margin(8)
+                .x_label_area_size(if is_last { 45 } else { 20 })
+                .y_label_area_size(60)
+                .build_cartesian_2d(f_low..f_high, 0.0..1.0)
+                .map_err(drawing_error)?;
+            let mut mesh = chart.configure_mesh();
+            mesh.disable_x_mesh()
+                .y_labels(3)
+                .light_line_style(WHITE)
+                .y_desc(format!(
+                    "shape {} ({:.1} %)",
+                    shape_idx + 1,
+                    100.0 * self.energy_fraction[shape_idx]
+                ))
+                .x_label_formatter(&|f| figure::tick_label(*f))
+                .label_style((figure::FONT, 13))
+                .axis_desc_style((figure::FONT, 14));
+            if is_last {
+                mesh.x_desc("mode frequency (Hz)");
+            }
+            mesh.draw().map_err(drawing_error)?;
+            let color = figure::series_color(shape_idx);
+            chart
+                .draw_series(self.freqs_hz.iter().enumerate().map(|(mode_idx, &freq)| {
+                    Rectangle::new(
+                        [
+                            (freq - bar_half_width, 0.0),
+                            (
+                                freq + bar_half_width,
+                                self.coefficients[(mode_idx, shape_idx)],
+                            ),
+                        ],
+                        color.filled(),
+                    )
+                }))
+                .map_err(drawing_error)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::stage::{Input, Value};
+
+    /// A deterministic pseudo-random stream in [−0.5, 0.5).
+    struct Noise(u64);
+
+    impl Noise {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        }
+    }
+
+    /// A tridiagonal SPD mass matrix (a consistent 1D bar mass), as COO with both triangles.
+    fn bar_mass(n: usize) -> (Vec<i64>, Vec<i64>, Vec<f64>) {
+        let (mut rows, mut cols, mut values) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..n {
+            rows.push(i as i64);
+            cols.push(i as i64);
+            values.push(4.0 + 0.1 * i as f64);
+            if i + 1 < n {
+                for (r, c) in [(i, i + 1), (i + 1, i)] {
+                    rows.push(r as i64);
+                    cols.push(c as i64);
+                    values.push(1.0);
+                }
+            }
+        }
+        (rows, cols, values)
+    }
+
+    fn mass_matrix(n: usize) -> MassMatrix {
+        let (rows, cols, values) = bar_mass(n);
+        MassMatrix::from_triplets(&rows, &cols, &values, n).unwrap()
+    }
+
+    fn max_abs(matrix: &Mat<f64>) -> f64 {
+        let mut largest = 0.0f64;
+        for j in 0..matrix.ncols() {
+            for i in 0..matrix.nrows() {
+                largest = largest.max(matrix[(i, j)].abs());
+            }
+        }
+        largest
+    }
+
+    #[test]
+    fn mass_svd_reconstructs_and_is_mass_orthonormal() {
+        // Tolerance: 1e-13 relative (round-off) for X − Ψ Σ Vᵀ, ΨᵀMΨ − I and VᵀV − I.
+        let (n, m) = (60, 12);
+        let mut noise = Noise(7);
+        let x = Mat::from_fn(n, m, |_, _| noise.next());
+        let mass = mass_matrix(n);
+        let svd = mass_svd(&x, &mass).unwrap();
+        let sigma = Mat::from_fn(
+            m,
+            m,
+            |i, j| if i == j { svd.singular_values[i] } else { 0.0 },
+        );
+        let reconstructed = svd.shapes.as_ref() * sigma.as_ref() * svd.right.transpose();
+        let error = max_abs(&(&reconstructed - &x)) / max_abs(&x);
+        assert!(error < 1e-13, "reconstruction {error:e}");
+        let gram = svd.shapes.transpose() * mass.apply_columns(&svd.shapes).as_ref();
+        let orthogonality = max_abs(&(&gram - Mat::<f64>::identity(m, m)));
+        assert!(orthogonality < 1e-13, "ΨᵀMΨ − I = {orthogonality:e}");
+        let right_gram = svd.right.transpose() * svd.right.as_ref();
+        assert!(max_abs(&(&right_gram - Mat::<f64>::identity(m, m))) < 1e-13);
+        assert!(
+            svd.singular_values
+                .windows(2)
+                .all(|pair| pair[0] >= pair[1]),
+            "{:?}",
+            svd.singular_values
+        );
+    }
+
+    #[test]
+    fn diagonal_and_sparse_masses_agree() {
+        // A diagonal mass given both ways: same singular values to 1e-13 relative.
+        let (n, m) = (30, 5);
+        let mut noise = Noise(11);
+        let x = Mat::from_fn(n, m, |_, _| noise.next());
+        let diagonal: Vec<f64> = (0..n).map(|i| 1.0 + i as f64).collect();
+        let index: Vec<i64> = (0..n as i64).collect();
+        let sparse = MassMatrix::from_triplets(&index, &index, &diagonal, n).unwrap();
+        let a = mass_svd(&x, &MassMatrix::Diagonal(diagonal)).unwrap();
+        let b = mass_svd(&x, &sparse).unwrap();
+        for (sa, sb) in a.singular_values.iter().zip(&b.singular_values) {
+            assert!((sa - sb).abs() <= 1e-13 * a.singular_values[0]);
+        }
+    }
+
+    /// Complex modes whose real and imaginary parts, over all modes, are M-orthonormal up to
+    /// a factor 1/√2 (so each mode has ‖φ‖_M = 1): Gram–Schmidt of random vectors.
+    fn orthogonal_modes(n: usize, n_modes: usize, mass: &MassMatrix) -> Mat<f64> {
+        let mut noise = Noise(3);
+        let random = Mat::from_fn(n, 2 * n_modes, |_, _| noise.next());
+        let svd = mass_svd(&random, mass).unwrap();
+        Mat::from_fn(n, 2 * n_modes, |i, j| {
+            svd.shapes[(i, j)] / std::f64::consts::SQRT_2
+        })
+    }
+
+    fn modes_tables(parts: &Mat<f64>, freqs: &[f64]) -> (Table, Table) {
+        let mut modes = Table::new();
+        for mode in 0..freqs.len() {
+            modes = modes
+                .with(
+                    format!("mode_{:04}_re", mode + 1),
+                    parts.col_as_slice(2 * mode).to_vec(),
+                )
+                .with(
+                    format!("mode_{:04}_im", mode + 1),
+                    parts.col_as_slice(2 * mode + 1).to_vec(),
+                );
+        }
+        let frequencies = Table::new()
+            .with("mode", (1..=freqs.len() as i64).collect::<Vec<i64>>())
+            .with("freq_hz", freqs.to_vec());
+        (modes, frequencies)
+    }
+
+    fn run(
+        snapshots: Table,
+        modes: Table,
+        frequencies: Table,
+        mass: Table,
+        n_shapes: i64,
+    ) -> Result<Outputs, StageError> {
+        let one = |table: Table| Input::One(Arc::new(Artifact::Table(table)));
+        let inputs = Inputs(BTreeMap::from([
+            ("snapshots".to_string(), one(snapshots)),
+            ("modes".to_string(), one(modes)),
+            ("frequencies".to_string(), one(frequencies)),
+            ("mass".to_string(), one(mass)),
+        ]));
+        let params = Params(BTreeMap::from([
+            ("n_last_snapshots".into(), Value::Int(0)),
+            ("n_shapes".into(), Value::Int(n_shapes)),
+        ]));
+        SvdProjection.run(&params, &inputs)
+    }
+
+    #[test]
+    fn limit_cycle_of_two_modes_projects_on_exactly_those_two() {
+        // Snapshots of Re(c₁ φ₂ e^{iω₁t} + c₂ φ₅ e^{iω₂t}): four nonzero principal values; each
+        // of the four shapes has coefficients on modes 2 and 5 only (others < 1e-12), with
+        // |c₂|² + |c₅|² = 1/2 to 1e-12 (module doc).
+        let (n, n_modes) = (40, 6);
+        let mass = mass_matrix(n);
+        let parts = orthogonal_modes(n, n_modes, &mass);
+        let freqs = [900.0, 3537.0, 5200.0, 8000.0, 11_100.0, 14_000.0];
+        let (modes, frequencies) = modes_tables(&parts, &freqs);
+        let mut snapshots = Table::new();
+        for step in 0..50 {
+            let t = step as f64 * 1.3e-5;
+            let (w1, w2) = (
+                2.0 * std::f64::consts::PI * freqs[1],
+                2.0 * std::f64::consts::PI * freqs[4],
+            );
+            let column: Vec<f64> = (0..n)
+                .map(|i| {
+                    // Re((re + i im) e^{iωt}) = re cos ωt − im sin ωt
+                    1.0 * (parts[(i, 2)] * (w1 * t).cos() - parts[(i, 3)] * (w1 * t).sin())
+                        + 0.3
+                            * (parts[(i, 8)] * (w2 * t + 0.4).cos()
+                                - parts[(i, 9)] * (w2 * t + 0.4).sin())
+                })
+                .collect();
+            snapshots = snapshots.with(format!("u_{step:03}"), column);
+        }
+        let (rows, cols, values) = bar_mass(n);
+        let mass_table = Table::new()
+            .with("row", rows)
+            .with("col", cols)
+            .with("value", values);
+        let outputs = run(snapshots, modes, frequencies, mass_table, 4).unwrap();
+
+        let principal = outputs["principal"].as_table().unwrap();
+        let Some(ColumnData::F64(singular_values)) = principal.column("singular_value") else {
+            panic!()
+        };
+        assert!(
+            singular_values[3] > 1e-3 * singular_values[0],
+            "{singular_values:?}"
+        );
+        assert!(
+            singular_values[4] < 1e-12 * singular_values[0],
+            "{singular_values:?}"
+        );
+
+        let projection = outputs["projection"].as_table().unwrap();
+        let (
+            Some(ColumnData::I64(shape)),
+            Some(ColumnData::I64(mode)),
+            Some(ColumnData::F64(coefficient)),
+        ) = (
+            projection.column("shape"),
+            projection.column("mode"),
+            projection.column("coefficient"),
+        )
+        else {
+            panic!()
+        };
+        assert_eq!(coefficient.len(), 4 * n_modes);
+        for shape_number in 1..=4 {
+            let mut in_plane = 0.0;
+            for row in (0..shape.len()).filter(|&row| shape[row] == shape_number) {
+                if mode[row] == 2 || mode[row] == 5 {
+                    in_plane += coefficient[row] * coefficient[row];
+                } else {
+                    assert!(
+                        coefficient[row] < 1e-12,
+                        "shape {shape_number} mode {}: {}",
+                        mode[row],
+                        coefficient[row]
+                    );
+                }
+            }
+            assert!(
+                (in_plane - 0.5).abs() < 1e-12,
+                "shape {shape_number}: Σ|c|² = {in_plane}"
+            );
+        }
+        let Artifact::Figure(figure) = &outputs["figure"] else {
+            panic!()
+        };
+        assert!(figure.svg.contains("principal shapes"));
+        assert_eq!(outputs["shapes"].as_table().unwrap().columns().len(), 4);
+    }
+
+    #[test]
+    fn bad_mass_matrices_are_refused() {
+        let err = MassMatrix::from_triplets(&[0, 1], &[1, 0], &[1.0, 2.0], 2).unwrap_err();
+        assert!(err.message.contains("not symmetric, M[0, 1] = 1"), "{err}");
+        let err = MassMatrix::from_triplets(&[0, 5], &[0, 5], &[1.0, 1.0], 3).unwrap_err();
+        assert!(err.message.contains("entry 1 at (5, 5)"), "{err}");
+        let indefinite = MassMatrix::Diagonal(vec![1.0, -1.0]);
+        let x = Mat::from_fn(2, 1, |i, _| i as f64);
+        let err = mass_svd(&x, &indefinite).err().unwrap();
+        assert!(err.message.contains("not positive definite"), "{err}");
+        let err =
+            MassMatrix::from_table(&Table::new().with("diagonal", vec![1.0, 0.0]), 2).unwrap_err();
+        assert!(err.message.contains("diagonal entry 1 is 0"), "{err}");
+    }
+
+    #[test]
+    fn duplicate_triplets_add_up() {
+        let mass = MassMatrix::from_triplets(&[0, 0, 1], &[0, 0, 1], &[1.0, 2.0, 5.0], 2).unwrap();
+        let mut out = [0.0; 2];
+        mass.apply(&[1.0, 1.0], &mut out);
+        assert_eq!(out, [3.0, 5.0]);
+    }
+
+    #[test]
+    fn a_mode_without_frequency_is_named() {
+        let modes = Table::new()
+            .with("mode_0003_re", vec![1.0])
+            .with("mode_0003_im", vec![0.0]);
+        let frequencies = Table::new()
+            .with("mode", vec![1i64])
+            .with("freq_hz", vec![10.0]);
+        let err = ComplexModes::from_tables(&modes, &frequencies)
+            .err()
+            .unwrap();
+        assert!(err.message.contains("no row for mode 3"), "{err}");
+    }
+}
