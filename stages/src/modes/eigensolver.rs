@@ -20,12 +20,12 @@
 
 use std::time::Instant;
 
-use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{Mat, MatRef, Par};
 
 use super::dense::{generalized_symmetric_eigen, select_columns, symmetrised};
 use super::factor::{Factor, ShiftedPencil};
 use super::lanczos::{LanczosOptions, ShiftInvert, block_lanczos};
+use super::parallel::{times, transpose_times};
 use super::sparse_ops::{check_symmetric, diagonal, symmetric_mul};
 use crate::model::CscMatrix;
 use crate::stage::StageError;
@@ -74,7 +74,12 @@ pub struct SolveReport {
     pub factor_seconds: f64,
     pub n_factorizations: usize,
     pub lanczos_seconds: f64,
+    /// Parts of the Lanczos time: solves, reorthogonalisation, Ritz extraction.
+    pub solve_seconds: f64,
+    pub orthogonalize_seconds: f64,
+    pub ritz_seconds: f64,
     pub refine_seconds: f64,
+    pub refinement_steps: usize,
     pub n_solves: usize,
     pub basis_size: usize,
     pub restarts: usize,
@@ -213,48 +218,20 @@ fn rayleigh_ritz(
     M: &CscMatrix,
     par: Par,
 ) -> Result<RitzProducts, StageError> {
-    let p = Z.ncols();
     let KZ = symmetric_mul(K, Z);
     let MZ = symmetric_mul(M, Z);
-    let mut K_projected = Mat::<f64>::zeros(p, p);
-    let mut M_projected = Mat::<f64>::zeros(p, p);
-    matmul(
-        K_projected.as_mut(),
-        Accum::Replace,
-        Z.transpose(),
-        KZ.as_ref(),
-        1.0,
-        par,
-    );
-    matmul(
-        M_projected.as_mut(),
-        Accum::Replace,
-        Z.transpose(),
-        MZ.as_ref(),
-        1.0,
-        par,
-    );
+    let K_projected = transpose_times(Z, KZ.as_ref());
+    let M_projected = transpose_times(Z, MZ.as_ref());
     let (lambda, Y) = generalized_symmetric_eigen(
         symmetrised(K_projected.as_ref()).as_ref(),
         symmetrised(M_projected.as_ref()).as_ref(),
         par,
     )?;
-    let product = |A: &Mat<f64>| {
-        let mut result = Mat::<f64>::zeros(A.nrows(), p);
-        matmul(
-            result.as_mut(),
-            Accum::Replace,
-            A.as_ref(),
-            Y.as_ref(),
-            1.0,
-            par,
-        );
-        result
-    };
+    let product = |A: MatRef<'_, f64>| times(A, Y.as_ref());
     Ok(RitzProducts {
-        vectors: product(&Z.to_owned()),
-        K_vectors: product(&KZ),
-        M_vectors: product(&MZ),
+        vectors: product(Z),
+        K_vectors: product(KZ.as_ref()),
+        M_vectors: product(MZ.as_ref()),
         lambda,
     })
 }
@@ -268,12 +245,14 @@ fn refine(
     lambda: Vec<f64>,
     n_checked: usize,
     K_norm: f64,
+    steps: &mut usize,
 ) -> Result<Candidates, StageError> {
     let (M, par, sigma) = (op.M, op.par, op.sigma());
     let mut Q = Q;
     let mut lambda = lambda;
     let mut candidates = None;
     for _ in 0..MAX_REFINEMENTS {
+        *steps += 1;
         let mut Z = op.apply(Q.as_ref());
         // Z ≈ Q / (λ − σ): rescale so that the projected mass matrix is well conditioned.
         for (j, value) in lambda.iter().enumerate() {
@@ -424,12 +403,7 @@ pub fn solve(
         )));
     }
 
-    let op = ShiftInvert {
-        factor: &factor_sigma,
-        M,
-        par,
-        n_solves: Default::default(),
-    };
+    let op = ShiftInvert::new(&factor_sigma, M, par);
     // Dense: every eigenpair at once; the lowest wanted ones (and a few more, for the Sturm
     // gap) are then refined like Lanczos vectors.
     let dense_start = if dense {
@@ -457,7 +431,9 @@ pub fn solve(
             (vectors.clone(), lambda.clone())
         } else {
             let lanczos_started = Instant::now();
-            let max_basis = (2 * n_needed).max(n_needed + 10 * BLOCK_SIZE).min(n / 3);
+            let max_basis = (5 * n_needed / 2)
+                .max(n_needed + 10 * BLOCK_SIZE)
+                .min(n / 3);
             let options = LanczosOptions {
                 block_size: BLOCK_SIZE,
                 max_basis,
@@ -498,6 +474,9 @@ pub fn solve(
             let ritz = block_lanczos(&op, candidates.vectors.as_ref(), options, &done)?;
             report.basis_size = report.basis_size.max(ritz.basis_size);
             report.restarts += ritz.restarts;
+            report.solve_seconds = ritz.solve_seconds;
+            report.orthogonalize_seconds += ritz.orthogonalize_seconds;
+            report.ritz_seconds += ritz.ritz_seconds;
             report.lanczos_seconds += lanczos_started.elapsed().as_secs_f64();
             let n_previous = candidates.lambda.len();
             let mut Q = Mat::<f64>::zeros(n, n_previous + ritz.vectors.ncols());
@@ -512,7 +491,15 @@ pub fn solve(
             (Q, lambda)
         };
         let refine_started = Instant::now();
-        candidates = refine(&op, K, Q, lambda, n_wanted, K_norm)?;
+        candidates = refine(
+            &op,
+            K,
+            Q,
+            lambda,
+            n_wanted,
+            K_norm,
+            &mut report.refinement_steps,
+        )?;
         report.refine_seconds += refine_started.elapsed().as_secs_f64();
 
         // Sturm check: count the eigenvalues in [σ, τ) and compare with those found there.

@@ -21,6 +21,7 @@ pub mod eigensolver;
 pub mod factor;
 pub mod lanczos;
 pub mod ordering;
+pub mod parallel;
 pub mod sparse_ops;
 
 #[cfg(test)]
