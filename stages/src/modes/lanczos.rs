@@ -136,6 +136,8 @@ pub struct LanczosOptions {
 pub struct RitzPairs {
     pub theta: Vec<f64>,
     pub vectors: Mat<f64>,
+    /// `M` times the vectors.
+    pub M_vectors: Mat<f64>,
     /// Largest basis used.
     pub basis_size: usize,
     pub restarts: usize,
@@ -515,6 +517,7 @@ pub fn block_lanczos(
                     return Ok(RitzPairs {
                         theta: found_theta,
                         vectors: found,
+                        M_vectors: M_found,
                         basis_size: largest_basis,
                         restarts,
                         solve_seconds: op.solve_seconds(),

@@ -27,14 +27,14 @@ pub mod sparse_ops;
 #[cfg(test)]
 mod tests;
 
-use faer::{Mat, Par};
+use faer::Mat;
 
 use crate::artifact::{Artifact, ArtifactType};
 use crate::model::{Model, RealModes};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
-use eigensolver::{Band, Eigensolution};
+use eigensolver::{Band, Eigensolution, SolveOptions};
 
 /// `modes`: model → real modes, a table per mode and the wide table of mode shapes.
 pub struct Modes;
@@ -116,8 +116,13 @@ impl Stage for Modes {
             }
         };
         let band = band_from_params(params)?;
-        let solution =
-            eigensolver::solve(&model.K, &model.M, &model.dof_of_node, band, Par::rayon(0))?;
+        let solution = eigensolver::solve(
+            &model.K,
+            &model.M,
+            &model.dof_of_node,
+            band,
+            SolveOptions::default(),
+        )?;
         let table = modes_table(model, &solution);
         let shapes = shapes_table(model, &solution.shapes);
         let modes = real_modes(solution);

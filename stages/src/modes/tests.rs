@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use faer::Par;
 
-use super::eigensolver::{self, Band, Eigensolution, RESIDUAL_TOLERANCE};
+use super::eigensolver::{self, Band, Eigensolution, RESIDUAL_TOLERANCE, SolveOptions};
 use super::{Modes, dense};
 use crate::artifact::Artifact;
 use crate::assemble::tests::{assemble, params_of, to_dense};
@@ -33,7 +33,13 @@ fn lowest(model: &Model, n_modes: usize) -> Eigensolution {
 }
 
 fn solve_band(model: &Model, band: Band) -> Result<Eigensolution, StageError> {
-    eigensolver::solve(&model.K, &model.M, &model.dof_of_node, band, Par::rayon(0))
+    eigensolver::solve(
+        &model.K,
+        &model.M,
+        &model.dof_of_node,
+        band,
+        SolveOptions::default(),
+    )
 }
 
 fn frequencies_hz(solution: &Eigensolution) -> Vec<f64> {
