@@ -76,8 +76,8 @@ fn unknown_or_missing_keys() {
 fn unknown_kinds() {
     check_file(
         "unknown_kind.yaml",
-        "3:11: stages.source.kind: unknown stage kind `test.konstant` (known: table.gather, \
-         test.affine, test.constant, test.fail, test.round, test.sleep)",
+        "3:11: stages.source.kind: unknown stage kind `test.konstant` (known: assemble, modes, \
+         table.gather, test.affine, test.constant, test.fail, test.round, test.sleep)",
     );
 }
 

@@ -22,6 +22,7 @@ use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::mesh::structured;
 use squeal_stages::model::{CscMatrix, Model};
 use squeal_stages::modes::eigensolver::{Band, SolveOptions, solve};
+use squeal_stages::modes::factor::{FillOrdering, ShiftedPencil};
 use squeal_stages::{Params, Stage};
 
 /// A disc 0.15–0.32 m in radius, 45 mm thick, clamped at the hub (the inner cylinder).
@@ -96,6 +97,27 @@ fn main() {
         lambda_lo: 0.0,
         lambda_hi: f64::INFINITY,
     };
+    // The fill-reducing ordering: METIS nested dissection against faer's minimum degree.
+    for fill_ordering in [FillOrdering::NestedDissection, FillOrdering::MinimumDegree] {
+        let started = Instant::now();
+        let pencil =
+            ShiftedPencil::with_ordering(&model.K, &model.M, &model.dof_of_node, fill_ordering)
+                .unwrap_or_else(|err| panic!("analysis failed: {err}"));
+        let analyse = started.elapsed().as_secs_f64();
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let started = Instant::now();
+            pencil
+                .factor(-1.0, faer::Par::Seq)
+                .unwrap_or_else(|err| panic!("factorisation failed: {err}"));
+            best = best.min(started.elapsed().as_secs_f64());
+        }
+        println!(
+            "LDL^T of K - sigma M with {fill_ordering:?}: analyse {analyse:.3} s, factorise {best:.3} s (best of 3), {} entries in L",
+            pencil.factor_len()
+        );
+    }
+
     // Defaults (residual ≤ 1e-9 after refinement), then refined to the level ARPACK reaches.
     let tight = SolveOptions {
         refined_residual: 1e-11,

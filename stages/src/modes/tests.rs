@@ -390,6 +390,32 @@ fn stage_outputs_are_reproducible_and_shaped_as_documented() {
     }
 }
 
+/// The engine caches by content hash: one thread or several, the bytes must be the same.
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let mesh = structured::annulus(0.05, 0.12, 0.0, 0.01, [4, 40, 2], "disc");
+    let (model, _) = assemble(&mesh, "inner");
+    assert!(model.n_dofs() > 600, "exercise the Lanczos path");
+    let run_with_threads = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let (model, _) = assemble(&mesh, "inner");
+                let outputs = run_stage(&model, &[("n_modes", Value::Int(12))]).unwrap();
+                (
+                    Artifact::Model(Box::new(model)).encode(),
+                    outputs["modes"].encode(),
+                )
+            })
+    };
+    let (model_one, modes_one) = run_with_threads(1);
+    let (model_three, modes_three) = run_with_threads(3);
+    assert!(model_one == model_three, "assembled model differs");
+    assert!(modes_one == modes_three, "modes differ");
+}
+
 #[test]
 fn empty_or_unbounded_bands_are_errors() {
     let model = cantilever(0.3, 0.03, 3, 1);
