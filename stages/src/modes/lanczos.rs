@@ -23,8 +23,8 @@
 //! `b` entries of `y`), which decides convergence without touching `n`-vectors. Blocks find
 //! repeated eigenvalues (up to multiplicity `b`) that a single-vector recursion only finds
 //! through roundoff. When the basis is full, converged Ritz vectors are locked (deflated: every
-//! new vector is kept `M`-orthogonal to them) and the recursion restarts from the best
-//! unconverged Ritz vectors.
+//! new vector is kept `M`-orthogonal to them) and the recursion restarts thickly from the best
+//! unconverged Ritz vectors (see [`block_lanczos`]).
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
