@@ -30,6 +30,15 @@ use crate::stage::StageError;
 /// pivoting: a shift too close to an eigenvalue can ruin it).
 const SOLVE_CHECK_TOLERANCE: f64 = 1e-10;
 
+/// The fill-reducing ordering of the factorisation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FillOrdering {
+    /// METIS nested dissection of the node graph ([`super::ordering`]).
+    NestedDissection,
+    /// faer's approximate minimum degree.
+    MinimumDegree,
+}
+
 /// The lower triangle of `K − σ M` for any σ, and its symbolic factorisation.
 pub struct ShiftedPencil {
     n: usize,
@@ -60,12 +69,23 @@ fn lower_column(A: &CscMatrix, col: usize) -> (&[usize], &[f64]) {
 }
 
 impl ShiftedPencil {
-    /// Analyses the pattern of `K` and `M` (checked symmetric, size `n`); `dof_of_node` groups
-    /// the DOFs by node for the ordering.
+    /// Analyses the pattern of `K` and `M` (checked symmetric, size `n`) with a
+    /// nested-dissection ordering; `dof_of_node` groups the DOFs by node for it.
     pub fn new(
         K: &CscMatrix,
         M: &CscMatrix,
         dof_of_node: &[[Option<u32>; 3]],
+    ) -> Result<ShiftedPencil, StageError> {
+        ShiftedPencil::with_ordering(K, M, dof_of_node, FillOrdering::NestedDissection)
+    }
+
+    /// As [`ShiftedPencil::new`], with the fill-reducing ordering `fill_ordering` (nested
+    /// dissection falls back to minimum degree if METIS declines the graph).
+    pub fn with_ordering(
+        K: &CscMatrix,
+        M: &CscMatrix,
+        dof_of_node: &[[Option<u32>; 3]],
+        fill_ordering: FillOrdering,
     ) -> Result<ShiftedPencil, StageError> {
         let n = K.n_rows;
         let mut col_ptr = Vec::with_capacity(n + 1);
@@ -91,7 +111,10 @@ impl ShiftedPencil {
             col_ptr.push(row_idx.len());
         }
         let groups = ordering::dof_groups(dof_of_node, n);
-        let order = ordering::nested_dissection(&groups, &[K, M], n);
+        let order = match fill_ordering {
+            FillOrdering::NestedDissection => ordering::nested_dissection(&groups, &[K, M], n),
+            FillOrdering::MinimumDegree => None,
+        };
         let nested_dissection = order.is_some();
         let inverse = order.as_ref().map(|forward| {
             let mut inverse = vec![0usize; n];

@@ -8,26 +8,33 @@
 //! Blocks `V_0, V_1, …` of `b` vectors, `M`-orthonormal, span the block Krylov space of `Op`:
 //!
 //! ```text
-//! W = Op V_j,   W ← W − V (Vᵀ M W)   (twice: full reorthogonalisation, also against locked
-//!                                     vectors X), W = V_{j+1} R_j        (M-orthonormal QR)
+//! W = Op V_j = A⁻¹ (M V_j),   W ← W − V ((M V)ᵀ W)   (full reorthogonalisation, also
+//!                                                  against locked vectors X)
+//! W = V_{j+1} R_j          (M-orthonormal QR: Cholesky QR, twice)
 //! Op V_m = V_m T_m + V_{m+1} R_m E_mᵀ,   T_m = V_mᵀ M Op V_m   (block tridiagonal)
 //! ```
+//!
+//! `M V` is kept beside `V`, so a block costs one solve and one product by `M`. The
+//! reorthogonalisation projects first on the last two blocks (where the recursion puts almost
+//! all of `W`), then on everything; a further pass is made only where that one removed much of
+//! a column (the Daniel–Gragg–Kaufman–Stewart test), which keeps orthogonality at roundoff.
 //!
 //! Ritz pairs `T_m y = θ y`, `x = V_m y` have `‖Op x − θ x‖_M = ‖R_m y_last‖` (`y_last` the last
 //! `b` entries of `y`), which decides convergence without touching `n`-vectors. Blocks find
 //! repeated eigenvalues (up to multiplicity `b`) that a single-vector recursion only finds
 //! through roundoff. When the basis is full, converged Ritz vectors are locked (deflated: every
-//! new vector is kept `M`-orthogonal to them) and the recursion restarts from the best
-//! unconverged Ritz vectors.
+//! new vector is kept `M`-orthogonal to them) and the recursion restarts thickly from the best
+//! unconverged Ritz vectors (see [`block_lanczos`]).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::time::Instant;
 
-use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
-use faer::{Accum, Mat, MatMut, MatRef, Par};
+use faer::{Mat, MatMut, MatRef, Par};
 
 use super::dense::{select_columns, symmetric_eigen, symmetrised};
 use super::factor::Factor;
+use super::parallel::{add_product, times, transpose_times};
 use super::sparse_ops::symmetric_mul;
 use crate::model::CscMatrix;
 use crate::stage::StageError;
@@ -38,14 +45,43 @@ pub struct ShiftInvert<'a> {
     pub M: &'a CscMatrix,
     pub par: Par,
     pub n_solves: AtomicUsize,
+    pub solve_nanoseconds: AtomicU64,
 }
 
-impl ShiftInvert<'_> {
+impl<'a> ShiftInvert<'a> {
+    pub fn new(factor: &'a Factor<'a>, M: &'a CscMatrix, par: Par) -> Self {
+        ShiftInvert {
+            factor,
+            M,
+            par,
+            n_solves: AtomicUsize::new(0),
+            solve_nanoseconds: AtomicU64::new(0),
+        }
+    }
+
     pub fn apply(&self, X: MatRef<'_, f64>) -> Mat<f64> {
+        let started = Instant::now();
         let mut Y = symmetric_mul(self.M, X);
         self.factor.solve_in_place(Y.as_mut(), self.par);
         self.n_solves.fetch_add(X.ncols(), Ordering::Relaxed);
+        self.solve_nanoseconds
+            .fetch_add(started.elapsed().as_nanos() as u64, Ordering::Relaxed);
         Y
+    }
+
+    /// `A⁻¹ (M X)` from `M X`.
+    pub fn apply_to_product(&self, MX: MatRef<'_, f64>) -> Mat<f64> {
+        let started = Instant::now();
+        let mut Y = MX.to_owned();
+        self.factor.solve_in_place(Y.as_mut(), self.par);
+        self.n_solves.fetch_add(MX.ncols(), Ordering::Relaxed);
+        self.solve_nanoseconds
+            .fetch_add(started.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        Y
+    }
+
+    pub fn solve_seconds(&self) -> f64 {
+        self.solve_nanoseconds.load(Ordering::Relaxed) as f64 * 1e-9
     }
 
     pub fn sigma(&self) -> f64 {
@@ -100,189 +136,232 @@ pub struct LanczosOptions {
 pub struct RitzPairs {
     pub theta: Vec<f64>,
     pub vectors: Mat<f64>,
+    /// `M` times the vectors.
+    pub M_vectors: Mat<f64>,
     /// Largest basis used.
     pub basis_size: usize,
     pub restarts: usize,
+    /// Time in solves with the factor (all of this operator's so far), in
+    /// reorthogonalisation, and in Ritz extraction.
+    pub solve_seconds: f64,
+    pub orthogonalize_seconds: f64,
+    pub ritz_seconds: f64,
 }
 
-/// `W ← W − Q (Qᵀ M W)` for each `Q` in `bases` (each `M`-orthonormal), twice. Returns the
-/// summed coefficients for each basis and the `M`-norms of the columns of `W` on entry.
-fn project_out(
+/// A column whose norm falls below this fraction of its norm on entry, after projection on
+/// the basis, lies in the span of the basis (to roundoff): the Krylov space is invariant there.
+const DEPENDENT_NORM_DROP: f64 = 1e-13;
+/// Daniel–Gragg–Kaufman–Stewart: project again where a pass left less than this fraction.
+const REORTHOGONALIZE_BELOW: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// `M`-orthonormal vectors `Q` with their products `M Q`.
+#[derive(Clone, Copy)]
+struct Orthonormal<'a> {
+    vectors: MatRef<'a, f64>,
+    M_vectors: MatRef<'a, f64>,
+}
+
+/// `W ← W − Q ((M Q)ᵀ W)`; returns the coefficients `(M Q)ᵀ W`.
+fn project(W: &mut Mat<f64>, basis: Orthonormal<'_>) -> Mat<f64> {
+    let coefficients = transpose_times(basis.M_vectors, W.as_ref());
+    if basis.vectors.ncols() > 0 {
+        add_product(W.as_mut(), basis.vectors, coefficients.as_ref(), -1.0);
+    }
+    coefficients
+}
+
+fn column_norms(W: &Mat<f64>) -> Vec<f64> {
+    (0..W.ncols()).map(|j| W.col(j).norm_l2()).collect()
+}
+
+/// Projects `W` out of `others` and of `basis` (whose coefficients are returned, for the
+/// projected operator), with passes repeated per the DGKS test. `local` (the last blocks of
+/// `basis`) goes first.
+fn reorthogonalize(
     W: &mut Mat<f64>,
-    bases: &[MatRef<'_, f64>],
-    M: &CscMatrix,
-    par: Par,
-) -> (Vec<Mat<f64>>, Vec<f64>) {
+    others: &[Orthonormal<'_>],
+    basis: Orthonormal<'_>,
+    local_start: usize,
+) -> Mat<f64> {
     let p = W.ncols();
-    let mut coefficients: Vec<Mat<f64>> = bases.iter().map(|Q| Mat::zeros(Q.ncols(), p)).collect();
-    let mut entry_norms = Vec::new();
-    for pass in 0..2 {
-        let MW = symmetric_mul(M, W.as_ref());
-        if pass == 0 {
-            entry_norms = (0..p)
-                .map(|j| {
-                    let w = W.col(j);
-                    let Mw = MW.col(j);
-                    dot(w, Mw).max(0.0).sqrt()
-                })
-                .collect();
-        }
-        for (Q, total) in bases.iter().zip(coefficients.iter_mut()) {
-            if Q.ncols() == 0 {
-                continue;
+    let m = basis.vectors.ncols();
+    let mut coefficients = Mat::<f64>::zeros(m, p);
+    if m > local_start {
+        let local = Orthonormal {
+            vectors: basis.vectors.subcols(local_start, m - local_start),
+            M_vectors: basis.M_vectors.subcols(local_start, m - local_start),
+        };
+        let H = project(W, local);
+        coefficients
+            .as_mut()
+            .subrows_mut(local_start, m - local_start)
+            .copy_from(&H);
+    }
+    for _ in 0..3 {
+        let before = column_norms(W);
+        for other in others {
+            if other.vectors.ncols() > 0 {
+                project(W, *other);
             }
-            let mut H = Mat::<f64>::zeros(Q.ncols(), p);
-            matmul(
-                H.as_mut(),
-                Accum::Replace,
-                Q.transpose(),
-                MW.as_ref(),
-                1.0,
-                par,
-            );
-            matmul(W.as_mut(), Accum::Add, *Q, H.as_ref(), -1.0, par);
-            *total += &H;
+        }
+        if m > 0 {
+            coefficients += project(W, basis);
+        }
+        let after = column_norms(W);
+        let repeat = before
+            .iter()
+            .zip(&after)
+            .any(|(before, after)| *after < REORTHOGONALIZE_BELOW * before);
+        if !repeat {
+            break;
         }
     }
-    (coefficients, entry_norms)
+    coefficients
 }
 
-/// `M`-orthonormal QR of a block by Cholesky QR, twice (`W = Q R`), or `None` if the block is
-/// numerically rank deficient relative to `reference_norms`.
-fn cholesky_qr2(
-    W: &mut Mat<f64>,
-    M: &CscMatrix,
-    reference_norms: &[f64],
-    par: Par,
-) -> Option<Mat<f64>> {
+/// `M`-orthonormal QR `W = Q R` by Cholesky QR, twice, from `M W`; updates both in place.
+/// `None` if the columns are (nearly) dependent on each other.
+fn cholesky_qr2(W: &mut Mat<f64>, MW: &mut Mat<f64>, par: Par) -> Option<Mat<f64>> {
     let p = W.ncols();
     let mut R = Mat::<f64>::identity(p, p);
     for _ in 0..2 {
-        let MW = symmetric_mul(M, W.as_ref());
-        let mut G = Mat::<f64>::zeros(p, p);
-        matmul(
-            G.as_mut(),
-            Accum::Replace,
-            W.as_ref().transpose(),
-            MW.as_ref(),
-            1.0,
-            par,
-        );
-        let G = symmetrised(G.as_ref());
-        for (j, reference) in reference_norms.iter().enumerate() {
-            if !(G[(j, j)] > (1e-8 * reference).powi(2)) {
-                return None;
-            }
+        let G = symmetrised(transpose_times(W.as_ref(), MW.as_ref()).as_ref());
+        let norms: Vec<f64> = (0..p).map(|j| G[(j, j)].max(0.0).sqrt()).collect();
+        if norms.iter().any(|norm| !(*norm > 0.0)) {
+            return None;
         }
-        let L = G.as_ref().llt(faer::Side::Lower).ok()?;
-        let L = L.L().to_owned();
-        // W ← W L⁻ᵀ, computed as (L⁻¹ Wᵀ)ᵀ through the small inverse L⁻¹.
+        // Cholesky of the scaled Gram matrix: its pivots measure the columns' independence.
+        let G_scaled = Mat::from_fn(p, p, |i, j| G[(i, j)] / (norms[i] * norms[j]));
+        let L_scaled = G_scaled.as_ref().llt(faer::Side::Lower).ok()?;
+        let L_scaled = L_scaled.L();
+        if (0..p).any(|j| !(L_scaled[(j, j)] * L_scaled[(j, j)] > 1e-10)) {
+            return None;
+        }
+        // G = N Ĝ N with N = diag(norms), so L = N L̂; then W ← W L⁻ᵀ and M W ← M W L⁻ᵀ.
+        let L = Mat::from_fn(p, p, |i, j| norms[i] * L_scaled[(i, j)]);
         let mut L_inverse = Mat::<f64>::identity(p, p);
         solve_lower_triangular_in_place(L.as_ref(), L_inverse.as_mut(), par);
-        let mut orthonormal = Mat::<f64>::zeros(W.nrows(), p);
-        matmul(
-            orthonormal.as_mut(),
-            Accum::Replace,
-            W.as_ref(),
-            L_inverse.as_ref().transpose(),
-            1.0,
-            par,
-        );
-        *W = orthonormal;
-        // The accumulated R: W_in = W_out (Lᵀ R).
-        let mut updated = Mat::<f64>::zeros(p, p);
-        matmul(
-            updated.as_mut(),
-            Accum::Replace,
-            L.as_ref().transpose(),
-            R.as_ref(),
-            1.0,
-            par,
-        );
-        R = updated;
+        *W = times(W.as_ref(), L_inverse.as_ref().transpose());
+        *MW = times(MW.as_ref(), L_inverse.as_ref().transpose());
+        R = L.transpose() * &R;
     }
     Some(R)
 }
 
 /// Column-by-column `M`-orthonormalisation that replaces dependent columns by random vectors
 /// orthogonal to everything (their column of `R` is zero on the diagonal): the rare path when
-/// the Krylov space has (nearly) become invariant.
+/// the Krylov space has (nearly) become invariant. Returns `M W` and `R`.
 fn orthonormalize_columnwise(
     W: &mut Mat<f64>,
-    bases: &[MatRef<'_, f64>],
+    bases: &[Orthonormal<'_>],
     M: &CscMatrix,
-    reference_norms: &[f64],
+    entry_norms: &[f64],
     random: &mut SplitMix64,
-    par: Par,
-) -> Result<Mat<f64>, StageError> {
+) -> Result<(Mat<f64>, Mat<f64>), StageError> {
     let (n, p) = (W.nrows(), W.ncols());
     let mut R = Mat::<f64>::zeros(p, p);
+    let mut MW = Mat::<f64>::zeros(n, p);
     for c in 0..p {
         let mut column = select_columns(W.as_ref(), &[c]);
+        let previous = Orthonormal {
+            vectors: W.as_ref().subcols(0, c),
+            M_vectors: MW.as_ref().subcols(0, c),
+        };
         for _ in 0..2 {
-            let M_column = symmetric_mul(M, column.as_ref());
+            let H = project(&mut column, previous);
             for r in 0..c {
-                let coefficient = dot(W.col(r), M_column.col(0));
-                R[(r, c)] += coefficient;
-                for i in 0..n {
-                    column[(i, 0)] -= coefficient * W[(i, r)];
-                }
+                R[(r, c)] += H[(r, 0)];
             }
         }
-        let norm = m_norm(&column, M);
-        if norm > 1e-10 * reference_norms[c] && norm > 0.0 {
+        let mut M_column = symmetric_mul(M, column.as_ref());
+        let mut norm = dot(column.col(0), M_column.col(0)).max(0.0).sqrt();
+        if norm > DEPENDENT_NORM_DROP * entry_norms[c] && norm > 0.0 {
             R[(c, c)] = norm;
         } else {
             // Dependent: continue the recursion in a fresh direction.
             column = random.block(n, 1);
-            let previous = select_columns(W.as_ref(), &(0..c).collect::<Vec<_>>());
-            let mut all_bases: Vec<MatRef<'_, f64>> = bases.to_vec();
-            all_bases.push(previous.as_ref());
-            project_out(&mut column, &all_bases, M, par);
-            let fresh_norm = m_norm(&column, M);
-            if !(fresh_norm > 1e-8) {
+            for _ in 0..2 {
+                for basis in bases.iter().chain([&previous]) {
+                    if basis.vectors.ncols() > 0 {
+                        project(&mut column, *basis);
+                    }
+                }
+            }
+            M_column = symmetric_mul(M, column.as_ref());
+            norm = dot(column.col(0), M_column.col(0)).max(0.0).sqrt();
+            if !(norm > 1e-8 * column.col(0).norm_l2()) {
                 return Err(StageError::new(format!(
                     "Lanczos: the Krylov space is exhausted ({n} DOFs): no new direction is M-orthogonal to the basis"
                 )));
             }
             R[(c, c)] = 0.0;
-            for i in 0..n {
-                column[(i, 0)] /= fresh_norm;
-            }
-            for i in 0..n {
-                W[(i, c)] = column[(i, 0)];
-            }
-            continue;
         }
         for i in 0..n {
             W[(i, c)] = column[(i, 0)] / norm;
+            MW[(i, c)] = M_column[(i, 0)] / norm;
         }
     }
-    Ok(R)
+    Ok((MW, R))
 }
 
-fn m_norm(column: &Mat<f64>, M: &CscMatrix) -> f64 {
-    let M_column = symmetric_mul(M, column.as_ref());
-    dot(column.col(0), M_column.col(0)).max(0.0).sqrt()
+/// What [`orthonormalize_block`] gives besides the orthonormal block `W_out`:
+/// `W_in = others · (…) + basis · coefficients + W_out R`.
+struct Orthonormalized {
+    M_vectors: Mat<f64>,
+    coefficients: Mat<f64>,
+    R: Mat<f64>,
 }
 
-/// Makes `W` `M`-orthonormal and `M`-orthogonal to `bases`; returns the coefficients on the
-/// bases and `R` with `W_in = Σ Q H + W_out R`.
+/// Makes `W` `M`-orthonormal and `M`-orthogonal to `others` and `basis`.
 fn orthonormalize_block(
     W: &mut Mat<f64>,
-    bases: &[MatRef<'_, f64>],
+    others: &[Orthonormal<'_>],
+    basis: Orthonormal<'_>,
+    local_start: usize,
     M: &CscMatrix,
     random: &mut SplitMix64,
     par: Par,
-) -> Result<(Vec<Mat<f64>>, Mat<f64>), StageError> {
-    let (coefficients, entry_norms) = project_out(W, bases, M, par);
-    let saved = W.clone();
-    if let Some(R) = cholesky_qr2(W, M, &entry_norms, par) {
-        return Ok((coefficients, R));
+) -> Result<Orthonormalized, StageError> {
+    let entry_norms = column_norms(W);
+    let coefficients = reorthogonalize(W, others, basis, local_start);
+    let remaining = column_norms(W);
+    let independent = remaining
+        .iter()
+        .zip(&entry_norms)
+        .all(|(after, before)| *after > DEPENDENT_NORM_DROP * before);
+    if independent {
+        let saved = W.clone();
+        let mut MW = symmetric_mul(M, W.as_ref());
+        if let Some(R) = cholesky_qr2(W, &mut MW, par) {
+            return Ok(Orthonormalized {
+                M_vectors: MW,
+                coefficients,
+                R,
+            });
+        }
+        *W = saved;
     }
-    *W = saved;
-    let R = orthonormalize_columnwise(W, bases, M, &entry_norms, random, par)?;
-    Ok((coefficients, R))
+    let mut all: Vec<Orthonormal<'_>> = others.to_vec();
+    all.push(basis);
+    let M_entry = symmetric_mul(M, W.as_ref());
+    let entry_M_norms: Vec<f64> = (0..W.ncols())
+        .map(|j| {
+            dot(W.col(j), M_entry.col(j))
+                .max(0.0)
+                .sqrt()
+                .max(f64::MIN_POSITIVE)
+        })
+        .zip(&entry_norms)
+        .zip(&remaining)
+        // Scale the reference so the dependence test compares against the norm on entry.
+        .map(|((m_norm, entry), after)| m_norm * entry / after.max(f64::MIN_POSITIVE))
+        .collect();
+    let (MW, R) = orthonormalize_columnwise(W, &all, M, &entry_M_norms, random)?;
+    Ok(Orthonormalized {
+        M_vectors: MW,
+        coefficients,
+        R,
+    })
 }
 
 /// Copies `block` into the columns `first..first + block.ncols()` of `target`.
@@ -295,8 +374,21 @@ fn dot(x: faer::ColRef<'_, f64>, y: faer::ColRef<'_, f64>) -> f64 {
     x.iter().zip(y.iter()).map(|(a, b)| a * b).sum()
 }
 
+/// Appends `extra` columns to `target`.
+fn append_columns(target: &mut Mat<f64>, extra: MatRef<'_, f64>) {
+    let mut grown = Mat::<f64>::zeros(target.nrows(), target.ncols() + extra.ncols());
+    set_columns(grown.as_mut(), 0, target.as_ref());
+    set_columns(grown.as_mut(), target.ncols(), extra);
+    *target = grown;
+}
+
 /// Runs the recursion until `done` accepts the converged eigenvalues θ (descending, including
 /// those locked in this run), keeping every vector `M`-orthogonal to `locked`.
+///
+/// When the basis is full it restarts thickly: converged Ritz vectors are locked, the best
+/// unconverged ones `X` are kept as the start of the new basis together with the next block
+/// `V_{m+1}`, and the projection becomes the arrowhead `[[Θ, Sᵀ], [S, ·]]` with
+/// `S = R_m Y_last` (from `Op X = X Θ + V_{m+1} S`), so no Krylov information on them is lost.
 pub fn block_lanczos(
     op: &ShiftInvert<'_>,
     locked: MatRef<'_, f64>,
@@ -307,139 +399,168 @@ pub fn block_lanczos(
     let par = op.par;
     let n = M.n_rows;
     let b = options.block_size;
-    let max_basis = options.max_basis.max(2 * b) / b * b;
+    let max_basis = options.max_basis.max(4 * b);
     let mut random = SplitMix64::new(options.seed);
+    let mut orthogonalize_seconds = 0.0;
+    let mut ritz_seconds = 0.0;
+    let M_locked = symmetric_mul(M, locked);
+    let locked = Orthonormal {
+        vectors: locked,
+        M_vectors: M_locked.as_ref(),
+    };
 
     // Vectors locked in this run (converged before a restart), with their θ.
     let mut found_theta: Vec<f64> = Vec::new();
     let mut found = Mat::<f64>::zeros(n, 0);
+    let mut M_found = Mat::<f64>::zeros(n, 0);
 
     let mut V = Mat::<f64>::zeros(n, max_basis);
+    let mut MV = Mat::<f64>::zeros(n, max_basis);
     let mut T = Mat::<f64>::zeros(max_basis, max_basis);
     // A start block in the range of Op: smooth, with no components Op cannot produce.
     let mut start = op.apply(random.block(n, b).as_ref());
-    orthonormalize_block(&mut start, &[locked, found.as_ref()], M, &mut random, par)?;
+    let empty = Mat::<f64>::zeros(n, 0);
+    let no_basis = Orthonormal {
+        vectors: empty.as_ref(),
+        M_vectors: empty.as_ref(),
+    };
+    let start_products =
+        orthonormalize_block(&mut start, &[locked], no_basis, 0, M, &mut random, par)?;
     set_columns(V.as_mut(), 0, start.as_ref());
+    set_columns(MV.as_mut(), 0, start_products.M_vectors.as_ref());
     let mut basis_size = b;
     let mut largest_basis = b;
     let mut restarts = 0;
     let mut blocks_since_check = 0usize;
+    let check_every = (max_basis / (4 * b)).max(1);
 
     loop {
-        let current = V.as_ref().subcols(basis_size - b, b).to_owned();
-        let mut W = op.apply(current.as_ref());
-        let (coefficients, R) = orthonormalize_block(
-            &mut W,
-            &[locked, found.as_ref(), V.as_ref().subcols(0, basis_size)],
-            M,
-            &mut random,
-            par,
-        )?;
+        let block_start = basis_size - b;
+        let mut W = op.apply_to_product(MV.as_ref().subcols(block_start, b));
+        let started = Instant::now();
+        let Orthonormalized {
+            M_vectors: MW,
+            coefficients,
+            R,
+        } = {
+            let found_basis = Orthonormal {
+                vectors: found.as_ref(),
+                M_vectors: M_found.as_ref(),
+            };
+            let basis = Orthonormal {
+                vectors: V.as_ref().subcols(0, basis_size),
+                M_vectors: MV.as_ref().subcols(0, basis_size),
+            };
+            orthonormalize_block(
+                &mut W,
+                &[locked, found_basis],
+                basis,
+                basis_size.saturating_sub(2 * b),
+                M,
+                &mut random,
+                par,
+            )?
+        };
+        orthogonalize_seconds += started.elapsed().as_secs_f64();
         T.as_mut()
-            .submatrix_mut(0, basis_size - b, basis_size, b)
-            .copy_from(&coefficients[2]);
+            .submatrix_mut(0, block_start, basis_size, b)
+            .copy_from(&coefficients);
         blocks_since_check += 1;
 
         let basis_full = basis_size + b > max_basis;
-        let check_every = (max_basis / (4 * b)).max(1);
         if basis_full || blocks_since_check >= check_every {
             blocks_since_check = 0;
+            let started = Instant::now();
             let T_m = symmetrised(T.as_ref().submatrix(0, 0, basis_size, basis_size));
             let (theta_ascending, Y_ascending) = symmetric_eigen(T_m.as_ref(), par)?;
             // Descending θ: nearest above σ first.
             let order: Vec<usize> = (0..basis_size).rev().collect();
             let theta: Vec<f64> = order.iter().map(|&i| theta_ascending[i]).collect();
             let Y = select_columns(Y_ascending.as_ref(), &order);
-            let Y_last = Y.as_ref().subrows(basis_size - b, b);
-            let mut RY = Mat::<f64>::zeros(b, basis_size);
-            matmul(RY.as_mut(), Accum::Replace, R.as_ref(), Y_last, 1.0, par);
+            // Op V_m Y = V_m Y Θ + V_{m+1} (R Y_last): the residual of each Ritz pair.
+            let S = &R * Y.as_ref().subrows(block_start, b);
+            // Lanczos cannot resolve a Ritz value better than roundoff in the largest one.
+            let floor = 64.0 * f64::EPSILON * theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
             let converged_prefix = (0..basis_size)
-                .take_while(|&i| {
-                    let estimate = RY.col(i).norm_l2();
-                    estimate <= options.tolerance * theta[i].abs()
-                })
+                .take_while(|&i| S.col(i).norm_l2() <= options.tolerance * theta[i].abs() + floor)
                 .count();
             let mut all_theta: Vec<f64> = found_theta.clone();
             all_theta.extend_from_slice(&theta[..converged_prefix]);
             all_theta.sort_by(|a, b| b.total_cmp(a));
-            if done(&all_theta) || (basis_full && converged_prefix == basis_size) {
-                let columns: Vec<usize> = (0..converged_prefix).collect();
-                let mut vectors = Mat::<f64>::zeros(n, converged_prefix);
-                matmul(
-                    vectors.as_mut(),
-                    Accum::Replace,
-                    V.as_ref().subcols(0, basis_size),
-                    select_columns(Y.as_ref(), &columns).as_ref(),
-                    1.0,
-                    par,
+            let finished = done(&all_theta) || (basis_full && converged_prefix == basis_size);
+            if !(finished || basis_full) {
+                ritz_seconds += started.elapsed().as_secs_f64();
+            } else {
+                // Ritz vectors of the converged prefix, and on a restart those kept.
+                let n_keep = if finished {
+                    0
+                } else {
+                    (basis_size - converged_prefix)
+                        .min(max_basis / 2)
+                        .min(max_basis - 2 * b)
+                };
+                let columns: Vec<usize> = (0..converged_prefix + n_keep).collect();
+                let Y_kept = select_columns(Y.as_ref(), &columns);
+                let ritz_vectors = times(V.as_ref().subcols(0, basis_size), Y_kept.as_ref());
+                let M_ritz_vectors = times(MV.as_ref().subcols(0, basis_size), Y_kept.as_ref());
+                append_columns(
+                    &mut found,
+                    ritz_vectors.as_ref().subcols(0, converged_prefix),
                 );
-                let mut theta_out = found_theta.clone();
-                theta_out.extend_from_slice(&theta[..converged_prefix]);
-                let mut all_vectors = Mat::<f64>::zeros(n, found.ncols() + converged_prefix);
-                set_columns(all_vectors.as_mut(), 0, found.as_ref());
-                set_columns(all_vectors.as_mut(), found.ncols(), vectors.as_ref());
-                return Ok(RitzPairs {
-                    theta: theta_out,
-                    vectors: all_vectors,
-                    basis_size: largest_basis,
-                    restarts,
-                });
-            }
-            if basis_full {
-                // Restart: lock the converged, continue from the best unconverged.
+                append_columns(
+                    &mut M_found,
+                    M_ritz_vectors.as_ref().subcols(0, converged_prefix),
+                );
+                found_theta.extend_from_slice(&theta[..converged_prefix]);
+                ritz_seconds += started.elapsed().as_secs_f64();
+                if finished {
+                    return Ok(RitzPairs {
+                        theta: found_theta,
+                        vectors: found,
+                        M_vectors: M_found,
+                        basis_size: largest_basis,
+                        restarts,
+                        solve_seconds: op.solve_seconds(),
+                        orthogonalize_seconds,
+                        ritz_seconds,
+                    });
+                }
                 restarts += 1;
                 if restarts > options.max_restarts {
                     return Err(StageError::new(format!(
                         "Lanczos did not converge: {} Ritz pairs converged after {} restarts with a basis of {max_basis} vectors",
-                        found_theta.len() + converged_prefix,
+                        found_theta.len(),
                         options.max_restarts
                     )));
                 }
-                let n_next = b.min(basis_size - converged_prefix);
-                let mut converged_vectors = Mat::<f64>::zeros(n, converged_prefix);
-                let mut next_start = Mat::<f64>::zeros(n, n_next);
-                let basis = V.as_ref().subcols(0, basis_size);
-                let converged_columns: Vec<usize> = (0..converged_prefix).collect();
-                let next_columns: Vec<usize> =
-                    (converged_prefix..converged_prefix + n_next).collect();
-                matmul(
-                    converged_vectors.as_mut(),
-                    Accum::Replace,
-                    basis,
-                    select_columns(Y.as_ref(), &converged_columns).as_ref(),
-                    1.0,
-                    par,
+                // Thick restart: [X_keep, V_{m+1}] with the arrowhead projection.
+                set_columns(
+                    V.as_mut(),
+                    0,
+                    ritz_vectors.as_ref().subcols(converged_prefix, n_keep),
                 );
-                matmul(
-                    next_start.as_mut(),
-                    Accum::Replace,
-                    basis,
-                    select_columns(Y.as_ref(), &next_columns).as_ref(),
-                    1.0,
-                    par,
+                set_columns(
+                    MV.as_mut(),
+                    0,
+                    M_ritz_vectors.as_ref().subcols(converged_prefix, n_keep),
                 );
-                let mut grown = Mat::<f64>::zeros(n, found.ncols() + converged_prefix);
-                set_columns(grown.as_mut(), 0, found.as_ref());
-                set_columns(grown.as_mut(), found.ncols(), converged_vectors.as_ref());
-                found = grown;
-                found_theta.extend_from_slice(&theta[..converged_prefix]);
-                let mut start = Mat::<f64>::zeros(n, b);
-                set_columns(start.as_mut(), 0, next_start.as_ref());
-                if n_next < b {
-                    let fill = random.block(n, b - n_next);
-                    set_columns(start.as_mut(), n_next, fill.as_ref());
-                }
-                orthonormalize_block(&mut start, &[locked, found.as_ref()], M, &mut random, par)?;
-                V.fill(0.0);
+                set_columns(V.as_mut(), n_keep, W.as_ref());
+                set_columns(MV.as_mut(), n_keep, MW.as_ref());
                 T.fill(0.0);
-                set_columns(V.as_mut(), 0, start.as_ref());
-                basis_size = b;
+                for k in 0..n_keep {
+                    T[(k, k)] = theta[converged_prefix + k];
+                }
+                T.as_mut()
+                    .submatrix_mut(n_keep, 0, b, n_keep)
+                    .copy_from(S.as_ref().subcols(converged_prefix, n_keep));
+                basis_size = n_keep + b;
                 continue;
             }
         }
         set_columns(V.as_mut(), basis_size, W.as_ref());
+        set_columns(MV.as_mut(), basis_size, MW.as_ref());
         T.as_mut()
-            .submatrix_mut(basis_size, basis_size - b, b, b)
+            .submatrix_mut(basis_size, block_start, b, b)
             .copy_from(&R);
         basis_size += b;
         largest_basis = largest_basis.max(basis_size);

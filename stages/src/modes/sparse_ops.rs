@@ -1,7 +1,6 @@
 //! Sparse products of the symmetric model matrices with blocks of vectors, and checks of the
 //! properties the eigensolver relies on.
 
-use faer::reborrow::ReborrowMut;
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
 
@@ -9,44 +8,37 @@ use crate::model::CscMatrix;
 use crate::stage::StageError;
 
 /// Rows per parallel task in a product: large enough to amortise scheduling.
-const ROWS_PER_TASK: usize = 4096;
+const ROWS_PER_TASK: usize = 2048;
 
 /// `Y = A X` for a symmetric `A` stored with both triangles. Row `j` of `A X` is column `j` of
-/// `A` dotted with `x` (symmetry), so each output entry is one sequential sum: parallel and
-/// deterministic.
+/// `A` dotted with `X` (symmetry), so each output entry is one sequential sum: parallel and
+/// deterministic. `X` is first copied row-major so that one pass over `A` serves every column.
 pub fn symmetric_mul(A: &CscMatrix, X: MatRef<'_, f64>) -> Mat<f64> {
-    let n = A.n_rows;
-    let mut Y = Mat::<f64>::zeros(n, X.ncols());
-    Y.par_col_iter_mut().enumerate().for_each(|(k, mut y)| {
-        let x_col = X.col(k);
-        let x: Vec<f64>;
-        let x = match x_col.try_as_col_major() {
-            Some(contiguous) => contiguous.as_slice(),
-            None => {
-                x = x_col.iter().copied().collect();
-                &x
-            }
-        };
-        let y = y
-            .rb_mut()
-            .try_as_col_major_mut()
-            .expect("a column of an owned matrix is contiguous")
-            .as_slice_mut();
-        y.par_chunks_mut(ROWS_PER_TASK)
-            .enumerate()
-            .for_each(|(chunk, y_chunk)| {
-                let first_row = chunk * ROWS_PER_TASK;
-                for (offset, y_j) in y_chunk.iter_mut().enumerate() {
-                    let j = first_row + offset;
-                    let mut sum = 0.0;
-                    for entry in A.col_ptr[j]..A.col_ptr[j + 1] {
-                        sum += A.values[entry] * x[A.row_idx[entry]];
+    let (n, p) = (A.n_rows, X.ncols());
+    let mut X_rows = vec![0.0; n * p];
+    for k in 0..p {
+        for (i, value) in X.col(k).iter().enumerate() {
+            X_rows[i * p + k] = *value;
+        }
+    }
+    let mut Y_rows = vec![0.0; n * p];
+    Y_rows
+        .par_chunks_mut(ROWS_PER_TASK * p.max(1))
+        .enumerate()
+        .for_each(|(chunk, Y_chunk)| {
+            let first_row = chunk * ROWS_PER_TASK;
+            for (offset, y) in Y_chunk.chunks_exact_mut(p.max(1)).enumerate() {
+                let j = first_row + offset;
+                for entry in A.col_ptr[j]..A.col_ptr[j + 1] {
+                    let value = A.values[entry];
+                    let x = &X_rows[A.row_idx[entry] * p..][..p];
+                    for (y_k, x_k) in y.iter_mut().zip(x) {
+                        *y_k += value * x_k;
                     }
-                    *y_j = sum;
                 }
-            });
-    });
-    Y
+            }
+        });
+    Mat::from_fn(n, p, |i, k| Y_rows[i * p + k])
 }
 
 /// The diagonal of `A`.

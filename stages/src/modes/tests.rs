@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use faer::Par;
 
-use super::eigensolver::{self, Band, Eigensolution, RESIDUAL_TOLERANCE};
+use super::eigensolver::{self, Band, Eigensolution, RESIDUAL_TOLERANCE, SolveOptions};
 use super::{Modes, dense};
 use crate::artifact::Artifact;
 use crate::assemble::tests::{assemble, params_of, to_dense};
@@ -33,7 +33,13 @@ fn lowest(model: &Model, n_modes: usize) -> Eigensolution {
 }
 
 fn solve_band(model: &Model, band: Band) -> Result<Eigensolution, StageError> {
-    eigensolver::solve(&model.K, &model.M, &model.dof_of_node, band, Par::rayon(0))
+    eigensolver::solve(
+        &model.K,
+        &model.M,
+        &model.dof_of_node,
+        band,
+        SolveOptions::default(),
+    )
 }
 
 fn frequencies_hz(solution: &Eigensolution) -> Vec<f64> {
@@ -382,6 +388,32 @@ fn stage_outputs_are_reproducible_and_shaped_as_documented() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// The engine caches by content hash: one thread or several, the bytes must be the same.
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let mesh = structured::annulus(0.05, 0.12, 0.0, 0.01, [4, 40, 2], "disc");
+    let (model, _) = assemble(&mesh, "inner");
+    assert!(model.n_dofs() > 600, "exercise the Lanczos path");
+    let run_with_threads = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let (model, _) = assemble(&mesh, "inner");
+                let outputs = run_stage(&model, &[("n_modes", Value::Int(12))]).unwrap();
+                (
+                    Artifact::Model(Box::new(model)).encode(),
+                    outputs["modes"].encode(),
+                )
+            })
+    };
+    let (model_one, modes_one) = run_with_threads(1);
+    let (model_three, modes_three) = run_with_threads(3);
+    assert!(model_one == model_three, "assembled model differs");
+    assert!(modes_one == modes_three, "modes differ");
 }
 
 #[test]
