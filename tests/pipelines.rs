@@ -74,6 +74,11 @@ fn quick_study_runs_and_is_coarse() {
     assert!(workspace.path().join("out/mode_shapes/vtu.vtu").exists());
     let vtu = std::fs::read_to_string(workspace.path().join("out/equilibrium/vtu.vtu")).unwrap();
     assert!(vtu.contains("Name=\"contact_pressure\"") && vtu.contains("Name=\"displacement\""));
+    let png = std::fs::read(workspace.path().join("out/equilibrium/pressure.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let svg =
+        std::fs::read_to_string(workspace.path().join("out/equilibrium/pressure.svg")).unwrap();
+    assert!(svg.contains("upper pad face"));
 }
 
 #[test]

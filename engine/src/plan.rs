@@ -140,6 +140,21 @@ impl Context<'_> {
         };
         match self.cache.get_action(&key) {
             Ok(Some(action)) => {
+                // An entry from an implementation that declared other outputs (a forgotten
+                // version bump) is stale, not a result.
+                let declared: Vec<&str> = stage.outputs().iter().map(|port| port.name).collect();
+                if !action.outputs.keys().map(String::as_str).eq(declared
+                    .iter()
+                    .copied()
+                    .collect::<std::collections::BTreeSet<_>>(
+                )) {
+                    return Decision::Runs {
+                        key: Some(key),
+                        reasons: vec![
+                            "cached outputs differ from the stage's declared outputs".into(),
+                        ],
+                    };
+                }
                 for digest in action.outputs.values() {
                     if let Err(err) = self.cache.verify_object(digest) {
                         let _ = self.cache.remove_action(&key);

@@ -19,6 +19,8 @@
 //! translation. The load the pads then carry is the sum of the support reactions at their
 //! backs, which [`back_reactions`] recovers from the element stiffnesses as a balance check.
 
+mod figure;
+
 use faer::{Mat, Par};
 use serde::{Deserialize, Serialize};
 
@@ -247,7 +249,7 @@ impl Stage for SlidingEquilibrium {
         "equilibrium"
     }
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn doc(&self) -> &'static str {
         "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu"
@@ -326,6 +328,11 @@ impl Stage for SlidingEquilibrium {
                 ArtifactType::Document,
                 "displacement, contact pressure and gap for ParaView",
             ),
+            PortSpec::one(
+                "pressure",
+                ArtifactType::Figure,
+                "contact pressure over the pad faces",
+            ),
         ]
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
@@ -351,6 +358,13 @@ impl Stage for SlidingEquilibrium {
         )?;
         let contact = contact_table(model, &equilibrium);
         let summary = summary_table(&equilibrium, &report, &model.mesh);
+        let pressure: Vec<f64> = equilibrium
+            .r_n
+            .iter()
+            .zip(&model.mesh.contact_pairs)
+            .map(|(r, pair)| r / pair.area)
+            .collect();
+        let pressure = figure::pressure_figure(&model.mesh, &pressure)?;
         let vtu = crate::export::document(
             "vtu",
             crate::export::vtu::equilibrium_vtu(model, &equilibrium)?,
@@ -363,6 +377,7 @@ impl Stage for SlidingEquilibrium {
             ("contact".to_string(), Artifact::Table(contact)),
             ("summary".to_string(), Artifact::Table(summary)),
             ("vtu".to_string(), vtu),
+            ("pressure".to_string(), Artifact::Figure(pressure)),
         ]))
     }
 }
