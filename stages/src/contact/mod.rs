@@ -12,7 +12,7 @@
 
 pub mod lcp;
 
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, cross, dot};
 use crate::model::Model;
 
 /// The local frame and sliding speed of every contact pair.
@@ -23,18 +23,6 @@ pub struct ContactFrames {
     pub b: Vec<[f64; 3]>,
     /// |v_g| (m/s) at each pair.
     pub sliding_speed: Vec<f64>,
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Frames for a disc spinning at `omega` (rad/s) about the z axis through the origin.
@@ -103,16 +91,7 @@ mod tests {
 
     #[test]
     fn frames_follow_the_rotation_and_are_orthonormal() {
-        let geometry = BrakeGeometry {
-            n_radial: 4,
-            n_theta: 48,
-            n_thick: 2,
-            pucks_radial: 1,
-            pucks_angular: 2,
-            puck_cells: 2,
-            puck_layers: 2,
-            ..BrakeGeometry::default()
-        };
+        let geometry = BrakeGeometry::coarse();
         let mesh = brake(&geometry).unwrap();
         let omega = 4.0;
         let frames = super::frames(&mesh, omega).unwrap();

@@ -495,17 +495,7 @@ mod tests {
     use crate::stage::Value;
 
     fn coarse_brake() -> Mesh {
-        brake(&BrakeGeometry {
-            n_radial: 4,
-            n_theta: 48,
-            n_thick: 2,
-            pucks_radial: 1,
-            pucks_angular: 2,
-            puck_cells: 2,
-            puck_layers: 2,
-            ..BrakeGeometry::default()
-        })
-        .unwrap()
+        brake(&BrakeGeometry::coarse()).unwrap()
     }
 
     /// `assemble` with default materials (optionally overridden) and `clamped`.

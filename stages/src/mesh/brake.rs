@@ -61,6 +61,20 @@ impl Default for BrakeGeometry {
 }
 
 impl BrakeGeometry {
+    /// The coarse brake of the quick study and the tests: 2,484 DOFs.
+    pub fn coarse() -> Self {
+        BrakeGeometry {
+            n_radial: 4,
+            n_theta: 48,
+            n_thick: 2,
+            pucks_radial: 1,
+            pucks_angular: 2,
+            puck_cells: 2,
+            puck_layers: 2,
+            ..BrakeGeometry::default()
+        }
+    }
+
     fn check(&self) -> Result<(), String> {
         if !(self.r_inner > 0.0 && self.r_outer > self.r_inner) {
             return Err(format!(
@@ -370,19 +384,8 @@ impl Stage for MeshBrake {
 mod tests {
     use super::*;
 
-    /// The coarse brake the tests use: well under 3,000 DOFs.
-    pub fn coarse() -> BrakeGeometry {
-        BrakeGeometry {
-            n_radial: 4,
-            n_theta: 48,
-            n_thick: 2,
-            pucks_radial: 1,
-            pucks_angular: 2,
-            puck_cells: 2,
-            puck_gap_cells: 1,
-            puck_layers: 2,
-            ..BrakeGeometry::default()
-        }
+    fn coarse() -> BrakeGeometry {
+        BrakeGeometry::coarse()
     }
 
     #[test]

@@ -45,7 +45,7 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 
-use super::{ContactPair, Mesh};
+use super::{ContactPair, Mesh, cross, dot, norm, sub};
 use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{
     Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError, Value,
@@ -955,26 +955,6 @@ fn corner_jacobian(coords: &[[f64; 3]; 8], corner: usize) -> f64 {
         }
     }
     dot(jacobian[0], cross(jacobian[1], jacobian[2]))
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 /// The six faces of a hexahedron, by local node.
