@@ -101,6 +101,18 @@ impl ParamSpec {
         }
     }
 
+    /// A string; chain [`ParamSpec::required`] for one without a default.
+    pub fn string(name: &'static str, default: &str, doc: &'static str) -> Self {
+        let default = Some(Value::Str(default.to_string()));
+        ParamSpec {
+            name,
+            ty: ParamType::Str,
+            default,
+            unit: "",
+            doc,
+        }
+    }
+
     /// A required file path (see [`ParamType::Path`]).
     pub fn path(name: &'static str, doc: &'static str) -> Self {
         ParamSpec {

@@ -184,13 +184,11 @@ impl Stage for Fail {
         "Test failure: always fails with `message`"
     }
     fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec {
-            name: "message",
-            ty: crate::ParamType::Str,
-            default: Some(crate::Value::Str("failed on purpose".into())),
-            unit: "",
-            doc: "the error message",
-        }]
+        vec![ParamSpec::string(
+            "message",
+            "failed on purpose",
+            "the error message",
+        )]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         input_port()

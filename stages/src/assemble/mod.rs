@@ -27,9 +27,7 @@ use rayon::prelude::*;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::mesh::Mesh;
 use crate::model::Model;
-use crate::stage::{
-    Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError, Value,
-};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 use hex8::{Degenerate, ElementMatrices};
@@ -60,13 +58,7 @@ impl Stage for Assemble {
             "pad",
             [3e8, 0.3, 5102.0, 54.375, 72.5e-8],
         ));
-        params.push(ParamSpec {
-            name: "clamped",
-            ty: ParamType::Str,
-            default: Some(Value::Str("hub,pad_backs".into())),
-            unit: "",
-            doc: "comma-separated node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body",
-        });
+        params.push(ParamSpec::string("clamped", "hub,pad_backs", "comma-separated node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body"));
         params
     }
 

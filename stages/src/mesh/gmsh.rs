@@ -47,9 +47,7 @@ use std::fmt;
 
 use super::{ContactPair, Mesh, cross, dot, norm, sub};
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{
-    Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError, Value,
-};
+use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
 
 /// Gmsh element type of the 8-node hexahedron.
 const GMSH_HEXAHEDRON: u32 = 5;
@@ -124,12 +122,12 @@ impl Stage for GmshImport {
                 unit: "",
                 doc: "the .msh file (relative to the study's folder)",
             },
-            string_param(
+            ParamSpec::string(
                 "contact_disc",
                 "contact_disc",
                 "physical surface of the disc side of the contact interface (\"\" = no contact)",
             ),
-            string_param(
+            ParamSpec::string(
                 "contact_pad",
                 "contact_pad",
                 "physical surface of the pad side of the contact interface (\"\" = no contact)",
@@ -185,16 +183,6 @@ impl Stage for GmshImport {
             "mesh".to_string(),
             Artifact::Mesh(Box::new(mesh)),
         )]))
-    }
-}
-
-fn string_param(name: &'static str, default: &str, doc: &'static str) -> ParamSpec {
-    ParamSpec {
-        name,
-        ty: ParamType::Str,
-        default: Some(Value::Str(default.to_string())),
-        unit: "",
-        doc,
     }
 }
 
@@ -1309,6 +1297,7 @@ impl PointGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stage::Value;
 
     fn data(name: &str) -> String {
         let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));

@@ -28,7 +28,7 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 use super::TIME_COLUMN;
 use crate::artifact::ArtifactType;
-use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::{Table, single_output};
 
 const FORMATS: &[&str] = &["auto", "csv", "parquet"];
@@ -52,20 +52,16 @@ impl Stage for Read {
                 "path",
                 "the CSV or Parquet file (relative to the study's folder)",
             ),
-            ParamSpec {
-                name: "time_column",
-                ty: ParamType::Str,
-                default: Some(crate::Value::Str(TIME_COLUMN.into())),
-                unit: "",
-                doc: "the time column (s, strictly increasing); named `t` in the output",
-            },
-            ParamSpec {
-                name: "columns",
-                ty: ParamType::Str,
-                default: Some(crate::Value::Str(String::new())),
-                unit: "",
-                doc: "signal columns to keep, comma-separated (empty: every other column)",
-            },
+            ParamSpec::string(
+                "time_column",
+                TIME_COLUMN,
+                "the time column (s, strictly increasing); named `t` in the output",
+            ),
+            ParamSpec::string(
+                "columns",
+                "",
+                "signal columns to keep, comma-separated (empty: every other column)",
+            ),
             ParamSpec::choice(
                 "format",
                 FORMATS,

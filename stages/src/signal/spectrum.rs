@@ -36,7 +36,7 @@ use realfft::RealFftPlanner;
 use super::figure::{self, DrawResult, Drawing, drawing_error};
 use super::uniform_series;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 const WINDOWS: &[&str] = &["hann", "rect", "hamming", "blackman"];
@@ -192,13 +192,7 @@ impl Stage for Spectrum {
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
-            ParamSpec {
-                name: "column",
-                ty: ParamType::Str,
-                default: None,
-                unit: "",
-                doc: "the signal column to analyse",
-            },
+            ParamSpec::string("column", "", "the signal column to analyse").required(),
             ParamSpec::float(
                 "window_s",
                 0.0,

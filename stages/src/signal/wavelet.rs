@@ -67,7 +67,7 @@ use rustfft::{Fft, FftPlanner};
 use super::figure::{self, DrawResult, Drawing, drawing_error};
 use super::{UniformSeries, log_spaced, uniform_series};
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 /// Where the Gaussian factors are cut: `e^{−CUTOFF²/2}` ≈ 2.6e−18 of their peak, below the
@@ -528,13 +528,7 @@ impl Stage for Wavelet {
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
-            ParamSpec {
-                name: "column",
-                ty: ParamType::Str,
-                default: None,
-                unit: "",
-                doc: "the signal column to transform",
-            },
+            ParamSpec::string("column", "", "the signal column to transform").required(),
             ParamSpec::float("k0", 6.0, "", "Morlet central wavenumber k₀ (rad)").at_least(0.0),
             ParamSpec::float("f_min_hz", 0.0, "Hz", "lowest frequency of the grid")
                 .at_least(0.0)
