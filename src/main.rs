@@ -413,10 +413,11 @@ fn print_stages(registry: &Registry) {
             println!("  output {:<20} {}: {}", port.name, port.ty, port.doc);
         }
         for param in stage.params() {
-            let default = param
-                .default
-                .as_ref()
-                .map_or("required".to_string(), |value| format!("default {value}"));
+            let default = match &param.default {
+                None => "required".to_string(),
+                Some(squeal_stages::Value::Str(text)) if text.is_empty() => "default \"\"".into(),
+                Some(value) => format!("default {value}"),
+            };
             let unit = if param.unit.is_empty() {
                 String::new()
             } else {
