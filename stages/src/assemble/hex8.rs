@@ -439,6 +439,11 @@ pub fn gauss_point_strains(
     }))
 }
 
+/// `det J` of the trilinear map at reference point `xi`.
+pub fn det_j_at(coords: &[[f64; 3]; 8], xi: [f64; 3]) -> f64 {
+    determinant(&jacobian(coords, &shape_gradients(xi)))
+}
+
 /// The smallest `det J` over the corners and Gauss points, with where it occurs.
 pub fn min_det_j(coords: &[[f64; 3]; 8]) -> (f64, Location) {
     let corners = NODE_REFERENCE
@@ -452,12 +457,7 @@ pub fn min_det_j(coords: &[[f64; 3]; 8]) -> (f64, Location) {
         .map(|(point, xi)| (xi, Location::GaussPoint(point)));
     corners
         .chain(gauss)
-        .map(|(xi, location)| {
-            (
-                determinant(&jacobian(coords, &shape_gradients(*xi))),
-                location,
-            )
-        })
+        .map(|(xi, location)| (det_j_at(coords, *xi), location))
         .fold((f64::INFINITY, Location::Centre), |best, candidate| {
             if candidate.0 < best.0 {
                 candidate

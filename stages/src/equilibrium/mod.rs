@@ -436,16 +436,18 @@ pub fn contact_table(model: &Model, equilibrium: &Equilibrium) -> Table {
         )
 }
 
+/// Total normal reaction on the upper (normal +z) or lower pad faces.
+pub fn side_force(mesh: &crate::mesh::Mesh, r_n: &[f64], upper: bool) -> f64 {
+    mesh.contact_pairs
+        .iter()
+        .zip(r_n)
+        .filter(|(pair, _)| (pair.normal[2] >= 0.0) == upper)
+        .map(|(_, r)| r)
+        .sum()
+}
+
 /// The figures that say whether the solve is to be trusted, and the resultant forces.
 fn summary_table(equilibrium: &Equilibrium, report: &Report, mesh: &crate::mesh::Mesh) -> Table {
-    let side_total = |upper: bool| {
-        mesh.contact_pairs
-            .iter()
-            .zip(&equilibrium.r_n)
-            .filter(|(pair, _)| (pair.normal[2] >= 0.0) == upper)
-            .map(|(_, r)| r)
-            .sum::<f64>()
-    };
     let total: f64 = equilibrium.r_n.iter().sum();
     let quantities = [
         ("iterations", report.lcp.iterations as f64),
@@ -456,8 +458,14 @@ fn summary_table(equilibrium: &Equilibrium, report: &Report, mesh: &crate::mesh:
             equilibrium.closed.iter().filter(|closed| **closed).count() as f64,
         ),
         ("pairs", equilibrium.closed.len() as f64),
-        ("normal_force_upper_N", side_total(true)),
-        ("normal_force_lower_N", side_total(false)),
+        (
+            "normal_force_upper_N",
+            side_force(mesh, &equilibrium.r_n, true),
+        ),
+        (
+            "normal_force_lower_N",
+            side_force(mesh, &equilibrium.r_n, false),
+        ),
         ("normal_force_total_N", total),
         ("friction_force_total_N", equilibrium.mu * total),
     ];
@@ -544,14 +552,7 @@ mod tests {
             &settings(),
         )
         .unwrap();
-        let side = |upper: bool| -> f64 {
-            mesh.contact_pairs
-                .iter()
-                .zip(&equilibrium.r_n)
-                .filter(|(pair, _)| (pair.normal[2] > 0.0) == upper)
-                .map(|(_, r)| r)
-                .sum()
-        };
+        let side = |upper: bool| side_force(&mesh, &equilibrium.r_n, upper);
         let upper_back =
             back_reactions(&model, &params, &equilibrium.u, "pad_backs_upper").unwrap();
         let lower_back =
@@ -610,14 +611,7 @@ mod tests {
             &settings(),
         )
         .unwrap();
-        let side = |upper: bool| -> f64 {
-            mesh.contact_pairs
-                .iter()
-                .zip(&equilibrium.r_n)
-                .filter(|(pair, _)| (pair.normal[2] > 0.0) == upper)
-                .map(|(_, r)| r)
-                .sum()
-        };
+        let side = |upper: bool| side_force(&mesh, &equilibrium.r_n, upper);
         let (upper, lower) = (side(true), side(false));
         assert!(upper > 0.0);
         assert!(

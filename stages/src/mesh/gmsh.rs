@@ -47,6 +47,7 @@ use std::fmt;
 
 use super::{ContactPair, Mesh, cross, dot, norm, sub};
 use crate::artifact::{Artifact, ArtifactType};
+use crate::assemble::hex8::{NODE_REFERENCE, det_j_at};
 use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
 
 /// Gmsh element type of the 8-node hexahedron.
@@ -869,7 +870,9 @@ fn build_mesh(nodes: &Nodes, elements: Elements, options: &ReadOptions) -> Resul
     for record in &elements.hexes {
         let hex = record.nodes.map(|tag| index_of_tag[&tag]);
         let corners = hex.map(|node| mesh_nodes[node as usize]);
-        if let Some(corner) = (0..8).find(|&corner| corner_jacobian(&corners, corner) <= 0.0) {
+        if let Some(corner) =
+            (0..8).find(|&corner| det_j_at(&corners, NODE_REFERENCE[corner]) <= 0.0)
+        {
             return Err(MshError::at(
                 record.line,
                 format!(
@@ -911,38 +914,6 @@ fn build_mesh(nodes: &Nodes, elements: Elements, options: &ReadOptions) -> Resul
         mesh.contact_pairs = pair_contact_nodes(&mesh, &elements, &index_of_tag, contact)?;
     }
     Ok(mesh)
-}
-
-/// Reference coordinates of the hexahedron's nodes.
-const HEX_CORNERS: [[f64; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
-
-/// det J of the trilinear map at one corner of the reference cube.
-fn corner_jacobian(coords: &[[f64; 3]; 8], corner: usize) -> f64 {
-    let at = HEX_CORNERS[corner];
-    let mut jacobian = [[0.0; 3]; 3]; // jacobian[axis][ref] = ∂x_axis/∂ξ_ref
-    for (node, reference) in HEX_CORNERS.iter().enumerate() {
-        let factor = |dir: usize| 1.0 + reference[dir] * at[dir];
-        let gradient = [
-            reference[0] * factor(1) * factor(2) / 8.0,
-            reference[1] * factor(0) * factor(2) / 8.0,
-            reference[2] * factor(0) * factor(1) / 8.0,
-        ];
-        for axis in 0..3 {
-            for dir in 0..3 {
-                jacobian[axis][dir] += coords[node][axis] * gradient[dir];
-            }
-        }
-    }
-    dot(jacobian[0], cross(jacobian[1], jacobian[2]))
 }
 
 /// The six faces of a hexahedron, by local node.
