@@ -20,6 +20,7 @@ pub mod mesh;
 pub mod model;
 pub mod modes;
 pub mod signal;
+pub mod stability;
 pub mod stage;
 pub mod table;
 pub mod testing;
@@ -41,6 +42,9 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(assemble::Assemble),
         Arc::new(modes::Modes),
         Arc::new(equilibrium::SlidingEquilibrium),
+        Arc::new(stability::Stability),
+        Arc::new(stability::track::Track),
+        Arc::new(stability::lumped::StabilityMatrices),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),

@@ -57,3 +57,59 @@ pub struct RealModes {
     /// ‖K φ − ω² M φ‖ / ‖K φ‖ per mode.
     pub residuals: Vec<f64>,
 }
+
+impl CscMatrix {
+    /// The `n_rows × n_cols` matrix with the sum of the values of each (row, col) of
+    /// `triplets` (duplicates add up, as in assembly); rows sorted within columns.
+    pub fn from_triplets(
+        n_rows: usize,
+        n_cols: usize,
+        mut triplets: Vec<(usize, usize, f64)>,
+    ) -> CscMatrix {
+        triplets.sort_unstable_by_key(|&(row, col, _)| (col, row));
+        let mut col_ptr = vec![0usize; n_cols + 1];
+        let mut row_idx = Vec::with_capacity(triplets.len());
+        let mut values: Vec<f64> = Vec::with_capacity(triplets.len());
+        let mut last = None;
+        for (row, col, value) in triplets {
+            if last == Some((row, col)) {
+                *values.last_mut().expect("an entry was pushed") += value;
+                continue;
+            }
+            last = Some((row, col));
+            row_idx.push(row);
+            values.push(value);
+            col_ptr[col + 1] += 1;
+        }
+        for col in 0..n_cols {
+            col_ptr[col + 1] += col_ptr[col];
+        }
+        CscMatrix {
+            n_rows,
+            n_cols,
+            col_ptr,
+            row_idx,
+            values,
+        }
+    }
+
+    /// `‖A‖₁`, the largest absolute column sum.
+    pub fn norm_1(&self) -> f64 {
+        (0..self.n_cols)
+            .map(|col| {
+                self.values[self.col_ptr[col]..self.col_ptr[col + 1]]
+                    .iter()
+                    .map(|value| value.abs())
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// The entries as (row, col, value).
+    pub fn triplets(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+        (0..self.n_cols).flat_map(move |col| {
+            (self.col_ptr[col]..self.col_ptr[col + 1])
+                .map(move |entry| (self.row_idx[entry], col, self.values[entry]))
+        })
+    }
+}

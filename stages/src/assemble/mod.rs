@@ -293,3 +293,30 @@ fn summary_table(
         .with("volume_m3", volume)
         .with("mass_kg", masses)
 }
+
+/// `assemble` with default materials (some overridden) and the node sets of `clamped`
+/// (comma-separated), for tests.
+#[cfg(test)]
+pub(crate) fn test_model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> (Model, Params) {
+    use crate::stage::Value;
+    let mut values: std::collections::BTreeMap<String, Value> = Assemble
+        .params()
+        .into_iter()
+        .map(|spec| {
+            (
+                spec.name.to_string(),
+                spec.default.expect("assemble has defaults"),
+            )
+        })
+        .collect();
+    for (name, value) in overrides {
+        values.insert(name.to_string(), Value::Float(*value));
+    }
+    let clamped: Vec<String> = clamped
+        .split(',')
+        .map(|name| name.trim().to_string())
+        .filter(|name| !name.is_empty())
+        .collect();
+    let params = Params(values);
+    (assemble_model(mesh, &params, &clamped).unwrap().0, params)
+}

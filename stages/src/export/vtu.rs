@@ -210,6 +210,33 @@ pub fn modes_vtu(model: &Model, modes: &RealModes, max_modes: usize) -> Result<S
     write_grid(&model.mesh, &point_data).map_err(StageError::new)
 }
 
+/// The VTU text of complex mode shapes over the free DOFs: for each `(name, real, imaginary)`
+/// two vector fields `<name>_re` and `<name>_im` (animate `re·cos ωt − im·sin ωt` in ParaView).
+pub fn complex_modes_vtu(
+    model: &Model,
+    modes: &[(String, Vec<f64>, Vec<f64>)],
+) -> Result<String, StageError> {
+    check_dof_map(model)?;
+    let mut point_data = Vec::new();
+    for (name, real, imaginary) in modes {
+        for (suffix, part) in [("re", real), ("im", imaginary)] {
+            if part.len() != model.n_dofs() {
+                return Err(StageError::new(format!(
+                    "mode {name} has {} values, the model has {} DOFs",
+                    part.len(),
+                    model.n_dofs()
+                )));
+            }
+            point_data.push(DataArray::new(
+                format!("{name}_{suffix}"),
+                3,
+                Values::Float64(nodal_vectors(model, part)),
+            ));
+        }
+    }
+    write_grid(&model.mesh, &point_data).map_err(StageError::new)
+}
+
 /// A field over the free DOFs as one 3-vector per node, zero on clamped DOFs.
 fn nodal_vectors(model: &Model, field: &[f64]) -> Vec<f64> {
     let mut vectors = vec![0.0; 3 * model.mesh.n_nodes()];

@@ -132,17 +132,6 @@ struct Candidates {
     residuals: Vec<f64>,
 }
 
-fn norm_1(A: &CscMatrix) -> f64 {
-    (0..A.n_cols)
-        .map(|j| {
-            A.values[A.col_ptr[j]..A.col_ptr[j + 1]]
-                .iter()
-                .map(|v| v.abs())
-                .sum::<f64>()
-        })
-        .fold(0.0, f64::max)
-}
-
 fn column_norm(A: MatRef<'_, f64>, j: usize) -> f64 {
     A.col(j).iter().map(|v| v * v).sum::<f64>().sqrt()
 }
@@ -371,7 +360,7 @@ pub fn solve(
         n_dofs: n,
         ..SolveReport::default()
     };
-    let K_norm = norm_1(K);
+    let K_norm = K.norm_1();
     let scale = diagonal_eigenvalue_scale(K, M)?;
 
     let analyse_started = Instant::now();
@@ -617,7 +606,7 @@ pub fn solve(
             .position(|r| !(*r <= RESIDUAL_TOLERANCE))
             .unwrap_or(0);
         // ‖K‖₁ / ‖M‖₁ estimates λ_max, hence the roundoff floor of this mode's residual.
-        let floor = f64::EPSILON * K_norm / norm_1(M) / lambda[mode].abs().max(f64::MIN_POSITIVE);
+        let floor = f64::EPSILON * K_norm / M.norm_1() / lambda[mode].abs().max(f64::MIN_POSITIVE);
         return Err(StageError::new(format!(
             "mode {} (omega^2 = {:e}) has residual {:.2e} > {RESIDUAL_TOLERANCE:e} (worst {worst:.2e}; roundoff floor about {floor:.1e})",
             mode + 1,

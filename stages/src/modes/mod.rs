@@ -267,6 +267,22 @@ pub fn shape_column_name(mode: usize) -> String {
 
 /// One row per node and direction (clamped DOFs included, with zeros), one column per mode.
 fn shapes_table(model: &Model, shapes: &Mat<f64>) -> Table {
+    nodal_table(
+        model,
+        (0..shapes.ncols())
+            .map(|mode| {
+                (
+                    shape_column_name(mode),
+                    shapes.col(mode).iter().copied().collect(),
+                )
+            })
+            .collect(),
+    )
+}
+
+/// A wide table of fields over the free DOFs: columns `node`, `dir`, `dof` (−1 where clamped),
+/// then one f64 column per field; one row per node and direction, zeros on clamped DOFs.
+pub fn nodal_table(model: &Model, fields: Vec<(String, Vec<f64>)>) -> Table {
     let mut nodes = Vec::new();
     let mut directions = Vec::new();
     let mut dofs: Vec<Option<usize>> = Vec::new();
@@ -282,10 +298,7 @@ fn shapes_table(model: &Model, shapes: &Mat<f64>) -> Table {
             for (direction, dof) in node_dofs.iter().enumerate() {
                 nodes.push(node as i64);
                 directions.push(["x", "y", "z"][direction].to_string());
-                dofs.push(
-                    dof.map(|dof| dof as usize)
-                        .filter(|&dof| dof < shapes.nrows()),
-                );
+                dofs.push(dof.map(|dof| dof as usize));
             }
         }
     }
@@ -298,12 +311,12 @@ fn shapes_table(model: &Model, shapes: &Mat<f64>) -> Table {
                 .map(|dof| dof.map_or(-1, |dof| dof as i64))
                 .collect::<Vec<i64>>(),
         );
-    for mode in 0..shapes.ncols() {
+    for (name, field) in fields {
         let values: Vec<f64> = dofs
             .iter()
-            .map(|dof| dof.map_or(0.0, |dof| shapes[(dof, mode)]))
+            .map(|dof| dof.and_then(|dof| field.get(dof)).copied().unwrap_or(0.0))
             .collect();
-        table = table.with(shape_column_name(mode), values);
+        table = table.with(name, values);
     }
     table
 }

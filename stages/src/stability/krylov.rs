@@ -1,0 +1,488 @@
+//! Every eigenvalue of the sliding problem in a frequency band: shift-invert block Arnoldi at
+//! shifts placed along the imaginary axis until their trusted disks cover the band.
+//!
+//! # One shift
+//!
+//! The quadratic problem is linearised on `y = [q; λ q / s]` (first companion form, with
+//! `s = √(‖K̃‖/‖M̃‖)` so that both halves of y have the same scale),
+//!
+//! ```text
+//! [ 0   s I ] y = λ [ I  0  ] y          Op = (𝒜 − σ ℬ)⁻¹ ℬ,   θ = 1 / (λ − σ)
+//! [ −K̃ −s C̃ ]       [ 0  s M̃ ]
+//! Op [x₁; x₂] = [z₁; (x₁ + σ z₁)/s],   z₁ = −Q̃(σ)⁻¹ (M̃ (s x₂ + σ x₁) + C̃ x₁)
+//! ```
+//!
+//! so each step costs one solve with `Q̃(σ)` ([`super::shift_invert`]). Block Arnoldi with full
+//! (twice repeated) Gram–Schmidt builds `Op V = V H + V₊ R Eᵀ`; the Ritz pairs `(θ, V s)` of
+//! `H` have Arnoldi residuals `‖R s_last‖`. Eigenvalues nearest σ converge first.
+//!
+//! # Why none is missed
+//!
+//! A shift's **trusted disk** is `|λ − σ| < ρ`, with ρ the distance to the nearest Ritz value
+//! that has *not* converged: every Ritz value inside has converged, and an eigenvalue inside
+//! that the Krylov space had not seen at all would have to be orthogonal to a random start
+//! block of several vectors. The disks are made to overlap; in each overlap the eigenvalues
+//! both shifts found must agree one to one (within the merging tolerance), which a missed
+//! eigenvalue would break. Eigenvalues are then kept from the shift whose cell they lie in
+//! (cells cut in the middle of each overlap), so none is reported twice.
+//!
+//! The band is `0 < Im λ ≤ ω_max` with `|2 Re λ / Im λ| ≤ d_max` (divergence rates beyond
+//! ±d_max, far from any squeal mode, are not sought).
+
+use std::f64::consts::PI;
+
+use faer::{Mat, MatRef, Par, c64};
+use rayon::prelude::*;
+
+use super::shift_invert::{EmbeddedPattern, ShiftedSolver};
+use super::sliding::{Part, SlidingSystem};
+use crate::modes::lanczos::SplitMix64;
+use crate::stage::StageError;
+
+/// Tuning of [`solve_band`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KrylovOptions {
+    pub block_size: usize,
+    /// Basis size at which a shift's Ritz values are first examined, and the most it may grow to.
+    pub basis: usize,
+    pub max_basis: usize,
+    /// Arnoldi residual `‖Op y − θ y‖ / |θ|` below which a Ritz pair has converged.
+    pub arnoldi_tolerance: f64,
+    /// Largest residual of a reported eigenpair.
+    pub residual_tolerance: f64,
+    pub par: Par,
+}
+
+impl Default for KrylovOptions {
+    fn default() -> Self {
+        KrylovOptions {
+            block_size: 8,
+            basis: 240,
+            max_basis: 960,
+            arnoldi_tolerance: 1e-10,
+            residual_tolerance: 1e-8,
+            par: Par::rayon(0),
+        }
+    }
+}
+
+/// An eigenpair of the sliding problem: λ and q over the reduced DOFs.
+#[derive(Debug, Clone)]
+pub struct EigenPair {
+    pub lambda: c64,
+    pub q: Vec<c64>,
+    pub residual: f64,
+}
+
+/// What a band solve did, shift by shift.
+#[derive(Debug, Clone, Default)]
+pub struct BandReport {
+    /// Per shift: frequency (Hz), trusted radius (rad/s), basis size, eigenvalues kept.
+    pub shifts: Vec<ShiftReport>,
+    pub factor_entries: usize,
+    pub seconds_factor: f64,
+    pub seconds_arnoldi: f64,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct ShiftReport {
+    pub frequency_hz: f64,
+    pub radius: f64,
+    pub basis: usize,
+    pub found: usize,
+    pub kept: usize,
+    /// Eigenvalues in the overlap with the previous shift found by both.
+    pub overlap_matched: usize,
+}
+
+/// The shift-invert operator on the linearisation.
+struct Operator<'a> {
+    system: &'a SlidingSystem,
+    solver: ShiftedSolver<'a>,
+    /// The scale s of the second half of y.
+    scale: f64,
+}
+
+impl Operator<'_> {
+    fn apply(&self, X: MatRef<'_, c64>) -> Mat<c64> {
+        let m = self.system.dim();
+        let (sigma, scale) = (self.solver.sigma, self.scale);
+        let columns: Vec<Vec<c64>> = (0..X.ncols())
+            .into_par_iter()
+            .map(|col| {
+                let x1: Vec<c64> = (0..m).map(|i| X[(i, col)]).collect();
+                let shifted: Vec<c64> = (0..m)
+                    .map(|i| X[(m + i, col)] * scale + sigma * x1[i])
+                    .collect();
+                let Mx = self.system.apply(Part::M, &shifted);
+                let Cx = self.system.apply(Part::C, &x1);
+                (0..m).map(|i| -(Mx[i] + Cx[i])).collect()
+            })
+            .collect();
+        let rhs = Mat::from_fn(m, X.ncols(), |i, col| columns[col][i]);
+        let z1 = self.solver.solve(rhs.as_ref());
+        Mat::from_fn(2 * m, X.ncols(), |i, col| {
+            if i < m {
+                z1[(i, col)]
+            } else {
+                (X[(i - m, col)] + sigma * z1[(i - m, col)]) / scale
+            }
+        })
+    }
+}
+
+/// Removes from `W` its components along the orthonormal columns of `V` (two passes: one is
+/// not enough in floating point); returns the coefficients.
+fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
+    let mut coefficients = Mat::<c64>::zeros(V.ncols(), W.ncols());
+    if V.ncols() == 0 {
+        return coefficients;
+    }
+    for _ in 0..2 {
+        let pass = V.adjoint() * &*W;
+        *W -= V * &pass;
+        coefficients += &pass;
+    }
+    coefficients
+}
+
+fn column_norm(W: MatRef<'_, c64>, col: usize) -> f64 {
+    W.col(col).iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt()
+}
+
+/// Orthonormalises the columns of `W` against `V` and among themselves: `W_in = V H + W_out R`.
+/// A column that vanishes (an invariant subspace was found) is replaced by a fresh random
+/// direction, with a zero on R's diagonal.
+fn orthonormalise(
+    V: MatRef<'_, c64>,
+    W: &mut Mat<c64>,
+    random: &mut SplitMix64,
+) -> (Mat<c64>, Mat<c64>) {
+    let H = project_out(V, W);
+    let b = W.ncols();
+    let mut R = Mat::<c64>::zeros(b, b);
+    for j in 0..b {
+        let before = column_norm(W.as_ref(), j);
+        let mut column = W.subcols(j, 1).to_owned();
+        let coefficients = project_out(W.subcols(0, j), &mut column);
+        for i in 0..j {
+            R[(i, j)] = coefficients[(i, 0)];
+        }
+        let norm = column_norm(column.as_ref(), 0);
+        if norm > 1e-10 * before && norm > 0.0 {
+            R[(j, j)] = c64::new(norm, 0.0);
+        } else {
+            column = random_block(W.nrows(), 1, random);
+            project_out(V, &mut column);
+            project_out(W.subcols(0, j), &mut column);
+        }
+        let norm = column_norm(column.as_ref(), 0);
+        for row in 0..W.nrows() {
+            W[(row, j)] = column[(row, 0)] / norm;
+        }
+    }
+    (H, R)
+}
+
+fn random_block(rows: usize, cols: usize, random: &mut SplitMix64) -> Mat<c64> {
+    Mat::from_fn(rows, cols, |_, _| {
+        c64::new(random.next_signed(), random.next_signed())
+    })
+}
+
+/// The Ritz pairs of one shift.
+struct ShiftResult {
+    sigma: c64,
+    radius: f64,
+    basis: usize,
+    pairs: Vec<EigenPair>,
+}
+
+/// Block Arnoldi at `sigma` until the trusted radius reaches `radius_needed` (and the basis
+/// holds at least `options.basis` vectors).
+fn solve_shift(
+    system: &SlidingSystem,
+    pattern: &EmbeddedPattern,
+    sigma: c64,
+    radius_needed: f64,
+    options: &KrylovOptions,
+    report: &mut BandReport,
+) -> Result<ShiftResult, StageError> {
+    let m = system.dim();
+    let n = 2 * m;
+    let clock = std::time::Instant::now();
+    let solver = ShiftedSolver::new(pattern, system, sigma, options.par)?;
+    report.seconds_factor += clock.elapsed().as_secs_f64();
+    let clock = std::time::Instant::now();
+    let [M_norm, _, K_norm] = system.norms;
+    let scale = (K_norm / M_norm).sqrt();
+    let operator = Operator {
+        system,
+        solver,
+        scale,
+    };
+    let b = options.block_size.max(1).min(n);
+    // The basis may not exceed the dimension (less one block, for the residual block).
+    let max_basis = (options.max_basis.min(n.saturating_sub(b)) / b * b).max(b);
+    let mut random = SplitMix64::new(0x5EED_0F_51D1E);
+    let mut V = Mat::<c64>::zeros(n, max_basis + b);
+    let mut H = Mat::<c64>::zeros(max_basis + b, max_basis);
+    let mut start = random_block(n, b, &mut random);
+    orthonormalise(V.subcols(0, 0), &mut start, &mut random);
+    V.subcols_mut(0, b).copy_from(&start);
+    let mut k = b;
+    let mut next_check = options.basis.min(max_basis).max(b);
+    loop {
+        // Op V[:, k−b..k] = V[:, ..k] H + W R.
+        let mut W = operator.apply(V.subcols(k - b, b));
+        let (coefficients, R) = orthonormalise(V.subcols(0, k), &mut W, &mut random);
+        H.submatrix_mut(0, k - b, k, b).copy_from(&coefficients);
+        H.submatrix_mut(k, k - b, b, b).copy_from(&R);
+        V.subcols_mut(k, b).copy_from(&W);
+        if k < next_check && k + b <= max_basis {
+            k += b;
+            continue;
+        }
+        // Ritz values of the k × k section, nearest σ (largest |θ|) first.
+        let eigen = H.submatrix(0, 0, k, k).to_owned().eigen().map_err(|err| {
+            StageError::new(format!(
+                "dense eigensolver failed on the Arnoldi matrix: {err:?}"
+            ))
+        })?;
+        let theta: Vec<c64> = eigen.S().column_vector().iter().copied().collect();
+        let S = eigen.U();
+        let residual_block = H.submatrix(k, k - b, b, b);
+        let mut order: Vec<usize> = (0..k).collect();
+        order.sort_by(|&a, &c| theta[c].norm().total_cmp(&theta[a].norm()));
+        let mut radius = f64::INFINITY;
+        let mut converged = Vec::new();
+        for &i in &order {
+            let arnoldi_residual =
+                column_norm((residual_block * S.submatrix(k - b, i, b, 1)).as_ref(), 0);
+            if arnoldi_residual > options.arnoldi_tolerance * theta[i].norm() * column_norm(S, i) {
+                radius = theta[i].inv().norm();
+                break;
+            }
+            converged.push(i);
+        }
+        if radius < radius_needed && k + b <= max_basis {
+            next_check = k + (k / 4).max(b);
+            k += b;
+            continue;
+        }
+        report.seconds_arnoldi += clock.elapsed().as_secs_f64();
+        // Eigenvectors y = V s: q is either half (x₁, or s x₂/λ); keep the better one.
+        let selected = Mat::<c64>::from_fn(k, converged.len(), |row, col| S[(row, converged[col])]);
+        let Y = V.subcols(0, k) * &selected;
+        let pairs: Vec<EigenPair> = converged
+            .par_iter()
+            .enumerate()
+            .map(|(col, &i)| {
+                let lambda = sigma + theta[i].inv();
+                let halves = [
+                    (0..m).map(|row| Y[(row, col)]).collect::<Vec<c64>>(),
+                    (0..m)
+                        .map(|row| Y[(m + row, col)] * scale / lambda)
+                        .collect(),
+                ];
+                halves
+                    .into_iter()
+                    .map(|q| {
+                        let residual = system.residual(lambda, &q);
+                        EigenPair {
+                            lambda,
+                            q,
+                            residual,
+                        }
+                    })
+                    .min_by(|a, b| a.residual.total_cmp(&b.residual))
+                    .expect("two halves")
+            })
+            .collect();
+        return Ok(ShiftResult {
+            sigma,
+            radius: 0.99 * radius,
+            basis: k,
+            pairs,
+        });
+    }
+}
+
+/// Heights y (rad/s) of the band the disk |λ − iω| < r covers: every point with that imaginary
+/// part and |Re| ≤ (d_max/2) y is inside.
+fn covered(omega: f64, radius: f64, half_rate: f64) -> (f64, f64) {
+    let a = 1.0 + half_rate * half_rate;
+    let discriminant = omega * omega - a * (omega * omega - radius * radius);
+    if discriminant <= 0.0 {
+        return (omega, omega);
+    }
+    let root = discriminant.sqrt();
+    ((omega - root) / a, (omega + root) / a)
+}
+
+fn in_band(lambda: c64, omega_max: f64, half_rate: f64) -> bool {
+    lambda.im > 0.0 && lambda.im <= omega_max && lambda.re.abs() <= half_rate * lambda.im
+}
+
+/// All eigenpairs with `0 < Im λ ≤ omega_max` and `|2 Re λ/Im λ| ≤ max_divergence_rate`,
+/// ordered by frequency. `progress` receives the fraction of the band covered.
+pub fn solve_band(
+    system: &SlidingSystem,
+    omega_max: f64,
+    max_divergence_rate: f64,
+    options: &KrylovOptions,
+    progress: &dyn Fn(f64),
+) -> Result<(Vec<EigenPair>, BandReport), StageError> {
+    let half_rate = max_divergence_rate / 2.0;
+    let pattern = EmbeddedPattern::new(system)?;
+    let mut report = BandReport {
+        factor_entries: pattern.factor_len(),
+        ..BandReport::default()
+    };
+    let mut kept: Vec<EigenPair> = Vec::new();
+    // The previous shift: its coverage top, its cell's lower cut, and its eigenpairs.
+    let mut previous: Option<(f64, f64, Vec<EigenPair>)> = None;
+    let mut covered_to = 0.0_f64;
+    let mut step = omega_max / 8.0;
+    while covered_to < omega_max {
+        let omega = (covered_to + step).min(omega_max);
+        // The disk must reach down to what is covered: to the origin for the first shift.
+        let needed =
+            1.05 * ((omega - covered_to).powi(2) + (half_rate * covered_to).powi(2)).sqrt();
+        let sigma = c64::new(0.0, omega);
+        let result = solve_shift(system, &pattern, sigma, needed, options, &mut report)?;
+        let (low, high) = covered(omega, result.radius, half_rate);
+        let reaches = if previous.is_none() {
+            result.radius >= omega
+        } else {
+            low <= covered_to
+        };
+        if !reaches {
+            // The basis limit left the disk too small: move closer and try again.
+            if step < 1e-4 * omega_max {
+                return Err(StageError::new(format!(
+                    "the shift at {:.1} Hz trusts only a radius of {:.1} Hz with {} vectors: raise max_basis",
+                    omega / (2.0 * PI),
+                    result.radius / (2.0 * PI),
+                    result.basis
+                )));
+            }
+            step = 0.5 * (omega - covered_to);
+            continue;
+        }
+        let mut shift_report = ShiftReport {
+            frequency_hz: omega / (2.0 * PI),
+            radius: result.radius,
+            basis: result.basis,
+            found: result.pairs.len(),
+            ..ShiftReport::default()
+        };
+        let inside: Vec<EigenPair> = result
+            .pairs
+            .into_iter()
+            .filter(|pair| {
+                (pair.lambda - result.sigma).norm() < result.radius && pair.lambda.im > 0.0
+            })
+            .collect();
+        let cut = match previous.take() {
+            Some((previous_high, previous_cut, previous_pairs)) => {
+                // Both disks cover [low, previous_high]: there the two sets must agree.
+                let window = (low, previous_high);
+                check_overlap(&previous_pairs, &inside, window, omega_max, half_rate).map_err(
+                    |(theirs, mine)| {
+                        StageError::new(format!(
+                            "shifts at {:.1} Hz and {:.1} Hz disagree on the eigenvalues between {:.1} and {:.1} Hz ({theirs} against {mine}): an eigenvalue was missed; raise max_basis",
+                            report.shifts.last().map_or(0.0, |shift| shift.frequency_hz),
+                            omega / (2.0 * PI),
+                            window.0 / (2.0 * PI),
+                            window.1 / (2.0 * PI),
+                        ))
+                    },
+                )?;
+                shift_report.overlap_matched = inside
+                    .iter()
+                    .filter(|pair| pair.lambda.im >= window.0 && pair.lambda.im <= window.1)
+                    .count();
+                let cut = 0.5 * (window.0 + window.1);
+                kept.extend(
+                    previous_pairs
+                        .into_iter()
+                        .filter(|pair| pair.lambda.im >= previous_cut && pair.lambda.im < cut),
+                );
+                cut
+            }
+            None => 0.0,
+        };
+        shift_report.kept = inside.iter().filter(|pair| pair.lambda.im >= cut).count();
+        report.shifts.push(shift_report);
+        covered_to = high;
+        progress((covered_to / omega_max).min(1.0));
+        previous = Some((high, cut, inside));
+        step = 0.8 * result.radius;
+    }
+    if let Some((_, cut, pairs)) = previous {
+        kept.extend(pairs.into_iter().filter(|pair| pair.lambda.im >= cut));
+    }
+    kept.retain(|pair| in_band(pair.lambda, omega_max, half_rate));
+    kept.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
+    Ok((kept, report))
+}
+
+/// Checks that two shifts found the same eigenvalues in the band part of `window` (heights):
+/// each eigenvalue strictly inside, found by one, must be matched by the other. Returns the
+/// two counts on failure.
+fn check_overlap(
+    theirs: &[EigenPair],
+    mine: &[EigenPair],
+    window: (f64, f64),
+    omega_max: f64,
+    half_rate: f64,
+) -> Result<(), (usize, usize)> {
+    let margin = 1e-6 * window.1;
+    let within = |pair: &EigenPair, slack: f64| {
+        pair.lambda.im >= window.0 - slack
+            && pair.lambda.im <= window.1 + slack
+            && pair.lambda.im <= omega_max + slack
+            && pair.lambda.re.abs() <= half_rate * pair.lambda.im + slack
+    };
+    let strict = |set: &[EigenPair]| -> Vec<c64> {
+        set.iter()
+            .filter(|pair| within(pair, -margin))
+            .map(|pair| pair.lambda)
+            .collect()
+    };
+    let loose = |set: &[EigenPair]| -> Vec<c64> {
+        set.iter()
+            .filter(|pair| within(pair, margin))
+            .map(|pair| pair.lambda)
+            .collect()
+    };
+    let (theirs_strict, mine_strict) = (strict(theirs), strict(mine));
+    if match_count(&mine_strict, &loose(theirs)) != mine_strict.len()
+        || match_count(&theirs_strict, &loose(mine)) != theirs_strict.len()
+    {
+        return Err((theirs_strict.len(), mine_strict.len()));
+    }
+    Ok(())
+}
+
+/// Number of one-to-one matches between two sets of eigenvalues (relative distance 1e-6).
+fn match_count(a: &[c64], b: &[c64]) -> usize {
+    let mut used = vec![false; b.len()];
+    let mut matched = 0;
+    for lambda in a {
+        let best = b
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| !used[*j])
+            .map(|(j, other)| (j, (other - lambda).norm()))
+            .min_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((j, distance)) = best
+            && distance <= 1e-6 * lambda.norm()
+        {
+            used[j] = true;
+            matched += 1;
+        }
+    }
+    matched
+}

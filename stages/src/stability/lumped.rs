@@ -1,0 +1,159 @@
+//! `stability.matrices`: complex eigenvalues of a small model given by its matrices,
+//! `(λ² M + λ C + K) x = 0`, read from Matrix Market files (any of them may be non-symmetric:
+//! a lumped friction model puts μ straight into K, as Hoffmann et al. 2002 do).
+//!
+//! Solved densely by QZ ([`super::dense`]), so meant for up to a few thousand DOFs; the residual
+//! of each pair is `‖(λ² M + λ C + K) x‖ / ((|λ|² ‖M‖₁ + |λ| ‖C‖₁ + ‖K‖₁) ‖x‖)`. The file reads
+//! make the stage impure: it reruns every time, and stages below it still cut off early.
+
+use std::f64::consts::PI;
+
+use faer::{Mat, c64};
+
+use super::figure::stability_diagram;
+use super::{EigenPair, eigenvalue_table};
+use crate::artifact::{Artifact, ArtifactType};
+use crate::export::matrix_market::read_matrix_market;
+use crate::model::CscMatrix;
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+
+/// Largest model the dense solve accepts.
+pub const MAX_DOFS: usize = 3000;
+
+fn dense(A: &CscMatrix) -> Mat<f64> {
+    let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
+    for (row, col, value) in A.triplets() {
+        dense[(row, col)] += value;
+    }
+    dense
+}
+
+/// Every finite eigenpair with `Im λ ≥ 0` of the dense problem, by increasing frequency, each
+/// with its residual; an error if any residual exceeds `tolerance`.
+pub fn solve_matrices(
+    M: &CscMatrix,
+    C: &CscMatrix,
+    K: &CscMatrix,
+    f_max_hz: f64,
+    tolerance: f64,
+) -> Result<Vec<EigenPair>, StageError> {
+    let n = M.n_rows;
+    for (name, A) in [("M", M), ("C", C), ("K", K)] {
+        if A.n_rows != n || A.n_cols != n {
+            return Err(StageError::new(format!(
+                "{name} is {} x {}, M is {n} x {n}: the matrices must be square and of one size",
+                A.n_rows, A.n_cols
+            )));
+        }
+    }
+    if n == 0 || n > MAX_DOFS {
+        return Err(StageError::new(format!(
+            "{n} DOFs: the dense solve takes 1 to {MAX_DOFS}"
+        )));
+    }
+    let norms = [M.norm_1(), C.norm_1(), K.norm_1()];
+    let omega_max = 2.0 * PI * f_max_hz;
+    let mut pairs: Vec<EigenPair> =
+        super::dense::quadratic_eigen(dense(M).as_ref(), dense(C).as_ref(), dense(K).as_ref())?
+            .into_iter()
+            .filter(|(lambda, _)| lambda.im > 0.0 && (f_max_hz <= 0.0 || lambda.im <= omega_max))
+            .map(|(lambda, x)| {
+                let product = |A: &CscMatrix| super::sliding::mul_complex(A, &x);
+                let (Mx, Cx, Kx) = (product(M), product(C), product(K));
+                let r: Vec<c64> = (0..n)
+                    .map(|i| lambda * lambda * Mx[i] + lambda * Cx[i] + Kx[i])
+                    .collect();
+                let scale = lambda.norm_sqr() * norms[0] + lambda.norm() * norms[1] + norms[2];
+                let residual = super::sliding::norm(&r)
+                    / (scale * super::sliding::norm(&x)).max(f64::MIN_POSITIVE);
+                EigenPair {
+                    lambda,
+                    q: x,
+                    residual,
+                }
+            })
+            .collect();
+    pairs.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
+    if let Some(worst) = pairs.iter().find(|pair| !(pair.residual <= tolerance)) {
+        return Err(StageError::new(format!(
+            "the eigenvalue {:.6e}{:+.6e}i has residual {:.2e} > {tolerance:e}",
+            worst.lambda.re, worst.lambda.im, worst.residual
+        )));
+    }
+    Ok(pairs)
+}
+
+/// `stability.matrices`.
+pub struct StabilityMatrices;
+
+impl Stage for StabilityMatrices {
+    fn kind(&self) -> &'static str {
+        "stability.matrices"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Complex eigenvalues of a small model from Matrix Market M, C, K (dense QZ; lumped friction models)"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::path("m_path", "mass matrix, Matrix Market"),
+            ParamSpec::path(
+                "c_path",
+                "damping matrix, Matrix Market (may have no entries)",
+            ),
+            ParamSpec::path(
+                "k_path",
+                "stiffness matrix with the friction coupling, Matrix Market",
+            ),
+            ParamSpec::float("f_max_hz", 0.0, "Hz", "top of the band; 0 keeps every mode")
+                .at_least(0.0),
+            ParamSpec::float(
+                "mu",
+                0.0,
+                "",
+                "friction coefficient the matrices were built with (labels only)",
+            )
+            .at_least(0.0),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        Vec::new()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "eigenvalues",
+                ArtifactType::Table,
+                "mode, freq_hz, re, im, divergence_rate, unstable, residual",
+            ),
+            PortSpec::one(
+                "diagram",
+                ArtifactType::Figure,
+                "stability diagram: divergence rate against frequency",
+            ),
+        ]
+    }
+    fn pure(&self) -> bool {
+        false
+    }
+    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        let read = |name: &str| -> Result<CscMatrix, StageError> {
+            let path = params.str(name);
+            let text = std::fs::read_to_string(path)
+                .map_err(|err| StageError::new(format!("{path}: {err}")))?;
+            read_matrix_market(&text).map_err(|err| StageError::new(format!("{path}: {err}")))
+        };
+        let (M, C, K) = (read("m_path")?, read("c_path")?, read("k_path")?);
+        let pairs = solve_matrices(&M, &C, &K, params.float("f_max_hz"), 1e-8)?;
+        let diagram = stability_diagram(&pairs, params.float("mu"))?;
+        Ok(Outputs::from([
+            (
+                "eigenvalues".to_string(),
+                Artifact::Table(eigenvalue_table(&pairs)),
+            ),
+            ("diagram".to_string(), Artifact::Figure(diagram)),
+        ]))
+    }
+}

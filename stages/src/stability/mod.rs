@@ -1,0 +1,569 @@
+//! `stability`: complex eigenvalues of the brake linearised about its sliding equilibrium
+//! (DESIGN §3.4).
+//!
+//! Perturbations keep every closed pair in contact and sliding ([`sliding`]):
+//!
+//! ```text
+//! (λ² M̃ + λ C̃ + K̃) q = 0,   (M̃, C̃, K̃) = Tᵘᵀ (M, Ĉ, K) Tᴺ,   u = Tᴺ q
+//! ```
+//!
+//! with Tᴺ a basis of W⁰ (no relative normal displacement on the contact zone) and Tᵘ of W^μ
+//! (test functions on which the friction-coupled contact force does no work). Friction makes
+//! the problem non-symmetric; a pair of modes that coalesce can give an eigenvalue with
+//! `Re λ > 0`: an **unstable** mode, growing like `e^{Re λ t}`, the squeal candidate.
+//!
+//! Reported per eigenvalue (upper half plane only; conjugates are implied):
+//!
+//! ```text
+//! freq_hz = Im λ / 2π,   divergence_rate = 2 Re λ / Im λ   (a negative damping ratio)
+//! residual = ‖(λ² M̃ + λ C̃ + K̃) q‖ / ((|λ|² ‖M̃‖₁ + |λ| ‖C̃‖₁ + ‖K̃‖₁) ‖q‖)
+//! ```
+//!
+//! (the norms are those of the symmetric parts Tᴺᵀ(·)Tᴺ). A mode is unstable when
+//! `Re λ > 1e-8 |λ|`, above the round-off of a conservative system.
+//!
+//! Methods:
+//! - `krylov` (reference): every eigenvalue with `0 < f ≤ f_max_hz` and
+//!   `|divergence rate| ≤ max_divergence_rate`, by shift-invert block Arnoldi at as many
+//!   shifts as needed, the overlaps of their trusted disks checked ([`krylov`]). Systems of
+//!   up to `DENSE_LIMIT` unknowns are solved densely by QZ instead ([`dense`]).
+//! - `real_mode_projection` (fast, approximate, as industrial codes do): the real modes Φ of
+//!   the conservative μ = 0 sliding structure (`Tᴺᵀ K Tᴺ φ = ω² Tᴺᵀ M Tᴺ φ`, block Lanczos with
+//!   a Sturm count) form a reduced basis, `(Φᵀ M̃ Φ, Φᵀ C̃ Φ, Φᵀ K̃ Φ)` is solved densely and each
+//!   approximate pair is given its residual in the full problem.
+//!
+//! Mode shapes `u = Tᴺ q` are normalised to `uᴴ M u = 1` with their largest component real
+//! and positive.
+
+pub mod dense;
+mod figure;
+pub mod krylov;
+pub mod lumped;
+pub mod shift_invert;
+pub mod sliding;
+pub mod track;
+
+#[cfg(test)]
+mod tests;
+
+use std::f64::consts::PI;
+
+use faer::{Mat, Par, c64};
+
+use crate::artifact::{Artifact, ArtifactType};
+use crate::equilibrium::Equilibrium;
+use crate::model::Model;
+use crate::modes::eigensolver::{self, Band, SolveOptions};
+use crate::modes::factor::ShiftedPencil;
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::Table;
+
+pub use krylov::{EigenPair, KrylovOptions};
+use sliding::{Part, SlidingSystem, mul_complex};
+
+/// Systems of up to this many reduced DOFs are solved densely (QZ of size 2·DOFs).
+pub const DENSE_LIMIT: usize = 300;
+/// `Re λ > UNSTABLE_FLOOR · |λ|` marks an unstable mode.
+pub const UNSTABLE_FLOOR: f64 = 1e-8;
+/// With `n_real_modes = 0`, the projection keeps every real mode below this multiple of f_max.
+pub const PROJECTION_BAND_FACTOR: f64 = 1.5;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    Krylov,
+    /// Projection on the lowest `n_real_modes` real modes (0: all below 1.5 f_max).
+    RealModeProjection {
+        n_real_modes: usize,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    pub method: Method,
+    pub f_max_hz: f64,
+    pub max_divergence_rate: f64,
+    pub friction_damping: bool,
+    pub krylov: KrylovOptions,
+    /// Reduced systems up to this size are solved densely by `krylov` (0: never).
+    pub dense_limit: usize,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            method: Method::Krylov,
+            f_max_hz: 17_000.0,
+            max_divergence_rate: 0.2,
+            friction_damping: true,
+            krylov: KrylovOptions::default(),
+            dense_limit: DENSE_LIMIT,
+        }
+    }
+}
+
+/// Figures of a solve (for the summary and benchmarks).
+#[derive(Debug, Clone, Default)]
+pub struct SolveReport {
+    pub dense: bool,
+    pub band: krylov::BandReport,
+    /// Real modes used by the projection.
+    pub real_modes: usize,
+    /// Modes of the undamped μ = 0 sliding structure below f_max (Sturm count): the size the
+    /// band has without friction coupling and damping.
+    pub conservative_count: usize,
+}
+
+/// The eigenpairs in the band, by increasing frequency, with the system they belong to.
+pub struct Solution {
+    pub system: SlidingSystem,
+    pub pairs: Vec<EigenPair>,
+    pub report: SolveReport,
+}
+
+fn in_band(lambda: c64, settings: &Settings) -> bool {
+    let omega_max = 2.0 * PI * settings.f_max_hz;
+    lambda.im > 0.0
+        && lambda.im <= omega_max
+        && 2.0 * lambda.re.abs() <= settings.max_divergence_rate * lambda.im
+}
+
+/// Solves the stability problem of `model` about `equilibrium`.
+pub fn solve(
+    model: &Model,
+    equilibrium: &Equilibrium,
+    settings: &Settings,
+) -> Result<Solution, StageError> {
+    if !(settings.f_max_hz > 0.0) {
+        return Err(StageError::new(format!(
+            "f_max_hz = {} must be positive",
+            settings.f_max_hz
+        )));
+    }
+    if !equilibrium.closed.iter().any(|closed| *closed) {
+        return Err(StageError::new(
+            "no contact pair is closed at equilibrium: there is no sliding contact to linearise",
+        ));
+    }
+    let system = SlidingSystem::new(model, equilibrium, settings.friction_damping)?;
+    let omega_max = 2.0 * PI * settings.f_max_hz;
+    let mut report = SolveReport {
+        conservative_count: conservative_count(&system, omega_max * omega_max)?,
+        ..SolveReport::default()
+    };
+    let pairs = match settings.method {
+        Method::Krylov if system.dim() <= settings.dense_limit => {
+            report.dense = true;
+            let [M, C, K] = dense::dense_matrices(&system);
+            dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref())?
+                .into_iter()
+                .filter(|(lambda, _)| in_band(*lambda, settings))
+                .map(|(lambda, q)| pair_with_residual(&system, lambda, q))
+                .collect()
+        }
+        Method::Krylov => {
+            let progress = |fraction: f64| {
+                tracing::info!("stability: {:.0} % of the band covered", 100.0 * fraction);
+            };
+            let (pairs, band) = krylov::solve_band(
+                &system,
+                omega_max,
+                settings.max_divergence_rate,
+                &settings.krylov,
+                &progress,
+            )?;
+            report.band = band;
+            pairs
+        }
+        Method::RealModeProjection { n_real_modes } => {
+            let (pairs, n_modes) = project_on_real_modes(&system, n_real_modes, settings)?;
+            report.real_modes = n_modes;
+            pairs
+        }
+    };
+    let mut pairs: Vec<EigenPair> = pairs;
+    pairs.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
+    if matches!(settings.method, Method::Krylov)
+        && let Some(worst) = pairs
+            .iter()
+            .find(|pair| !(pair.residual <= settings.krylov.residual_tolerance))
+    {
+        return Err(StageError::new(format!(
+            "the eigenvalue at {:.2} Hz has residual {:.2e} > {:e}",
+            worst.lambda.im / (2.0 * PI),
+            worst.residual,
+            settings.krylov.residual_tolerance
+        )));
+    }
+    Ok(Solution {
+        system,
+        pairs,
+        report,
+    })
+}
+
+fn pair_with_residual(system: &SlidingSystem, lambda: c64, q: Vec<c64>) -> EigenPair {
+    let residual = system.residual(lambda, &q);
+    EigenPair {
+        lambda,
+        q,
+        residual,
+    }
+}
+
+/// Eigenvalues of `Tᴺᵀ K Tᴺ − ω² Tᴺᵀ M Tᴺ` below `lambda` (negative pivots of its LDLᵀ).
+fn conservative_count(system: &SlidingSystem, lambda: f64) -> Result<usize, StageError> {
+    let pencil = ShiftedPencil::new(&system.K_sym, &system.M_sym, &system.dof_of_node)?;
+    Ok(pencil.factor(lambda, Par::rayon(0))?.negative_pivots)
+}
+
+/// The real-mode projection: Galerkin on the lowest real modes of the μ = 0 structure, tested
+/// with their images in W^μ.
+fn project_on_real_modes(
+    system: &SlidingSystem,
+    n_real_modes: usize,
+    settings: &Settings,
+) -> Result<(Vec<EigenPair>, usize), StageError> {
+    let omega_hi = 2.0 * PI * settings.f_max_hz * PROJECTION_BAND_FACTOR;
+    let band = Band {
+        n_modes: n_real_modes,
+        lambda_lo: 0.0,
+        lambda_hi: if n_real_modes == 0 {
+            omega_hi * omega_hi
+        } else {
+            f64::INFINITY
+        },
+    };
+    let real = eigensolver::solve(
+        &system.K_sym,
+        &system.M_sym,
+        &system.dof_of_node,
+        band,
+        SolveOptions::default(),
+    )?;
+    let Phi = real.shapes;
+    let n_modes = Phi.ncols();
+    if n_modes == 0 {
+        return Err(StageError::new(
+            "the real-mode projection has no real mode to project on",
+        ));
+    }
+    let reduced = |part: Part| Phi.transpose() * dense::reduced_times(system, part, Phi.as_ref());
+    let (M, C, K) = (reduced(Part::M), reduced(Part::C), reduced(Part::K));
+    let pairs = dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref())?
+        .into_iter()
+        .filter(|(lambda, _)| in_band(*lambda, settings))
+        .map(|(lambda, eta)| {
+            let q: Vec<c64> = (0..system.dim())
+                .map(|row| (0..n_modes).map(|mode| eta[mode] * Phi[(row, mode)]).sum())
+                .collect();
+            pair_with_residual(system, lambda, q)
+        })
+        .collect();
+    Ok((pairs, n_modes))
+}
+
+/// The full-DOF shape `u = Tᴺ q`, scaled to `uᴴ M u = 1` with its largest component real
+/// and positive.
+pub fn mode_shape(system: &SlidingSystem, q: &[c64]) -> Vec<c64> {
+    let u = system.expand(q);
+    let Mu = mul_complex(&system.M, &u);
+    let mass: f64 = u.iter().zip(&Mu).map(|(a, b)| (a.conj() * b).re).sum();
+    let largest = u
+        .iter()
+        .copied()
+        .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+        .unwrap_or(c64::new(1.0, 0.0));
+    let phase = if largest.norm() > 0.0 {
+        largest.conj() / largest.norm()
+    } else {
+        c64::new(1.0, 0.0)
+    };
+    let scale = phase / mass.max(f64::MIN_POSITIVE).sqrt();
+    u.into_iter().map(|value| value * scale).collect()
+}
+
+pub fn divergence_rate(lambda: c64) -> f64 {
+    2.0 * lambda.re / lambda.im
+}
+
+pub fn is_unstable(lambda: c64) -> bool {
+    lambda.re > UNSTABLE_FLOOR * lambda.norm()
+}
+
+/// Name of the columns of mode `mode` (0-based) in the shapes table, without `_re`/`_im`.
+pub fn mode_name(mode: usize) -> String {
+    format!("mode_{:04}", mode + 1)
+}
+
+/// `eigenvalues`: one row per eigenvalue in the band.
+pub fn eigenvalue_table(pairs: &[EigenPair]) -> Table {
+    let column = |f: &dyn Fn(&EigenPair) -> f64| pairs.iter().map(f).collect::<Vec<f64>>();
+    Table::new()
+        .with("mode", (1..=pairs.len() as i64).collect::<Vec<i64>>())
+        .with("freq_hz", column(&|pair| pair.lambda.im / (2.0 * PI)))
+        .with("re", column(&|pair| pair.lambda.re))
+        .with("im", column(&|pair| pair.lambda.im))
+        .with(
+            "divergence_rate",
+            column(&|pair| divergence_rate(pair.lambda)),
+        )
+        .with(
+            "unstable",
+            pairs
+                .iter()
+                .map(|pair| is_unstable(pair.lambda))
+                .collect::<Vec<bool>>(),
+        )
+        .with("residual", column(&|pair| pair.residual))
+}
+
+/// The `stability` stage.
+pub struct Stability;
+
+impl Stage for Stability {
+    fn kind(&self) -> &'static str {
+        "stability"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        let defaults = Settings::default();
+        vec![
+            ParamSpec::choice(
+                "method",
+                &["krylov", "real_mode_projection"],
+                "krylov",
+                "shift-invert Arnoldi (reference), or projection on real modes (fast, approximate)",
+            ),
+            ParamSpec::float("f_max_hz", defaults.f_max_hz, "Hz", "top of the band").at_least(0.0),
+            ParamSpec::float(
+                "max_divergence_rate",
+                defaults.max_divergence_rate,
+                "",
+                "modes with |2 Re/Im| beyond this are not sought",
+            )
+            .at_least(0.0),
+            ParamSpec::bool(
+                "friction_damping",
+                true,
+                "include the damping mu r_n / |v_g| of the friction direction",
+            ),
+            ParamSpec::int(
+                "n_real_modes",
+                0,
+                "real_mode_projection: real modes in the basis (0: all below 1.5 f_max_hz)",
+            )
+            .at_least(0.0),
+            ParamSpec::int(
+                "max_basis",
+                defaults.krylov.max_basis as i64,
+                "krylov: largest Arnoldi basis per shift",
+            )
+            .at_least(8.0),
+            ParamSpec::choice(
+                "shapes",
+                &["all", "unstable"],
+                "all",
+                "which mode shapes go to the shapes table",
+            ),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "model",
+                ArtifactType::Model,
+                "M, C, K and the contact pairs",
+            ),
+            PortSpec::one(
+                "equilibrium",
+                ArtifactType::Equilibrium,
+                "the sliding equilibrium to linearise about",
+            ),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "eigenvalues",
+                ArtifactType::Table,
+                "mode, freq_hz, re, im, divergence_rate, unstable, residual",
+            ),
+            PortSpec::one(
+                "shapes",
+                ArtifactType::Table,
+                "one row per node and direction, mode_NNNN_re and mode_NNNN_im columns",
+            ),
+            PortSpec::one(
+                "summary",
+                ArtifactType::Table,
+                "method, counts, worst residual, shifts",
+            ),
+            PortSpec::one(
+                "diagram",
+                ArtifactType::Figure,
+                "stability diagram: divergence rate against frequency",
+            ),
+            PortSpec::one(
+                "unstable_vtu",
+                ArtifactType::Document,
+                "unstable mode shapes (real and imaginary parts) for ParaView",
+            ),
+        ]
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let Artifact::Model(model) = inputs.one("model")? else {
+            return Err(StageError::new("input `model` is not a model"));
+        };
+        let Artifact::Equilibrium(equilibrium) = inputs.one("equilibrium")? else {
+            return Err(StageError::new("input `equilibrium` is not an equilibrium"));
+        };
+        let method = match params.str("method") {
+            "real_mode_projection" => Method::RealModeProjection {
+                n_real_modes: params.int("n_real_modes") as usize,
+            },
+            _ => Method::Krylov,
+        };
+        let settings = Settings {
+            method,
+            f_max_hz: params.float("f_max_hz"),
+            max_divergence_rate: params.float("max_divergence_rate"),
+            friction_damping: params.bool("friction_damping"),
+            krylov: KrylovOptions {
+                max_basis: params.int("max_basis") as usize,
+                ..KrylovOptions::default()
+            },
+            dense_limit: DENSE_LIMIT,
+        };
+        let solution = solve(model, equilibrium, &settings)?;
+        let shapes: Vec<Vec<c64>> = solution
+            .pairs
+            .iter()
+            .map(|pair| mode_shape(&solution.system, &pair.q))
+            .collect();
+        let only_unstable = params.str("shapes") == "unstable";
+        let mut fields = Vec::new();
+        let mut unstable_fields = Vec::new();
+        for (mode, (pair, shape)) in solution.pairs.iter().zip(&shapes).enumerate() {
+            let real: Vec<f64> = shape.iter().map(|value| value.re).collect();
+            let imaginary: Vec<f64> = shape.iter().map(|value| value.im).collect();
+            let unstable = is_unstable(pair.lambda);
+            if unstable {
+                unstable_fields.push((
+                    format!("{}_{:.0}Hz", mode_name(mode), pair.lambda.im / (2.0 * PI)),
+                    real.clone(),
+                    imaginary.clone(),
+                ));
+            }
+            if unstable || !only_unstable {
+                fields.push((format!("{}_re", mode_name(mode)), real));
+                fields.push((format!("{}_im", mode_name(mode)), imaginary));
+            }
+        }
+        let shapes_table = crate::modes::nodal_table(model, fields);
+        let vtu = crate::export::vtu::complex_modes_vtu(model, &unstable_fields)?;
+        let diagram = figure::stability_diagram(&solution.pairs, equilibrium.mu)?;
+        Ok(Outputs::from([
+            (
+                "eigenvalues".to_string(),
+                Artifact::Table(eigenvalue_table(&solution.pairs)),
+            ),
+            ("shapes".to_string(), Artifact::Table(shapes_table)),
+            (
+                "summary".to_string(),
+                Artifact::Table(summary_table(&solution, &settings)),
+            ),
+            ("diagram".to_string(), Artifact::Figure(diagram)),
+            (
+                "unstable_vtu".to_string(),
+                crate::export::document("vtu", vtu),
+            ),
+        ]))
+    }
+}
+
+fn summary_table(solution: &Solution, settings: &Settings) -> Table {
+    let pairs = &solution.pairs;
+    let report = &solution.report;
+    let worst = pairs.iter().map(|pair| pair.residual).fold(0.0, f64::max);
+    let quantities: Vec<(&str, f64)> = vec![
+        ("dofs", solution.system.full_dim() as f64),
+        ("sliding_dofs", solution.system.dim() as f64),
+        ("closed_pairs", solution.system.slaves.len() as f64),
+        ("f_max_hz", settings.f_max_hz),
+        ("eigenvalues", pairs.len() as f64),
+        (
+            "unstable",
+            pairs.iter().filter(|pair| is_unstable(pair.lambda)).count() as f64,
+        ),
+        (
+            "max_divergence_rate_found",
+            pairs
+                .iter()
+                .map(|pair| divergence_rate(pair.lambda))
+                .fold(f64::NEG_INFINITY, f64::max),
+        ),
+        ("worst_residual", worst),
+        (
+            "conservative_modes_below_f_max",
+            report.conservative_count as f64,
+        ),
+        ("shifts", report.band.shifts.len() as f64),
+        ("real_modes", report.real_modes as f64),
+        ("dense", f64::from(u8::from(report.dense))),
+    ];
+    let method = match settings.method {
+        Method::Krylov => "krylov",
+        Method::RealModeProjection { .. } => "real_mode_projection",
+    };
+    Table::new()
+        .with(
+            "quantity",
+            quantities
+                .iter()
+                .map(|(name, _)| name.to_string())
+                .collect::<Vec<String>>(),
+        )
+        .with(
+            "value",
+            quantities
+                .iter()
+                .map(|(_, value)| *value)
+                .collect::<Vec<f64>>(),
+        )
+        .with("method", vec![method.to_string(); quantities.len()])
+}
+
+/// A dense complex matrix of mode shapes (one column per mode) from a shapes table.
+pub fn shapes_from_table(table: &Table) -> Result<(Vec<String>, Mat<c64>), StageError> {
+    let mut names = Vec::new();
+    let mut columns: Vec<(&[f64], &[f64])> = Vec::new();
+    for column in table.columns() {
+        let Some(base) = column.name.strip_suffix("_re") else {
+            continue;
+        };
+        let (
+            Some(crate::table::ColumnData::F64(real)),
+            Some(crate::table::ColumnData::F64(imaginary)),
+        ) = (Some(&column.data), table.column(&format!("{base}_im")))
+        else {
+            return Err(StageError::new(format!(
+                "shapes: column {} has no f64 partner {base}_im",
+                column.name
+            )));
+        };
+        names.push(base.to_string());
+        columns.push((real, imaginary));
+    }
+    let rows = table.n_rows();
+    Ok((
+        names,
+        Mat::from_fn(rows, columns.len(), |row, col| {
+            c64::new(columns[col].0[row], columns[col].1[row])
+        }),
+    ))
+}

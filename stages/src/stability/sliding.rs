@@ -1,0 +1,365 @@
+//! The sliding-perturbation problem linearised about an equilibrium (DESIGN §3.4).
+//!
+//! On every closed pair the perturbation keeps the pad on the disc, `n·(u_p − u_d) = 0`: one
+//! DOF per pair, the *slave* (the pad node's free DOF along the largest component of n), is a
+//! combination of the others, the *masters* `q`:
+//!
+//! ```text
+//! trial space W⁰:  u = Tᴺ q,   slave  u_s = (n·u_d − Σ_{j≠k} n_j u_{p,j}) / n_k
+//! test space  W^μ: w = Tᵘ q,   same with g = n + μ t in place of n
+//! ```
+//!
+//! (conventions of [`crate::contact`]: the contact force on the pad is `r_n (n + μ t)` =
+//! `Gᵀ r_n` with `G = H_n + μ H_t`, so testing with `w ∈ ker G` removes the unknown normal
+//! force perturbation). The reduced quadratic eigenproblem is
+//!
+//! ```text
+//! (λ² M̃ + λ C̃ + K̃) q = 0,   (M̃, C̃, K̃) = Tᵘᵀ (M, Ĉ, K) Tᴺ
+//! Ĉ = C + μ Σ_closed (r_n / |v_g|) h_b h_bᵀ
+//! ```
+//!
+//! where `h_b` is the pair's cross-slip row of H: linearising the friction direction
+//! `(v_g − δ̇)/|v_g − δ̇|` gives the pad a force `−μ r_n (b·δ̇)/|v_g|` along b, a damping
+//! (stabilising; DESIGN writes it with the paper's sign r_n ≤ 0).
+//!
+//! Structure the solvers use: `Tᵘ = Tᴺ + Δ` with Δ nonzero on the slave rows only, so
+//!
+//! ```text
+//! Tᵘᵀ A Tᴺ = Tᴺᵀ A Tᴺ + Σ_s δ_s (A Tᴺ)_{s,:}
+//! ```
+//!
+//! a symmetric matrix (the μ = 0 problem) plus a correction of rank ≤ number of closed pairs.
+
+use faer::c64;
+
+use crate::contact::{self, ContactFrames};
+use crate::equilibrium::Equilibrium;
+use crate::model::{CscMatrix, Model};
+use crate::stage::StageError;
+
+/// One eliminated DOF: its full index and its value in terms of the masters.
+#[derive(Debug, Clone)]
+pub struct Slave {
+    pub pair: usize,
+    pub dof: usize,
+    /// `u_s = Σ coefficient · q_master` in the trial space W⁰ (reduced indices).
+    pub trial: Vec<(usize, f64)>,
+    /// The same in the test space W^μ.
+    pub test: Vec<(usize, f64)>,
+}
+
+/// `(M̃, C̃, K̃)` of the sliding perturbations, with the symmetric parts the solvers factorise.
+pub struct SlidingSystem {
+    /// Full free-DOF matrices; `C` includes the friction-direction damping.
+    pub M: CscMatrix,
+    pub C: CscMatrix,
+    pub K: CscMatrix,
+    /// Full DOF of each master (reduced) DOF.
+    pub master_dofs: Vec<usize>,
+    /// Reduced index of each full DOF (`None` for slaves).
+    pub reduced_of: Vec<Option<usize>>,
+    pub slaves: Vec<Slave>,
+    /// `Tᴺᵀ (M, Ĉ, K) Tᴺ`: the μ = 0 problem, symmetric.
+    pub M_sym: CscMatrix,
+    pub C_sym: CscMatrix,
+    pub K_sym: CscMatrix,
+    /// Node → reduced DOFs (the slave omitted), for fill-reducing orderings.
+    pub dof_of_node: Vec<[Option<u32>; 3]>,
+    /// `‖·‖₁` of `M_sym`, `C_sym`, `K_sym`, the scales of the residual.
+    pub norms: [f64; 3],
+    pub mu: f64,
+}
+
+/// Which of the three matrices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    M,
+    C,
+    K,
+}
+
+impl SlidingSystem {
+    /// The sliding perturbations of `model` about `equilibrium`; `friction_damping` adds the
+    /// linearised friction-direction term to C.
+    pub fn new(
+        model: &Model,
+        equilibrium: &Equilibrium,
+        friction_damping: bool,
+    ) -> Result<SlidingSystem, StageError> {
+        let n = model.n_dofs();
+        let pairs = &model.mesh.contact_pairs;
+        if equilibrium.closed.len() != pairs.len() || equilibrium.r_n.len() != pairs.len() {
+            return Err(StageError::new(format!(
+                "the equilibrium has {} pairs, the model {}: they do not come from the same mesh",
+                equilibrium.closed.len(),
+                pairs.len()
+            )));
+        }
+        let mu = equilibrium.mu;
+        let frames: &ContactFrames = &equilibrium.frames;
+        let columns = contact::h_columns(model, frames);
+
+        // Pick the slaves.
+        let mut is_slave = vec![false; n];
+        let mut chosen: Vec<(usize, usize)> = Vec::new(); // (pair, slave DOF)
+        for (pair_idx, pair) in pairs.iter().enumerate() {
+            if !equilibrium.closed[pair_idx] {
+                continue;
+            }
+            let normal = frames.n[pair_idx];
+            let pad_dofs = model.dof_of_node[pair.pad_node as usize];
+            let axis = (0..3)
+                .filter(|&axis| pad_dofs[axis].is_some())
+                .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()));
+            let Some(axis) = axis.filter(|&axis| normal[axis].abs() > 0.5) else {
+                return Err(StageError::new(format!(
+                    "closed pair {pair_idx}: pad node {} is not free along its normal, so the contact cannot be kept by a perturbation",
+                    pair.pad_node
+                )));
+            };
+            let dof = pad_dofs[axis].expect("filtered on free DOFs") as usize;
+            if is_slave[dof] {
+                return Err(StageError::new(format!(
+                    "closed pair {pair_idx}: pad node {} is in two closed pairs",
+                    pair.pad_node
+                )));
+            }
+            is_slave[dof] = true;
+            chosen.push((pair_idx, dof));
+        }
+        let mut reduced_of = vec![None; n];
+        let mut master_dofs = Vec::with_capacity(n - chosen.len());
+        for dof in 0..n {
+            if !is_slave[dof] {
+                reduced_of[dof] = Some(master_dofs.len());
+                master_dofs.push(dof);
+            }
+        }
+        // u_s from the constraint direction·(u_p − u_d) = 0, i.e. direction·column = 0.
+        let relation = |column: &[(usize, f64)], dof: usize, pivot: f64| -> Vec<(usize, f64)> {
+            column
+                .iter()
+                .filter(|&&(other, _)| other != dof)
+                .map(|&(other, value)| {
+                    (
+                        reduced_of[other].expect("one slave per node"),
+                        -value / pivot,
+                    )
+                })
+                .collect()
+        };
+        let mut slaves = Vec::with_capacity(chosen.len());
+        for &(pair_idx, dof) in &chosen {
+            let normal_column = &columns[3 * pair_idx];
+            let tangent_column = &columns[3 * pair_idx + 1];
+            // G's row: n + μ t on the same DOFs (merged).
+            let mut g_column: Vec<(usize, f64)> = normal_column.clone();
+            for &(other, value) in tangent_column {
+                match g_column.iter_mut().find(|(dof, _)| *dof == other) {
+                    Some(entry) => entry.1 += mu * value,
+                    None => g_column.push((other, mu * value)),
+                }
+            }
+            let pivot_of = |column: &[(usize, f64)]| {
+                column
+                    .iter()
+                    .find(|&&(other, _)| other == dof)
+                    .map_or(0.0, |&(_, value)| value)
+            };
+            let (normal_pivot, g_pivot) = (pivot_of(normal_column), pivot_of(&g_column));
+            if !(g_pivot.abs() > 1e-3 * normal_pivot.abs()) {
+                return Err(StageError::new(format!(
+                    "closed pair {pair_idx}: (n + mu t) has no component along the eliminated DOF (mu = {mu})"
+                )));
+            }
+            slaves.push(Slave {
+                pair: pair_idx,
+                dof,
+                trial: relation(normal_column, dof, normal_pivot),
+                test: relation(&g_column, dof, g_pivot),
+            });
+        }
+
+        // Ĉ = C + μ Σ (r_n / V) h_b h_bᵀ.
+        let C = if friction_damping && mu > 0.0 {
+            let mut triplets: Vec<(usize, usize, f64)> = model.C.triplets().collect();
+            for (pair_idx, closed) in equilibrium.closed.iter().enumerate() {
+                if !closed {
+                    continue;
+                }
+                let coefficient = mu * equilibrium.r_n[pair_idx] / frames.sliding_speed[pair_idx];
+                let binormal = &columns[3 * pair_idx + 2];
+                for &(row, a) in binormal {
+                    for &(col, b) in binormal {
+                        triplets.push((row, col, coefficient * a * b));
+                    }
+                }
+            }
+            CscMatrix::from_triplets(n, n, triplets)
+        } else {
+            model.C.clone()
+        };
+
+        let mut system = SlidingSystem {
+            M: model.M.clone(),
+            C,
+            K: model.K.clone(),
+            master_dofs,
+            reduced_of,
+            slaves,
+            M_sym: CscMatrix::default(),
+            C_sym: CscMatrix::default(),
+            K_sym: CscMatrix::default(),
+            dof_of_node: Vec::new(),
+            norms: [0.0; 3],
+            mu,
+        };
+        system.M_sym = system.congruence(&system.M);
+        system.C_sym = system.congruence(&system.C);
+        system.K_sym = system.congruence(&system.K);
+        system.norms = [
+            system.M_sym.norm_1(),
+            system.C_sym.norm_1(),
+            system.K_sym.norm_1(),
+        ];
+        system.dof_of_node = model
+            .dof_of_node
+            .iter()
+            .map(|dofs| {
+                dofs.map(|dof| {
+                    dof.and_then(|dof| system.reduced_of[dof as usize].map(|r| r as u32))
+                })
+            })
+            .collect();
+        Ok(system)
+    }
+
+    /// Number of reduced (master) DOFs.
+    pub fn dim(&self) -> usize {
+        self.master_dofs.len()
+    }
+
+    /// Number of full DOFs.
+    pub fn full_dim(&self) -> usize {
+        self.reduced_of.len()
+    }
+
+    pub fn full(&self, part: Part) -> &CscMatrix {
+        match part {
+            Part::M => &self.M,
+            Part::C => &self.C,
+            Part::K => &self.K,
+        }
+    }
+
+    pub fn symmetric(&self, part: Part) -> &CscMatrix {
+        match part {
+            Part::M => &self.M_sym,
+            Part::C => &self.C_sym,
+            Part::K => &self.K_sym,
+        }
+    }
+
+    /// Row `dof` of Tᴺ (trial) or Tᵘ (test) as (reduced index, coefficient).
+    fn row(&self, dof: usize, test: bool) -> Vec<(usize, f64)> {
+        match self.reduced_of[dof] {
+            Some(reduced) => vec![(reduced, 1.0)],
+            None => {
+                let slave = self
+                    .slaves
+                    .iter()
+                    .find(|slave| slave.dof == dof)
+                    .expect("a DOF is a master or a slave");
+                if test {
+                    slave.test.clone()
+                } else {
+                    slave.trial.clone()
+                }
+            }
+        }
+    }
+
+    /// `Tᴺᵀ A Tᴺ` for a full symmetric `A`.
+    fn congruence(&self, A: &CscMatrix) -> CscMatrix {
+        let m = self.dim();
+        let rows: Vec<Vec<(usize, f64)>> = (0..self.full_dim())
+            .map(|dof| self.row(dof, false))
+            .collect();
+        let mut triplets = Vec::with_capacity(A.values.len());
+        for (row, col, value) in A.triplets() {
+            for &(a, t_a) in &rows[row] {
+                for &(b, t_b) in &rows[col] {
+                    triplets.push((a, b, value * t_a * t_b));
+                }
+            }
+        }
+        CscMatrix::from_triplets(m, m, triplets)
+    }
+
+    /// `u = Tᴺ q`: the full displacement of a reduced vector.
+    pub fn expand(&self, q: &[c64]) -> Vec<c64> {
+        let mut u = vec![c64::new(0.0, 0.0); self.full_dim()];
+        for (reduced, &dof) in self.master_dofs.iter().enumerate() {
+            u[dof] = q[reduced];
+        }
+        for slave in &self.slaves {
+            u[slave.dof] = slave
+                .trial
+                .iter()
+                .map(|&(reduced, coefficient)| q[reduced] * coefficient)
+                .sum();
+        }
+        u
+    }
+
+    /// `Tᵘᵀ y` (test) or `Tᴺᵀ y` of a full vector.
+    pub fn restrict(&self, y: &[c64], test: bool) -> Vec<c64> {
+        let mut z: Vec<c64> = self.master_dofs.iter().map(|&dof| y[dof]).collect();
+        for slave in &self.slaves {
+            let relation = if test { &slave.test } else { &slave.trial };
+            for &(reduced, coefficient) in relation {
+                z[reduced] += y[slave.dof] * coefficient;
+            }
+        }
+        z
+    }
+
+    /// `Tᵘᵀ A Tᴺ q` for `A` = M, Ĉ or K.
+    pub fn apply(&self, part: Part, q: &[c64]) -> Vec<c64> {
+        let u = self.expand(q);
+        let y = mul_complex(self.full(part), &u);
+        self.restrict(&y, true)
+    }
+
+    /// The residual figure of an eigenpair:
+    /// `‖(λ² M̃ + λ C̃ + K̃) q‖ / ((|λ|² ‖M̃‖ + |λ| ‖C̃‖ + ‖K̃‖) ‖q‖)`.
+    pub fn residual(&self, lambda: c64, q: &[c64]) -> f64 {
+        let u = self.expand(q);
+        let [Mu, Cu, Ku] = [Part::M, Part::C, Part::K].map(|part| mul_complex(self.full(part), &u));
+        let y: Vec<c64> = (0..u.len())
+            .map(|dof| lambda * lambda * Mu[dof] + lambda * Cu[dof] + Ku[dof])
+            .collect();
+        let r = self.restrict(&y, true);
+        let scale =
+            lambda.norm_sqr() * self.norms[0] + lambda.norm() * self.norms[1] + self.norms[2];
+        norm(&r) / (scale * norm(q)).max(f64::MIN_POSITIVE)
+    }
+}
+
+/// `y = A x` for a real sparse `A` and a complex `x`.
+pub fn mul_complex(A: &CscMatrix, x: &[c64]) -> Vec<c64> {
+    let mut y = vec![c64::new(0.0, 0.0); A.n_rows];
+    for (col, &x_col) in x.iter().enumerate().take(A.n_cols) {
+        if x_col == c64::new(0.0, 0.0) {
+            continue;
+        }
+        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
+            y[A.row_idx[entry]] += x_col * A.values[entry];
+        }
+    }
+    y
+}
+
+pub fn norm(x: &[c64]) -> f64 {
+    x.iter().map(|value| value.norm_sqr()).sum::<f64>().sqrt()
+}

@@ -1,0 +1,506 @@
+//! Verification of the stability stage (DESIGN §5): Hoffmann's two-DOF model, the
+//! friction-direction damping of one sliding point, Krylov against dense QZ on a coarse brake,
+//! μ = 0 against the real modes, and the real-mode projection's error.
+
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use faer::c64;
+
+use super::*;
+use crate::assemble::test_model;
+use crate::contact::lcp::LcpSettings;
+use crate::equilibrium::{self, Solver};
+use crate::mesh::brake::{BrakeGeometry, brake};
+use crate::mesh::{ContactPair, Mesh};
+use crate::model::CscMatrix;
+use crate::stage::{Input, Value};
+
+/// A brake small enough for a dense QZ reference of its linearised problem.
+fn small_brake() -> Mesh {
+    brake(&BrakeGeometry {
+        n_radial: 3,
+        n_theta: 24,
+        n_thick: 1,
+        pucks_radial: 1,
+        pucks_angular: 1,
+        puck_cells: 2,
+        puck_layers: 1,
+        ..BrakeGeometry::coarse()
+    })
+    .unwrap()
+}
+
+fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
+    equilibrium::solve(
+        model,
+        mu,
+        4.0,
+        5e-5,
+        Solver::SemismoothNewton,
+        &LcpSettings::default(),
+    )
+    .unwrap()
+    .0
+}
+
+/// `Re λ`, `Im λ` of the Hoffmann model `m ẍ + K x = 0` at friction `mu`.
+fn hoffmann_matrices(mu: f64) -> [CscMatrix; 3] {
+    let (k1, k2, k3) = (1.0, 1.0, 1.0);
+    let (a1, a2) = (150f64.to_radians(), 20f64.to_radians());
+    let k11 = k1 * a1.cos().powi(2) + k2 * a2.cos().powi(2);
+    let k12 = k1 * a1.cos() * a1.sin() + k2 * a2.cos() * a2.sin();
+    let k22 = k1 * a1.sin().powi(2) + k2 * a2.sin().powi(2);
+    let K = CscMatrix::from_triplets(
+        2,
+        2,
+        vec![
+            (0, 0, k11),
+            (0, 1, k12 + mu * k3),
+            (1, 0, k12),
+            (1, 1, k22 + k3),
+        ],
+    );
+    let M = CscMatrix::from_triplets(2, 2, vec![(0, 0, 1.0), (1, 1, 1.0)]);
+    let C = CscMatrix::from_triplets(2, 2, Vec::new());
+    [M, C, K]
+}
+
+fn most_unstable(mu: f64) -> c64 {
+    let [M, C, K] = hoffmann_matrices(mu);
+    lumped::solve_matrices(&M, &C, &K, 0.0, 1e-12)
+        .unwrap()
+        .into_iter()
+        .map(|pair| pair.lambda)
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .unwrap()
+}
+
+#[test]
+fn hoffmann_two_dof_model_matches_its_closed_forms() {
+    let (a1, a2) = (150f64.to_radians(), 20f64.to_radians());
+    let k11 = a1.cos().powi(2) + a2.cos().powi(2);
+    let k12 = a1.cos() * a1.sin() + a2.cos() * a2.sin();
+    let k22 = a1.sin().powi(2) + a2.sin().powi(2);
+    let mu_c = -((k11 - k22 - 1.0).powi(2) + 4.0 * k12 * k12) / (4.0 * k12);
+    let omega_c = ((k11 + k22 + 1.0) / 2.0).sqrt();
+    assert!((mu_c - 0.270149).abs() < 1e-6, "{mu_c}");
+    assert!((omega_c - 1.224745).abs() < 1e-6, "{omega_c}");
+
+    // λ at μ = 0.38.
+    let lambda = most_unstable(0.38);
+    assert!((lambda.re - 0.045175).abs() < 1e-6, "{lambda}");
+    assert!((lambda.im - 1.225578).abs() < 1e-6, "{lambda}");
+
+    // The flutter onset by bisection on the sign of max Re λ.
+    let (mut stable, mut unstable) = (0.2, 0.38);
+    while unstable - stable > 1e-10 {
+        let mid = 0.5 * (stable + unstable);
+        if most_unstable(mid).re > 1e-9 {
+            unstable = mid;
+        } else {
+            stable = mid;
+        }
+    }
+    assert!((unstable - mu_c).abs() < 1e-6, "{unstable} vs {mu_c}");
+    let at_onset = most_unstable(unstable);
+    assert!((at_onset.im - omega_c).abs() < 1e-5, "{at_onset}");
+}
+
+#[test]
+fn the_matrices_stage_reads_matrix_market_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let [M, C, K] = hoffmann_matrices(0.38);
+    let mut params = BTreeMap::new();
+    for (name, matrix) in [("m_path", &M), ("c_path", &C), ("k_path", &K)] {
+        let path = dir.path().join(format!("{name}.mtx"));
+        let text = crate::export::matrix_market::write_matrix_market(matrix, "Hoffmann").unwrap();
+        std::fs::write(&path, text).unwrap();
+        params.insert(name.to_string(), Value::Str(path.display().to_string()));
+    }
+    params.insert("f_max_hz".into(), Value::Float(0.0));
+    params.insert("mu".into(), Value::Float(0.38));
+    let outputs = lumped::StabilityMatrices
+        .run(&Params(params), &Inputs::default())
+        .unwrap();
+    let table = outputs["eigenvalues"].as_table().unwrap();
+    let Some(crate::table::ColumnData::Bool(unstable)) = table.column("unstable") else {
+        panic!("no unstable column")
+    };
+    // The flutter pair: equal frequencies, one growing, one decaying.
+    let Some(crate::table::ColumnData::F64(re)) = table.column("re") else {
+        panic!()
+    };
+    assert_eq!(unstable.iter().filter(|u| **u).count(), 1);
+    let growing = re[unstable.iter().position(|u| *u).unwrap()];
+    assert!((growing - 0.045175).abs() < 1e-6, "{growing}");
+}
+
+#[test]
+fn friction_direction_damping_of_one_sliding_point() {
+    // A pad node of mass m on springs k, pressed with N on a clamped disc node at radius R.
+    let (m, k, normal_force, radius, omega, mu) = (2.0, 3e6, 150.0, 0.3, 4.0, 0.38);
+    let mesh = Mesh {
+        nodes: vec![[radius, 0.0, 0.0], [radius, 0.0, 0.0]],
+        contact_pairs: vec![ContactPair {
+            disc_node: 1,
+            pad_node: 0,
+            normal: [0.0, 0.0, 1.0],
+            area: 1e-4,
+        }],
+        ..Mesh::default()
+    };
+    let diagonal =
+        |value: f64| CscMatrix::from_triplets(3, 3, (0..3).map(|i| (i, i, value)).collect());
+    let model = Model {
+        mesh: mesh.clone(),
+        dof_of_node: vec![[Some(0), Some(1), Some(2)], [None, None, None]],
+        M: diagonal(m),
+        K: diagonal(k),
+        C: diagonal(0.0),
+    };
+    let frames = crate::contact::frames(&mesh, omega).unwrap();
+    let equilibrium = Equilibrium {
+        u: vec![0.0; 3],
+        r_n: vec![normal_force],
+        gap: vec![0.0],
+        closed: vec![true],
+        frames,
+        mu,
+        omega,
+    };
+    let solution = solve(&model, &equilibrium, &Settings::default()).unwrap();
+    // Cross-slip (b = ∓x here): m ÿ + (μN/V) ẏ + k y = 0; along t: undamped.
+    let c = mu * normal_force / (omega * radius);
+    let damped = c64::new(-c / (2.0 * m), (k / m - (c / (2.0 * m)).powi(2)).sqrt());
+    let undamped = c64::new(0.0, (k / m).sqrt());
+    let mut expected = [damped, undamped];
+    expected.sort_by(|a, b| a.im.total_cmp(&b.im));
+    assert_eq!(solution.pairs.len(), 2);
+    for (pair, expected) in solution.pairs.iter().zip(expected) {
+        assert!(
+            (pair.lambda - expected).norm() <= 1e-10 * expected.norm(),
+            "{} vs {expected}",
+            pair.lambda
+        );
+        assert!(pair.residual < 1e-12);
+    }
+    // Without the term, both are undamped.
+    let settings = Settings {
+        friction_damping: false,
+        ..Settings::default()
+    };
+    for pair in solve(&model, &equilibrium, &settings).unwrap().pairs {
+        assert!(pair.lambda.re.abs() <= 1e-10 * pair.lambda.norm());
+    }
+}
+
+/// Matches `found` to `reference` one to one (both sorted by frequency): the largest relative
+/// distance, or a panic naming what is missing or extra.
+fn compare(found: &[c64], reference: &[c64]) -> f64 {
+    assert_eq!(
+        found.len(),
+        reference.len(),
+        "found {} eigenvalues, the reference has {}",
+        found.len(),
+        reference.len()
+    );
+    let mut used = vec![false; reference.len()];
+    let mut worst: f64 = 0.0;
+    for lambda in found {
+        let (index, distance) = reference
+            .iter()
+            .enumerate()
+            .filter(|(index, _)| !used[*index])
+            .map(|(index, other)| (index, (other - lambda).norm() / other.norm()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        used[index] = true;
+        worst = worst.max(distance);
+    }
+    worst
+}
+
+#[test]
+fn krylov_finds_every_eigenvalue_of_dense_qz_on_a_coarse_brake() {
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let equilibrium = equilibrium_of(&model, 0.6);
+    let settings = Settings {
+        f_max_hz: 12_000.0,
+        dense_limit: 0,
+        krylov: KrylovOptions {
+            block_size: 4,
+            basis: 48,
+            max_basis: 400,
+            ..KrylovOptions::default()
+        },
+        ..Settings::default()
+    };
+    let solution = solve(&model, &equilibrium, &settings).unwrap();
+    assert!(
+        solution.report.band.shifts.len() >= 3,
+        "{:?}",
+        solution.report.band.shifts
+    );
+    let system = &solution.system;
+    let [M, C, K] = dense::dense_matrices(system);
+    let reference: Vec<c64> = dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref())
+        .unwrap()
+        .into_iter()
+        .map(|(lambda, _)| lambda)
+        .filter(|lambda| in_band(*lambda, &settings))
+        .collect();
+    let found: Vec<c64> = solution.pairs.iter().map(|pair| pair.lambda).collect();
+    let worst = compare(&found, &reference);
+    assert!(worst <= 1e-8, "worst relative difference {worst:e}");
+    assert!(found.len() >= 20, "{} eigenvalues only", found.len());
+    for pair in &solution.pairs {
+        assert!(pair.residual <= 1e-8, "{}", pair.residual);
+    }
+    eprintln!(
+        "{} DOFs, {} eigenvalues below {} Hz, {} unstable, {} shifts, worst difference {worst:.1e}",
+        system.dim(),
+        found.len(),
+        settings.f_max_hz,
+        found.iter().filter(|lambda| is_unstable(**lambda)).count(),
+        solution.report.band.shifts.len()
+    );
+}
+
+#[test]
+fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes() {
+    let mesh = small_brake();
+    let undamped = [
+        ("alpha_disc", 0.0),
+        ("beta_disc", 0.0),
+        ("alpha_pad", 0.0),
+        ("beta_pad", 0.0),
+    ];
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &undamped);
+    let equilibrium = equilibrium_of(&model, 0.0);
+    let settings = Settings {
+        f_max_hz: 8_000.0,
+        dense_limit: 0,
+        krylov: KrylovOptions {
+            block_size: 4,
+            basis: 48,
+            ..KrylovOptions::default()
+        },
+        ..Settings::default()
+    };
+    let solution = solve(&model, &equilibrium, &settings).unwrap();
+    let system = &solution.system;
+    let omega_max = 2.0 * PI * settings.f_max_hz;
+    let real = eigensolver::solve(
+        &system.K_sym,
+        &system.M_sym,
+        &system.dof_of_node,
+        Band {
+            n_modes: 0,
+            lambda_lo: 0.0,
+            lambda_hi: omega_max * omega_max,
+        },
+        SolveOptions::default(),
+    )
+    .unwrap();
+    let expected: Vec<c64> = real
+        .lambda
+        .iter()
+        .map(|lambda| c64::new(0.0, lambda.sqrt()))
+        .collect();
+    let found: Vec<c64> = solution.pairs.iter().map(|pair| pair.lambda).collect();
+    let worst = compare(&found, &expected);
+    assert!(worst <= 1e-8, "{worst:e}");
+    assert!(found.iter().all(|lambda| !is_unstable(*lambda)));
+    assert_eq!(solution.report.conservative_count, found.len());
+
+    // With the default Rayleigh damping, still nothing unstable at μ = 0.
+    let (damped_model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let damped = solve(
+        &damped_model,
+        &equilibrium_of(&damped_model, 0.0),
+        &settings,
+    )
+    .unwrap();
+    assert!(damped.pairs.iter().all(|pair| pair.lambda.re < 0.0));
+}
+
+#[test]
+fn real_mode_projection_approaches_krylov() {
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let equilibrium = equilibrium_of(&model, 0.6);
+    let f_max_hz = 6_000.0;
+    let reference = solve(
+        &model,
+        &equilibrium,
+        &Settings {
+            f_max_hz,
+            dense_limit: 0,
+            ..Settings::default()
+        },
+    )
+    .unwrap();
+    let error_with = |n_real_modes: usize| {
+        let projected = solve(
+            &model,
+            &equilibrium,
+            &Settings {
+                f_max_hz,
+                method: Method::RealModeProjection { n_real_modes },
+                ..Settings::default()
+            },
+        )
+        .unwrap();
+        // Error of each reference eigenvalue against the nearest projected one.
+        reference
+            .pairs
+            .iter()
+            .map(|pair| {
+                projected
+                    .pairs
+                    .iter()
+                    .map(|other| (other.lambda - pair.lambda).norm() / pair.lambda.norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .fold(0.0, f64::max)
+    };
+    let n = reference.pairs.len();
+    let coarse = error_with(n + n / 2);
+    let fine = error_with(4 * n);
+    eprintln!(
+        "projection error: {coarse:.2e} with {} modes, {fine:.2e} with {}",
+        n + n / 2,
+        4 * n
+    );
+    assert!(fine < coarse, "{fine:e} vs {coarse:e}");
+    assert!(fine < 1e-2, "{fine:e}");
+}
+
+#[test]
+fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let model = Arc::new(Artifact::Model(Box::new(model)));
+    let params = |stage: &dyn Stage, overrides: &[(&str, Value)]| {
+        let mut values: BTreeMap<String, Value> = stage
+            .params()
+            .into_iter()
+            .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
+            .collect();
+        for (name, value) in overrides {
+            values.insert(name.to_string(), value.clone());
+        }
+        Params(values)
+    };
+    let mut eigenvalue_points = Vec::new();
+    let mut shape_points = Vec::new();
+    for mu in [0.3, 0.45, 0.6] {
+        let Artifact::Model(inner) = model.as_ref() else {
+            unreachable!()
+        };
+        let equilibrium = Arc::new(Artifact::Equilibrium(Box::new(equilibrium_of(inner, mu))));
+        let inputs = Inputs(BTreeMap::from([
+            ("model".to_string(), Input::One(model.clone())),
+            ("equilibrium".to_string(), Input::One(equilibrium)),
+        ]));
+        let outputs = Stability
+            .run(
+                &params(&Stability, &[("f_max_hz", Value::Float(6000.0))]),
+                &inputs,
+            )
+            .unwrap();
+        let eigenvalues = outputs["eigenvalues"].as_table().unwrap();
+        for column in [
+            "mode",
+            "freq_hz",
+            "re",
+            "im",
+            "divergence_rate",
+            "unstable",
+            "residual",
+        ] {
+            assert!(eigenvalues.column(column).is_some(), "{column}");
+        }
+        let shapes = outputs["shapes"].as_table().unwrap();
+        assert!(shapes.column("mode_0001_re").is_some() && shapes.column("mode_0001_im").is_some());
+        let Artifact::Figure(diagram) = &outputs["diagram"] else {
+            panic!()
+        };
+        assert!(diagram.svg.contains("Stability diagram"));
+        let Artifact::Document(vtu) = &outputs["unstable_vtu"] else {
+            panic!()
+        };
+        let vtu = String::from_utf8(vtu.bytes.clone()).unwrap();
+        let Some(crate::table::ColumnData::Bool(unstable)) = eigenvalues.column("unstable") else {
+            panic!()
+        };
+        assert_eq!(
+            vtu.matches("_re\"").count(),
+            unstable.iter().filter(|u| **u).count()
+        );
+        let coords = vec![("mu".to_string(), Value::Float(mu))];
+        eigenvalue_points.push((coords.clone(), Arc::new(outputs["eigenvalues"].clone())));
+        shape_points.push((coords, Arc::new(outputs["shapes"].clone())));
+    }
+    let inputs = Inputs(BTreeMap::from([
+        ("eigenvalues".to_string(), Input::Many(eigenvalue_points)),
+        ("shapes".to_string(), Input::Many(shape_points)),
+    ]));
+    let outputs = track::Track
+        .run(&params(&track::Track, &[]), &inputs)
+        .unwrap();
+    let tracked = outputs["tracked"].as_table().unwrap();
+    let (Some(crate::table::ColumnData::I64(branch)), Some(crate::table::ColumnData::F64(mu))) =
+        (tracked.column("branch"), tracked.column("mu"))
+    else {
+        panic!()
+    };
+    // A branch holds at most one mode per μ, and most modes continue through the sweep.
+    let mut seen = std::collections::BTreeSet::new();
+    for (branch, mu) in branch.iter().zip(mu) {
+        assert!(
+            seen.insert((*branch, mu.to_bits())),
+            "branch {branch} twice at mu {mu}"
+        );
+    }
+    let n_branches = branch.iter().max().copied().unwrap() as usize;
+    let rows_per_point = tracked.n_rows() / 3;
+    assert!(
+        n_branches < 2 * rows_per_point,
+        "{n_branches} branches for {rows_per_point} modes"
+    );
+}
+
+#[test]
+fn an_equilibrium_without_contact_is_an_error() {
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let mut equilibrium = equilibrium_of(&model, 0.38);
+    equilibrium
+        .closed
+        .iter_mut()
+        .for_each(|closed| *closed = false);
+    let err = solve(&model, &equilibrium, &Settings::default())
+        .err()
+        .unwrap();
+    assert!(err.message.contains("no contact pair is closed"), "{err}");
+}
+
+#[test]
+fn mac_pairs_modes_one_to_one() {
+    let A = faer::Mat::<c64>::from_fn(4, 2, |i, j| c64::new(f64::from(u8::from(i == j)), 0.0));
+    let B = faer::Mat::<c64>::from_fn(4, 2, |i, j| {
+        c64::new(
+            f64::from(u8::from(i == 1 - j)),
+            0.1 * f64::from(u8::from(i == 3)),
+        )
+    });
+    let mac = track::mac_matrix(&A, &B);
+    assert!((mac[(0, 1)] - 1.0 / 1.01).abs() < 1e-12);
+    let pairing = track::pair_modes(&mac, 0.5);
+    assert_eq!(pairing[0].map(|p| p.0), Some(1));
+    assert_eq!(pairing[1].map(|p| p.0), Some(0));
+}
