@@ -2,14 +2,14 @@
 //! reduced problem of the real-mode projection, and lumped models.
 //!
 //! `(λ² M + λ C + K) q = 0` is linearised on `y = [q; λ q / s]`, `s = √(‖K‖₁/‖M‖₁)` (both
-//! halves of y on one scale), and solved by QZ (faer's generalized eigensolver):
+//! halves of y on one scale), and solved densely ([`linearised_eigen`]):
 //!
 //! ```text
 //! [ 0   s I ] y = λ [ I  0  ] y
 //! [ −K −s C ]       [ 0  s M ]
 //! ```
 //!
-//! Each q is taken from whichever half of y has the smaller residual. Where QZ returns no
+//! Each q is taken from whichever half of y has the smaller residual. Where the solver returns no
 //! usable vector (an exactly repeated eigenvalue can give non-finite ones), q is the right
 //! singular vector of `λ² M + λ C + K` for its smallest singular value (the next smallest for
 //! a second copy).
@@ -55,12 +55,47 @@ fn relative_residual(Q: &Mat<c64>, q: &[c64]) -> f64 {
     }
 }
 
-/// Eigenvalues λ and vectors q of a dense quadratic eigenproblem; infinite eigenvalues (a
-/// singular M) are dropped.
+/// Eigenvalues of the pencil `A y = λ B y` as `α/β` with their vectors: Hessenberg QR on
+/// `B⁻¹ A` when B is well conditioned (a mass matrix is), QZ otherwise (faer's QZ is two
+/// orders of magnitude slower on these pencils, so it is the fallback).
+fn linearised_eigen(
+    A: Mat<f64>,
+    B: Mat<f64>,
+) -> Result<(Vec<c64>, Vec<c64>, Mat<c64>), StageError> {
+    use faer::linalg::solvers::Solve;
+    let n = A.nrows();
+    let lu = B.partial_piv_lu();
+    let pivots: Vec<f64> = (0..n).map(|i| lu.U()[(i, i)].abs()).collect();
+    let (smallest, largest) = pivots
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(low, high), &p| {
+            (low.min(p), high.max(p))
+        });
+    let unsolved = |err: &dyn std::fmt::Debug| {
+        StageError::new(format!(
+            "the dense eigensolver did not converge ({n} unknowns): {err:?}"
+        ))
+    };
+    if smallest > 1e-10 * largest {
+        let eigen = lu.solve(&A).eigen().map_err(|err| unsolved(&err))?;
+        let values: Vec<c64> = eigen.S().column_vector().iter().copied().collect();
+        return Ok((values, vec![c64::new(1.0, 0.0); n], eigen.U().to_owned()));
+    }
+    let eigen = A.generalized_eigen(&B).map_err(|err| unsolved(&err))?;
+    Ok((
+        eigen.S_a().column_vector().iter().copied().collect(),
+        eigen.S_b().column_vector().iter().copied().collect(),
+        eigen.U().to_owned(),
+    ))
+}
+
+/// Eigenvalues λ for which `wanted(λ)` holds, with their vectors q, of a dense quadratic
+/// eigenproblem; infinite eigenvalues (a singular M) are dropped.
 pub fn quadratic_eigen(
     M: MatRef<'_, f64>,
     C: MatRef<'_, f64>,
     K: MatRef<'_, f64>,
+    wanted: impl Fn(c64) -> bool,
 ) -> Result<Vec<(c64, Vec<c64>)>, StageError> {
     let n = M.nrows();
     let scale = (norm_1(K) / norm_1(M)).sqrt();
@@ -80,13 +115,8 @@ pub fn quadratic_eigen(
         (false, false) => scale * M[(i - n, j - n)],
         _ => 0.0,
     });
-    let eigen = A.generalized_eigen(&B).map_err(|err| {
-        StageError::new(format!(
-            "the dense QZ solve did not converge ({} unknowns): {err:?}",
-            2 * n
-        ))
-    })?;
-    let (alpha, beta, U) = (eigen.S_a(), eigen.S_b(), eigen.U());
+    let (alpha, beta, U) = linearised_eigen(A, B)?;
+
     let largest = (0..2 * n).map(|i| alpha[i].norm()).fold(0.0, f64::max);
     let mut pairs = Vec::new();
     let mut fallbacks: Vec<c64> = Vec::new();
@@ -95,6 +125,9 @@ pub fn quadratic_eigen(
             continue;
         }
         let lambda = alpha[i] / beta[i];
+        if !wanted(lambda) {
+            continue;
+        }
         let Q = quadratic_at(M, C, K, lambda);
         let halves = [
             (0..n).map(|row| U[(row, i)]).collect::<Vec<c64>>(),

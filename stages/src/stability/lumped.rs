@@ -2,7 +2,7 @@
 //! `(λ² M + λ C + K) x = 0`, read from Matrix Market files (any of them may be non-symmetric:
 //! a lumped friction model puts μ straight into K, as Hoffmann et al. 2002 do).
 //!
-//! Solved densely by QZ ([`super::dense`]), so meant for up to a few thousand DOFs; the residual
+//! Solved densely ([`super::dense`]), so meant for up to `MAX_DOFS` (2,000) DOFs; the residual
 //! of each pair is `‖(λ² M + λ C + K) x‖ / ((|λ|² ‖M‖₁ + |λ| ‖C‖₁ + ‖K‖₁) ‖x‖)`. The file reads
 //! make the stage impure: it reruns every time, and stages below it still cut off early.
 
@@ -18,7 +18,7 @@ use crate::model::CscMatrix;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 
 /// Largest model the dense solve accepts.
-pub const MAX_DOFS: usize = 3000;
+pub const MAX_DOFS: usize = 2000;
 
 fn dense(A: &CscMatrix) -> Mat<f64> {
     let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
@@ -53,26 +53,29 @@ pub fn solve_matrices(
     }
     let norms = [M.norm_1(), C.norm_1(), K.norm_1()];
     let omega_max = 2.0 * PI * f_max_hz;
-    let mut pairs: Vec<EigenPair> =
-        super::dense::quadratic_eigen(dense(M).as_ref(), dense(C).as_ref(), dense(K).as_ref())?
-            .into_iter()
-            .filter(|(lambda, _)| lambda.im > 0.0 && (f_max_hz <= 0.0 || lambda.im <= omega_max))
-            .map(|(lambda, x)| {
-                let product = |A: &CscMatrix| super::sliding::mul_complex(A, &x);
-                let (Mx, Cx, Kx) = (product(M), product(C), product(K));
-                let r: Vec<c64> = (0..n)
-                    .map(|i| lambda * lambda * Mx[i] + lambda * Cx[i] + Kx[i])
-                    .collect();
-                let scale = lambda.norm_sqr() * norms[0] + lambda.norm() * norms[1] + norms[2];
-                let residual = super::sliding::norm(&r)
-                    / (scale * super::sliding::norm(&x)).max(f64::MIN_POSITIVE);
-                EigenPair {
-                    lambda,
-                    q: x,
-                    residual,
-                }
-            })
+    let mut pairs: Vec<EigenPair> = super::dense::quadratic_eigen(
+        dense(M).as_ref(),
+        dense(C).as_ref(),
+        dense(K).as_ref(),
+        |lambda| lambda.im > 0.0 && (f_max_hz <= 0.0 || lambda.im <= omega_max),
+    )?
+    .into_iter()
+    .map(|(lambda, x)| {
+        let product = |A: &CscMatrix| super::sliding::mul_complex(A, &x);
+        let (Mx, Cx, Kx) = (product(M), product(C), product(K));
+        let r: Vec<c64> = (0..n)
+            .map(|i| lambda * lambda * Mx[i] + lambda * Cx[i] + Kx[i])
             .collect();
+        let scale = lambda.norm_sqr() * norms[0] + lambda.norm() * norms[1] + norms[2];
+        let residual =
+            super::sliding::norm(&r) / (scale * super::sliding::norm(&x)).max(f64::MIN_POSITIVE);
+        EigenPair {
+            lambda,
+            q: x,
+            residual,
+        }
+    })
+    .collect();
     pairs.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
     if let Some(worst) = pairs.iter().find(|pair| !(pair.residual <= tolerance)) {
         return Err(StageError::new(format!(
@@ -94,7 +97,7 @@ impl Stage for StabilityMatrices {
         1
     }
     fn doc(&self) -> &'static str {
-        "Complex eigenvalues of a small model from Matrix Market M, C, K (dense QZ; lumped friction models)"
+        "Complex eigenvalues of a small model from Matrix Market M, C, K (dense; lumped friction models)"
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![

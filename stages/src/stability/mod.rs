@@ -26,7 +26,7 @@
 //! - `krylov` (reference): every eigenvalue with `0 < f ≤ f_max_hz` and
 //!   `|divergence rate| ≤ max_divergence_rate`, by shift-invert block Arnoldi at as many
 //!   shifts as needed, the overlaps of their trusted disks checked ([`krylov`]). Systems of
-//!   up to `DENSE_LIMIT` unknowns are solved densely by QZ instead ([`dense`]).
+//!   up to `DENSE_LIMIT` DOFs are solved densely instead ([`dense`]).
 //! - `real_mode_projection` (fast, approximate, as industrial codes do): the real modes Φ of
 //!   the conservative μ = 0 sliding structure (`Tᴺᵀ K Tᴺ φ = ω² Tᴺᵀ M Tᴺ φ`, block Lanczos with
 //!   a Sturm count) form a reduced basis, `(Φᵀ M̃ Φ, Φᵀ C̃ Φ, Φᵀ K̃ Φ)` is solved densely and each
@@ -61,7 +61,7 @@ use crate::table::Table;
 pub use krylov::{EigenPair, KrylovOptions};
 use sliding::{Part, SlidingSystem, mul_complex};
 
-/// Systems of up to this many reduced DOFs are solved densely (QZ of size 2·DOFs).
+/// Systems of up to this many reduced DOFs are solved densely (an eigenproblem of size 2·DOFs).
 pub const DENSE_LIMIT: usize = 300;
 /// `Re λ > UNSTABLE_FLOOR · |λ|` marks an unstable mode.
 pub const UNSTABLE_FLOOR: f64 = 1e-8;
@@ -154,11 +154,12 @@ pub fn solve(
         Method::Krylov if system.dim() <= settings.dense_limit => {
             report.dense = true;
             let [M, C, K] = dense::dense_matrices(&system);
-            dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref())?
-                .into_iter()
-                .filter(|(lambda, _)| in_band(*lambda, settings))
-                .map(|(lambda, q)| pair_with_residual(&system, lambda, q))
-                .collect()
+            dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
+                in_band(lambda, settings)
+            })?
+            .into_iter()
+            .map(|(lambda, q)| pair_with_residual(&system, lambda, q))
+            .collect()
         }
         Method::Krylov => {
             let progress = |fraction: f64| {
@@ -249,16 +250,17 @@ fn project_on_real_modes(
     }
     let reduced = |part: Part| Phi.transpose() * dense::reduced_times(system, part, Phi.as_ref());
     let (M, C, K) = (reduced(Part::M), reduced(Part::C), reduced(Part::K));
-    let pairs = dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref())?
-        .into_iter()
-        .filter(|(lambda, _)| in_band(*lambda, settings))
-        .map(|(lambda, eta)| {
-            let q: Vec<c64> = (0..system.dim())
-                .map(|row| (0..n_modes).map(|mode| eta[mode] * Phi[(row, mode)]).sum())
-                .collect();
-            pair_with_residual(system, lambda, q)
-        })
-        .collect();
+    let pairs = dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
+        in_band(lambda, settings)
+    })?
+    .into_iter()
+    .map(|(lambda, eta)| {
+        let q: Vec<c64> = (0..system.dim())
+            .map(|row| (0..n_modes).map(|mode| eta[mode] * Phi[(row, mode)]).sum())
+            .collect();
+        pair_with_residual(system, lambda, q)
+    })
+    .collect();
     Ok((pairs, n_modes))
 }
 
