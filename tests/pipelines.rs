@@ -79,6 +79,73 @@ fn quick_study_runs_and_is_coarse() {
     let svg =
         std::fs::read_to_string(workspace.path().join("out/equilibrium/pressure.svg")).unwrap();
     assert!(svg.contains("upper pad face"));
+
+    let eigenvalues = read_parquet(&workspace.path().join("out/stability/eigenvalues.parquet"));
+    assert!(eigenvalues.num_rows() > 10);
+    let frequencies = floats(&eigenvalues, "freq_hz");
+    assert!(frequencies.windows(2).all(|pair| pair[0] <= pair[1]));
+    assert!(frequencies.iter().all(|f| *f > 0.0 && *f <= 8000.0));
+    assert!(
+        floats(&eigenvalues, "residual")
+            .iter()
+            .all(|residual| *residual <= 1e-8)
+    );
+    for file in [
+        "diagram.png",
+        "diagram.svg",
+        "shapes.parquet",
+        "unstable_vtu.vtu",
+    ] {
+        assert!(
+            workspace.path().join("out/stability").join(file).exists(),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn the_mu_sweep_tracks_modes_across_mu() {
+    let workspace = Workspace::new();
+    let study = pipeline("mu_sweep.yaml");
+    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
+    let tracked = read_parquet(&workspace.path().join("out/tracked/tracked.parquet"));
+    let mu = floats(&tracked, "mu");
+    let mut values = mu.clone();
+    values.sort_by(f64::total_cmp);
+    values.dedup();
+    assert_eq!(values.len(), 7, "{values:?}");
+    let unstable = tracked
+        .column_by_name("unstable")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<arrow::array::BooleanArray>()
+        .unwrap();
+    // Without friction nothing is unstable; at mu = 0.6 something is.
+    let unstable_at =
+        |value: f64| (0..tracked.num_rows()).any(|row| mu[row] == value && unstable.value(row));
+    assert!(!unstable_at(0.0));
+    assert!(unstable_at(0.6));
+    let png = std::fs::read(workspace.path().join("out/tracked/coalescence.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let gathered = read_parquet(&workspace.path().join("out/eigenvalues/table.parquet"));
+    assert_eq!(gathered.num_rows(), tracked.num_rows());
+}
+
+#[test]
+fn the_hoffmann_study_gives_the_closed_form_eigenvalue() {
+    let workspace = Workspace::new();
+    let study = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("pipelines/hoffmann/hoffmann.yaml")
+        .display()
+        .to_string();
+    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
+    let eigenvalues = read_parquet(&workspace.path().join("out/stability/eigenvalues.parquet"));
+    let (re, im) = (floats(&eigenvalues, "re"), floats(&eigenvalues, "im"));
+    let growing = (0..re.len())
+        .max_by(|a, b| re[*a].total_cmp(&re[*b]))
+        .unwrap();
+    assert!((re[growing] - 0.045175).abs() < 1e-6, "{re:?}");
+    assert!((im[growing] - 1.225578).abs() < 1e-6, "{im:?}");
 }
 
 #[test]

@@ -414,6 +414,13 @@ pub fn solve_band(
             None => 0.0,
         };
         shift_report.kept = inside.iter().filter(|pair| pair.lambda.im >= cut).count();
+        tracing::info!(
+            "stability: shift at {:.0} Hz, {} vectors, trusted radius {:.0} Hz, {} eigenvalues kept",
+            shift_report.frequency_hz,
+            shift_report.basis,
+            shift_report.radius / (2.0 * PI),
+            shift_report.kept
+        );
         report.shifts.push(shift_report);
         covered_to = high;
         progress((covered_to / omega_max).min(1.0));

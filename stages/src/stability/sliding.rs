@@ -281,19 +281,32 @@ impl SlidingSystem {
 
     /// `Tᴺᵀ A Tᴺ` for a full symmetric `A`.
     fn congruence(&self, A: &CscMatrix) -> CscMatrix {
+        self.project(A, false)
+    }
+
+    /// `Tᵘᵀ A Tᴺ` (`test`) or `Tᴺᵀ A Tᴺ`, sparse.
+    fn project(&self, A: &CscMatrix, test: bool) -> CscMatrix {
         let m = self.dim();
-        let rows: Vec<Vec<(usize, f64)>> = (0..self.full_dim())
-            .map(|dof| self.row(dof, false))
-            .collect();
+        let rows = |test: bool| -> Vec<Vec<(usize, f64)>> {
+            (0..self.full_dim())
+                .map(|dof| self.row(dof, test))
+                .collect()
+        };
+        let (test_rows, trial_rows) = (rows(test), rows(false));
         let mut triplets = Vec::with_capacity(A.values.len());
         for (row, col, value) in A.triplets() {
-            for &(a, t_a) in &rows[row] {
-                for &(b, t_b) in &rows[col] {
+            for &(a, t_a) in &test_rows[row] {
+                for &(b, t_b) in &trial_rows[col] {
                     triplets.push((a, b, value * t_a * t_b));
                 }
             }
         }
         CscMatrix::from_triplets(m, m, triplets)
+    }
+
+    /// `M̃`, `C̃` or `K̃` as a sparse matrix (for export).
+    pub fn reduced_matrix(&self, part: Part) -> CscMatrix {
+        self.project(self.full(part), true)
     }
 
     /// `u = Tᴺ q`: the full displacement of a reduced vector.

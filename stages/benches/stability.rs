@@ -1,0 +1,178 @@
+//! Every complex mode below 17 kHz of the default brake (`mesh.brake` defaults, μ = 0.38,
+//! ω = 4 rad/s, interference 0.1 mm): wall time, shifts, counts, worst residual and peak memory
+//! of `method: krylov`, then `real_mode_projection` and its error against it.
+//! Run with `cargo bench -p squeal-stages --bench stability`.
+//!
+//! With `SQUEAL_EXPORT_DIR=<dir>` the reduced matrices M̃, C̃, K̃ (Matrix Market) and the
+//! eigenvalues found (`eigenvalues.csv`) are written there for `scipy_eigs.py`, which times
+//! scipy's shift-invert `eigs` on the same problem.
+
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use squeal_stages::assemble::{Assemble, assemble_model};
+use squeal_stages::contact::lcp::LcpSettings;
+use squeal_stages::equilibrium::{Solver, solve as equilibrium};
+use squeal_stages::export::matrix_market::write_matrix_market;
+use squeal_stages::mesh::brake::{BrakeGeometry, brake};
+use squeal_stages::stability::sliding::Part;
+use squeal_stages::stability::{Method, Settings, divergence_rate, is_unstable, solve};
+use squeal_stages::{Params, Stage, Value};
+
+/// Peak resident memory of this process (MiB), from /proc.
+fn peak_memory_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|status| {
+            status
+                .lines()
+                .find(|line| line.starts_with("VmHWM:"))
+                .and_then(|line| line.split_whitespace().nth(1))
+                .and_then(|kib| kib.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kib| kib / 1024.0)
+}
+
+fn main() {
+    let mesh = brake(&BrakeGeometry::default()).expect("default brake");
+    let values: BTreeMap<String, Value> = Assemble
+        .params()
+        .into_iter()
+        .map(|spec| (spec.name.to_string(), spec.default.expect("defaults")))
+        .collect();
+    let clamped = vec!["hub".to_string(), "pad_backs".to_string()];
+    let (model, _) = assemble_model(&mesh, &Params(values), &clamped).expect("assembly");
+    let (equilibrium, _) = equilibrium(
+        &model,
+        0.38,
+        4.0,
+        1e-4,
+        Solver::SemismoothNewton,
+        &LcpSettings::default(),
+    )
+    .expect("equilibrium");
+    println!(
+        "default brake: {} free DOFs, {} closed pairs of {}",
+        model.n_dofs(),
+        equilibrium.closed.iter().filter(|closed| **closed).count(),
+        equilibrium.closed.len()
+    );
+
+    let settings = Settings::default();
+    let started = Instant::now();
+    let solution = solve(&model, &equilibrium, &settings).expect("krylov");
+    let seconds = started.elapsed().as_secs_f64();
+    let report = &solution.report;
+    let worst = solution
+        .pairs
+        .iter()
+        .map(|pair| pair.residual)
+        .fold(0.0, f64::max);
+    println!(
+        "krylov: {:.1} s wall ({:.1} s factorisations and contact corrections, {:.1} s Arnoldi), peak memory {:.0} MiB",
+        seconds,
+        report.band.seconds_factor,
+        report.band.seconds_arnoldi,
+        peak_memory_mib()
+    );
+    println!(
+        "  {} eigenvalues below {} Hz (the μ = 0 undamped structure has {}), worst residual {worst:.1e}, factor entries {}",
+        solution.pairs.len(),
+        settings.f_max_hz,
+        report.conservative_count,
+        report.band.factor_entries
+    );
+    for shift in &report.band.shifts {
+        println!(
+            "  shift {:>8.0} Hz: basis {:>4}, trusted radius {:>7.0} Hz, {:>4} converged, {:>4} kept, {:>3} matched in the overlap",
+            shift.frequency_hz,
+            shift.basis,
+            shift.radius / (2.0 * PI),
+            shift.found,
+            shift.kept,
+            shift.overlap_matched
+        );
+    }
+    let unstable: Vec<_> = solution
+        .pairs
+        .iter()
+        .filter(|pair| is_unstable(pair.lambda))
+        .collect();
+    println!("  {} unstable modes:", unstable.len());
+    for pair in &unstable {
+        println!(
+            "    {:>9.1} Hz  divergence rate {:>8.4} %",
+            pair.lambda.im / (2.0 * PI),
+            100.0 * divergence_rate(pair.lambda)
+        );
+    }
+
+    let started = Instant::now();
+    let projected = solve(
+        &model,
+        &equilibrium,
+        &Settings {
+            method: Method::RealModeProjection { n_real_modes: 0 },
+            ..Settings::default()
+        },
+    )
+    .expect("projection");
+    let projection_seconds = started.elapsed().as_secs_f64();
+    let errors: Vec<f64> = solution
+        .pairs
+        .iter()
+        .map(|pair| {
+            projected
+                .pairs
+                .iter()
+                .map(|other| (other.lambda - pair.lambda).norm() / pair.lambda.norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let mut sorted = errors.clone();
+    sorted.sort_by(f64::total_cmp);
+    println!(
+        "real_mode_projection: {:.1} s with {} real modes; eigenvalue error against krylov: median {:.1e}, max {:.1e}; {} unstable",
+        projection_seconds,
+        projected.report.real_modes,
+        sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
+        sorted.last().copied().unwrap_or(f64::NAN),
+        projected
+            .pairs
+            .iter()
+            .filter(|pair| is_unstable(pair.lambda))
+            .count()
+    );
+
+    if let Ok(dir) = std::env::var("SQUEAL_EXPORT_DIR") {
+        let dir = std::path::PathBuf::from(dir);
+        std::fs::create_dir_all(&dir).expect("export folder");
+        for (name, part) in [("M", Part::M), ("C", Part::C), ("K", Part::K)] {
+            let matrix = solution.system.reduced_matrix(part);
+            let text = write_matrix_market(&matrix, "squeal stability: reduced sliding problem")
+                .expect("matrix market");
+            std::fs::write(dir.join(format!("{name}.mtx")), text).expect("write");
+        }
+        let mut csv = String::from("re,im,residual\n");
+        for pair in &solution.pairs {
+            csv.push_str(&format!(
+                "{:.17e},{:.17e},{:.3e}\n",
+                pair.lambda.re, pair.lambda.im, pair.residual
+            ));
+        }
+        std::fs::write(dir.join("eigenvalues.csv"), csv).expect("write");
+        let mut shifts = String::from("frequency_hz,radius,converged\n");
+        for shift in &report.band.shifts {
+            shifts.push_str(&format!(
+                "{},{},{}\n",
+                shift.frequency_hz, shift.radius, shift.found
+            ));
+        }
+        std::fs::write(dir.join("shifts.csv"), shifts).expect("write");
+        println!(
+            "exported M.mtx, C.mtx, K.mtx, eigenvalues.csv and shifts.csv to {}",
+            dir.display()
+        );
+    }
+}
