@@ -340,9 +340,9 @@ pub fn floating_bodies(model: &Model) -> Result<FloatingBodies, StageError> {
             let mut column = vec![0.0; n];
             for (node, x) in nodes.iter().zip(&points) {
                 let motion = rigid_motion(&coefficients, *x, centroid, length);
-                for axis in 0..3 {
-                    if let Some(dof) = model.dof_of_node[*node as usize][axis] {
-                        column[dof as usize] = motion[axis];
+                for (dof, value) in model.dof_of_node[*node as usize].iter().zip(motion) {
+                    if let Some(dof) = dof {
+                        column[*dof as usize] = value;
                     }
                 }
             }
