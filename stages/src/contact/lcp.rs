@@ -25,7 +25,10 @@
 //!   (C_Pᵀ D_ρ B_P) a = C_Pᵀ w_P − d (an m × m system, m the number of rigid motions), then
 //!   r ← proj_{R+}(w − ρ ∘ B a). P is re-evaluated with the new a until it repeats. A fixed
 //!   point of the sweep is a solution: r = proj(r − ρ g) is complementarity, and the
-//!   reactions balance whenever P is the closed set.
+//!   reactions balance whenever P is the closed set. Like the plain Jacobi sweep, it needs
+//!   under-relaxation (ω = 0.5) when the pairs of a pad are strongly coupled: with ω = 1 a
+//!   soft pad block (all its pairs moving together) stalls in a cycle, and the solver then
+//!   fails with its residual history.
 //! - [`semismooth_newton`]: a primal–dual active-set (semi-smooth Newton) method on
 //!   min(r, c g) = 0: guess the closed set C, solve A_CC r_C = −q_C, update, until the set
 //!   repeats. With a balance the step is the bordered system

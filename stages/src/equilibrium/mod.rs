@@ -49,7 +49,7 @@
 //! swept reactions balance the load ([`crate::contact::lcp`]). The displacement u includes
 //! the rigid motions. The balance makes the total normal contact force on each pad equal
 //! p × its back area, and the tilts make the contact pressure's moment balance the moment
-//! of the friction drag about the guides (the leading edge carries more).
+//! of the friction drag about the guides (the contact pressure is then not uniform).
 //!
 //! Either way the summary states the load and the total normal contact force per side.
 //! In a study, the pressure variant of `pipelines/quick.yaml` is two lines:
