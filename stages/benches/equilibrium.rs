@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::contact::lcp::LcpSettings;
-use squeal_stages::equilibrium::{Solver, solve};
+use squeal_stages::equilibrium::{Load, Solver, solve};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::{Params, Stage, Value};
 
@@ -46,8 +46,15 @@ fn main() {
             },
         ),
     ] {
-        let (equilibrium, report) =
-            solve(&model, 0.38, 4.0, 1e-4, solver, &settings).expect("equilibrium");
+        let (equilibrium, report) = solve(
+            &model,
+            0.38,
+            4.0,
+            Load::Interference(1e-4),
+            solver,
+            &settings,
+        )
+        .expect("equilibrium");
         println!(
             "{name:<20} {:>10} {:>12.3} {:>12.3} {:>12.4} {:>12.2e} {:>10}",
             report.lcp.iterations,

@@ -9,15 +9,35 @@
 //! r ≥ 0,   g = q + A r ≥ 0,   rᵀ g = 0
 //! ```
 //!
+//! With floating bodies (pads pressed by a pressure, free along the normal) the gaps also
+//! depend on the amplitudes a of their zero-energy motions, and the reactions must balance
+//! the load on each such body ([`Balance`]): the mixed problem
+//!
+//! ```text
+//! r ≥ 0,   g = q + A r + B a ≥ 0,   rᵀ g = 0,   Cᵀ r = d      (a free)
+//! ```
+//!
 //! - [`fixed_point`]: the seed paper's augmented-Lagrangian iteration
 //!   r ← proj_{R+}(r − ρ ∘ g(r)) with ρᵢ = ω / Aᵢᵢ (the diagonal approximation of the
-//!   condensed operator for the augmentation parameters).
+//!   condensed operator for the augmentation parameters). With a balance, a is chosen at
+//!   each sweep so that the updated reactions balance the load exactly: with
+//!   w = r − ρ ∘ (q + A r) and P the pairs the update leaves closed,
+//!   (C_Pᵀ D_ρ B_P) a = C_Pᵀ w_P − d (an m × m system, m the number of rigid motions), then
+//!   r ← proj_{R+}(w − ρ ∘ B a). P is re-evaluated with the new a until it repeats. A fixed
+//!   point of the sweep is a solution: r = proj(r − ρ g) is complementarity, and the
+//!   reactions balance whenever P is the closed set. Like the plain Jacobi sweep, it needs
+//!   under-relaxation (ω = 0.5) when the pairs of a pad are strongly coupled: with ω = 1 a
+//!   soft pad block (all its pairs moving together) stalls in a cycle, and the solver then
+//!   fails with its residual history.
 //! - [`semismooth_newton`]: a primal–dual active-set (semi-smooth Newton) method on
-//!   min(r, c g) = 0: guess the closed set, solve A_CC r_C = −q_C, update, until the set repeats.
-//!   It ends in a few iterations where the fixed point needs hundreds.
+//!   min(r, c g) = 0: guess the closed set C, solve A_CC r_C = −q_C, update, until the set
+//!   repeats. With a balance the step is the bordered system
+//!   `[A_CC B_C; C_Cᵀ 0] [r_C; a] = [−q_C; d]`, starting from every pair closed (pads pressed
+//!   onto the disc). It ends in a few iterations where the fixed point needs hundreds.
 //!
-//! Both report the complementarity residual ‖min(r, g/ρ̄)‖∞ scaled by the largest reaction,
-//! and fail loudly with their residual history.
+//! Both report the complementarity residual ‖min(r, g/ρ̄)‖∞ scaled by the largest reaction
+//! (and, with a balance, the larger of it and the relative balance error ‖Cᵀ r − d‖∞), and
+//! fail loudly with their residual history.
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
@@ -29,8 +49,10 @@ pub struct LcpSolution {
     pub r: Vec<f64>,
     /// Normal gaps (≥ 0: open).
     pub g: Vec<f64>,
+    /// Amplitudes of the floating bodies' rigid motions (empty without a [`Balance`]).
+    pub a: Vec<f64>,
     pub iterations: usize,
-    /// Complementarity residual after each iteration.
+    /// Residual after each iteration.
     pub history: Vec<f64>,
 }
 
@@ -90,9 +112,55 @@ impl Default for LcpSettings {
     }
 }
 
-fn gaps(a: &Mat<f64>, q: &[f64], r: &[f64]) -> Vec<f64> {
+/// The rigid motions of floating bodies in the contact problem: their amplitudes a shift the
+/// gaps by B a, and the reactions must balance the load on each body, Cᵀ r = d.
+/// `B`, `C` are pairs × m, `d` has m entries (m = 0: the plain LCP).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Balance {
+    pub B: Mat<f64>,
+    pub C: Mat<f64>,
+    pub d: Vec<f64>,
+}
+
+impl Balance {
+    /// No floating body: the plain LCP.
+    pub fn none(n_pairs: usize) -> Balance {
+        Balance {
+            B: Mat::zeros(n_pairs, 0),
+            C: Mat::zeros(n_pairs, 0),
+            d: Vec::new(),
+        }
+    }
+
+    fn n_motions(&self) -> usize {
+        self.d.len()
+    }
+
+    /// ‖Cᵀ r − d‖∞ / max(‖d‖∞, max_j Σᵢ |Cᵢⱼ rᵢ|): the relative out-of-balance force.
+    pub fn residual(&self, r: &[f64]) -> f64 {
+        let mut worst = 0.0f64;
+        let mut scale = f64::MIN_POSITIVE;
+        for (j, d) in self.d.iter().enumerate() {
+            let (mut sum, mut magnitude) = (0.0, 0.0);
+            for (i, r) in r.iter().enumerate() {
+                sum += self.C[(i, j)] * r;
+                magnitude += (self.C[(i, j)] * r).abs();
+            }
+            worst = worst.max((sum - d).abs());
+            scale = scale.max(d.abs()).max(magnitude);
+        }
+        worst / scale
+    }
+}
+
+fn gaps(a: &Mat<f64>, q: &[f64], r: &[f64], balance: &Balance, amplitudes: &[f64]) -> Vec<f64> {
     (0..q.len())
-        .map(|i| q[i] + (0..r.len()).map(|j| a[(i, j)] * r[j]).sum::<f64>())
+        .map(|i| {
+            q[i] + (0..r.len()).map(|j| a[(i, j)] * r[j]).sum::<f64>()
+                + (0..amplitudes.len())
+                    .map(|j| balance.B[(i, j)] * amplitudes[j])
+                    .sum::<f64>()
+        })
         .collect()
 }
 
@@ -106,6 +174,16 @@ pub fn complementarity_residual(a: &Mat<f64>, q: &[f64], r: &[f64], g: &[f64]) -
         .map(|i| r[i].min(force(i, g[i])).abs())
         .fold(0.0, f64::max);
     worst / scale
+}
+
+/// The residual both solvers stop on: complementarity, and the balance when there is one.
+fn residual(a: &Mat<f64>, q: &[f64], r: &[f64], g: &[f64], balance: &Balance) -> f64 {
+    let complementarity = complementarity_residual(a, q, r, g);
+    if balance.n_motions() == 0 {
+        complementarity
+    } else {
+        complementarity.max(balance.residual(r))
+    }
 }
 
 fn check_diagonal(a: &Mat<f64>, solver: &'static str) -> Result<(), LcpError> {
@@ -127,24 +205,82 @@ pub fn fixed_point(
     q: &[f64],
     settings: &LcpSettings,
 ) -> Result<LcpSolution, LcpError> {
+    fixed_point_balanced(a, q, &Balance::none(q.len()), settings)
+}
+
+/// Amplitudes a with Σ_{i∈P} Cᵢⱼ (wᵢ − ρᵢ (B a)ᵢ) = dⱼ: the reactions of the pairs in P after
+/// the sweep balance the load.
+fn balancing_amplitudes(w: &[f64], rho: &[f64], closed: &[bool], balance: &Balance) -> Vec<f64> {
+    let m = balance.n_motions();
+    let system = Mat::from_fn(m, m, |j, k| {
+        (0..w.len())
+            .filter(|&i| closed[i])
+            .map(|i| balance.C[(i, j)] * rho[i] * balance.B[(i, k)])
+            .sum::<f64>()
+    });
+    let rhs = Mat::from_fn(m, 1, |j, _| {
+        (0..w.len())
+            .filter(|&i| closed[i])
+            .map(|i| balance.C[(i, j)] * w[i])
+            .sum::<f64>()
+            - balance.d[j]
+    });
+    let solution = system.partial_piv_lu().solve(&rhs);
+    (0..m).map(|j| solution[(j, 0)]).collect()
+}
+
+/// [`fixed_point`] with the rigid motions and balance of floating bodies (module docs).
+pub fn fixed_point_balanced(
+    a: &Mat<f64>,
+    q: &[f64],
+    balance: &Balance,
+    settings: &LcpSettings,
+) -> Result<LcpSolution, LcpError> {
     const SOLVER: &str = "fixed point";
     check_diagonal(a, SOLVER)?;
     let n = q.len();
+    let m = balance.n_motions();
     let rho: Vec<f64> = (0..n).map(|i| settings.relaxation / a[(i, i)]).collect();
     let mut r = vec![0.0; n];
+    let mut amplitudes = vec![0.0; m];
+    // Pads pressed onto the disc: every pair closed to start with.
+    let mut closed = vec![true; n];
     let mut history = Vec::new();
     for iteration in 1..=settings.max_iterations {
-        let g = gaps(a, q, &r);
-        for i in 0..n {
-            r[i] = (r[i] - rho[i] * g[i]).max(0.0);
+        let g = gaps(a, q, &r, balance, &amplitudes);
+        if m == 0 {
+            for i in 0..n {
+                r[i] = (r[i] - rho[i] * g[i]).max(0.0);
+            }
+        } else {
+            // w = r − ρ ∘ (q + A r): the sweep without the rigid motions.
+            let w: Vec<f64> = (0..n)
+                .map(|i| r[i] - rho[i] * (g[i] - shift(balance, &amplitudes, i)))
+                .collect();
+            // Closed set and amplitudes consistent with each other (at most n + 1 passes:
+            // each pass that changes the set is followed by a recomputation).
+            for _ in 0..=n {
+                amplitudes = balancing_amplitudes(&w, &rho, &closed, balance);
+                let updated: Vec<bool> = (0..n)
+                    .map(|i| w[i] - rho[i] * shift(balance, &amplitudes, i) > 0.0)
+                    .collect();
+                if updated == closed || !updated.iter().any(|closed| *closed) {
+                    break;
+                }
+                closed = updated;
+            }
+            for i in 0..n {
+                r[i] = (w[i] - rho[i] * shift(balance, &amplitudes, i)).max(0.0);
+            }
         }
-        let g = gaps(a, q, &r);
-        let residual = complementarity_residual(a, q, &r, &g);
+        let g = gaps(a, q, &r, balance, &amplitudes);
+        let residual = residual(a, q, &r, &g, balance);
         history.push(residual);
         if residual <= settings.tolerance {
             return Ok(LcpSolution {
                 r,
                 g,
+                a: amplitudes,
                 iterations: iteration,
                 history,
             });
@@ -161,47 +297,86 @@ pub fn fixed_point(
     })
 }
 
+/// (B a)ᵢ.
+fn shift(balance: &Balance, amplitudes: &[f64], i: usize) -> f64 {
+    amplitudes
+        .iter()
+        .enumerate()
+        .map(|(j, a)| balance.B[(i, j)] * a)
+        .sum()
+}
+
 /// Primal–dual active set (semi-smooth Newton on min(r, c g) = 0, c = 1/mean Aᵢᵢ).
 pub fn semismooth_newton(
     a: &Mat<f64>,
     q: &[f64],
     settings: &LcpSettings,
 ) -> Result<LcpSolution, LcpError> {
+    semismooth_newton_balanced(a, q, &Balance::none(q.len()), settings)
+}
+
+/// [`semismooth_newton`] with the rigid motions and balance of floating bodies: each step
+/// solves the bordered system `[A_CC B_C; C_Cᵀ 0] [r_C; a] = [−q_C; d]`.
+pub fn semismooth_newton_balanced(
+    a: &Mat<f64>,
+    q: &[f64],
+    balance: &Balance,
+    settings: &LcpSettings,
+) -> Result<LcpSolution, LcpError> {
     const SOLVER: &str = "semi-smooth Newton";
     check_diagonal(a, SOLVER)?;
     let n = q.len();
+    let m = balance.n_motions();
     let mut r = vec![0.0; n];
+    let mut amplitudes = vec![0.0; m];
     let mut g = q.to_vec();
     let mut history = Vec::new();
     let mut previous_closed: Option<Vec<bool>> = None;
     for iteration in 1..=settings.max_iterations.min(20 * n.max(1)) {
-        // A pair is closed when its reaction, or the force its penetration would take, is positive.
-        let closed: Vec<bool> = (0..n).map(|i| r[i] - g[i] / a[(i, i)] > 0.0).collect();
+        // A pair is closed when its reaction, or the force its penetration would take, is
+        // positive. Floating pads start pressed onto the disc: every pair closed.
+        let closed: Vec<bool> = if m > 0 && iteration == 1 {
+            vec![true; n]
+        } else {
+            (0..n).map(|i| r[i] - g[i] / a[(i, i)] > 0.0).collect()
+        };
         let indices: Vec<usize> = (0..n).filter(|&i| closed[i]).collect();
+        let k = indices.len();
         r = vec![0.0; n];
-        if !indices.is_empty() {
-            let block = Mat::from_fn(indices.len(), indices.len(), |row, col| {
-                a[(indices[row], indices[col])]
+        if k + m > 0 {
+            let block = Mat::from_fn(k + m, k + m, |row, col| match (row < k, col < k) {
+                (true, true) => a[(indices[row], indices[col])],
+                (true, false) => balance.B[(indices[row], col - k)],
+                (false, true) => balance.C[(indices[col], row - k)],
+                (false, false) => 0.0,
             });
-            let rhs = Mat::from_fn(indices.len(), 1, |row, _| -q[indices[row]]);
+            let rhs = Mat::from_fn(k + m, 1, |row, _| {
+                if row < k {
+                    -q[indices[row]]
+                } else {
+                    balance.d[row - k]
+                }
+            });
             let solution = block.partial_piv_lu().solve(&rhs);
             for (row, &i) in indices.iter().enumerate() {
                 r[i] = solution[(row, 0)];
             }
+            amplitudes = (0..m).map(|j| solution[(k + j, 0)]).collect();
         }
-        g = gaps(a, q, &r);
-        let residual = complementarity_residual(a, q, &r, &g);
+        g = gaps(a, q, &r, balance, &amplitudes);
+        let residual = residual(a, q, &r, &g, balance);
         history.push(residual);
         if residual <= settings.tolerance {
             return Ok(LcpSolution {
                 r,
                 g,
+                a: amplitudes,
                 iterations: iteration,
                 history,
             });
         }
         // The same closed set twice without convergence: the iteration cycles or stalls.
-        if previous_closed.as_ref() == Some(&closed) {
+        if previous_closed.as_ref() == Some(&closed) || !residual.is_finite() {
             break;
         }
         previous_closed = Some(closed);
@@ -312,5 +487,56 @@ mod tests {
         );
         assert!(message.contains("last residuals:"), "{message}");
         assert!(semismooth_newton(&a, &q, &LcpSettings::default()).is_ok());
+    }
+
+    /// Eight pairs on one floating body pressed by a load P: a translation toward the disc
+    /// (B column −1) and a tilt; C ≠ B as friction makes it.
+    fn balanced_problem() -> (Mat<f64>, Vec<f64>, Balance) {
+        let n = 8;
+        let a = spd(n);
+        let q: Vec<f64> = (0..n).map(|i| 0.1 * (i as f64 - 3.0)).collect();
+        let lever = |i: usize| (i as f64 - 3.5) / 3.5;
+        let B = Mat::from_fn(n, 2, |i, j| if j == 0 { -1.0 } else { -lever(i) });
+        let C = Mat::from_fn(n, 2, |i, j| B[(i, j)] + if j == 1 { -0.1 } else { 0.0 });
+        // Load 10 along the translation, and a moment that lifts one end.
+        let balance = Balance {
+            B,
+            C,
+            d: vec![-10.0, 4.0],
+        };
+        (a, q, balance)
+    }
+
+    #[test]
+    fn both_solvers_agree_on_a_balanced_problem_with_a_lifted_end() {
+        let (a, q, balance) = balanced_problem();
+        let newton = semismooth_newton_balanced(&a, &q, &balance, &LcpSettings::default()).unwrap();
+        let fixed = fixed_point_balanced(
+            &a,
+            &q,
+            &balance,
+            &LcpSettings {
+                relaxation: 0.5,
+                max_iterations: 100_000,
+                ..LcpSettings::default()
+            },
+        )
+        .unwrap();
+        for solution in [&newton, &fixed] {
+            check_solution(&a, &q, solution);
+            assert!(balance.residual(&solution.r) <= 1e-10);
+            let total: f64 = (0..8).map(|i| -balance.C[(i, 0)] * solution.r[i]).sum();
+            assert!((total - 10.0).abs() <= 1e-10 * 10.0, "{total}");
+        }
+        let largest = newton.r.iter().fold(0.0f64, |m, v| m.max(*v));
+        for i in 0..8 {
+            assert!((newton.r[i] - fixed.r[i]).abs() <= 1e-9 * largest);
+        }
+        for j in 0..2 {
+            assert!((newton.a[j] - fixed.a[j]).abs() <= 1e-8 * newton.a[0].abs());
+        }
+        // The moment opens part of the face.
+        assert!(newton.r.contains(&0.0) && newton.r.iter().any(|r| *r > 0.0));
+        assert!(newton.iterations <= 6, "{} iterations", newton.iterations);
     }
 }

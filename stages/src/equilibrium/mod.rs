@@ -1,41 +1,86 @@
 //! `equilibrium`: the static sliding equilibrium of the brake (DESIGN §3.3).
 //!
 //! Find (u, r) with K u = F + Hᵀ r, every closed pair sliding (r_t = μ r_n, r_b = 0) and
-//! Signorini's conditions on the normal gaps (conventions in [`crate::contact`]).
-//! K is factorised once (sparse LDLᵀ, nested-dissection ordering). With
-//! Z = K⁻¹ (H_n + μ H_t)ᵀ (one solve per pair) the normal gaps are
+//! Signorini's conditions on the normal gaps (conventions in [`crate::contact`]). With
+//! G = H_n + μ H_t (one row per pair) the contact force is Gᵀ r_n.
+//!
+//! ## Load: interference (`load: interference`, the default)
+//!
+//! The clamped pad backs are pushed toward the disc by an interference δ. A rigid
+//! translation of a pad stores no energy, so this is exactly an initial gap g₀ − δ on every
+//! pair with the backs held in place (F = 0); the displacement reported excludes the
+//! translation. K is factorised once (sparse LDLᵀ, nested-dissection ordering). With
+//! Z = K⁻¹ Gᵀ (one solve per pair) the normal gaps are
 //!
 //! ```text
-//! g = q + A r_n,   A = H_n Z,   q = g₀ − δ
+//! g = q + A r,   A = H_n Z,   q = g₀ − δ
 //! ```
 //!
 //! a small dense linear complementarity problem ([`crate::contact::lcp`]), solved by the
 //! seed's fixed point or by semi-smooth Newton (the default: a few iterations where the fixed
-//! point needs hundreds). Then u = K⁻¹ F + Z r_n.
+//! point needs hundreds). Then u = Z r_n. The load the pads then carry is the sum of the
+//! support reactions at their backs, which [`back_reactions`] recovers from the element
+//! stiffnesses as a balance check.
 //!
-//! Load: the clamped pad backs are pushed toward the disc by an interference δ. A rigid
-//! translation of a pad stores no energy, so this is exactly an initial gap g₀ − δ on every
-//! pair with the backs held in place (F = 0); the displacement reported excludes the
-//! translation. The load the pads then carry is the sum of the support reactions at their
-//! backs, which [`back_reactions`] recovers from the element stiffnesses as a balance check.
+//! ## Load: pressure (`load: pressure`)
+//!
+//! The backs are guided in-plane (`clamped: "hub, pad_backs:xy"`) and a pressure p acts on
+//! the back faces (node set `pad_backs`), F its consistent nodal forces
+//! ([`floating::pressure_load`]). Each pad puck is then a floating body: K is singular, its
+//! kernel spanned by the columns of R, the rigid motions the clamps leave free
+//! ([`floating::floating_bodies`]: for a puck, the normal translation and two tilts about
+//! in-plane axes through its back). Pin k_b DOFs of each body (k_b its number of motions,
+//! R on the pinned DOFs invertible): K_pin (K with the pinned rows and columns removed) is
+//! positive definite, which the factorisation checks (no negative pivot). Write S for
+//! "solve with K_pin, zero at the pinned DOFs". For any b with Rᵀ b = 0, the solutions of
+//! K u = b are exactly u = S b + R a: the rows of K not pinned hold by construction, and the
+//! pinned ones follow from Rᵀ K = 0 and Rᵀ b = 0 because R on the pinned DOFs is invertible.
+//! So, with a the amplitudes of the rigid motions,
+//!
+//! ```text
+//! u = S (F + Gᵀ r) + R a
+//! g = q + A r + B a,   q = g₀ + H_n S F,   A = H_n S Gᵀ,   B = H_n R
+//! Cᵀ r = d,            C = G R,           d = −Rᵀ F          (each body in balance)
+//! ```
+//!
+//! with r ≥ 0, g ≥ 0, rᵀ g = 0: a mixed LCP, the amplitudes free and the balance an equality
+//! (the pins carry no load). Newton solves the bordered system
+//! [A_CC B_C; C_Cᵀ 0] on the closed set; the fixed point picks a at each sweep so that the
+//! swept reactions balance the load ([`crate::contact::lcp`]). The displacement u includes
+//! the rigid motions. The balance makes the total normal contact force on each pad equal
+//! p × its back area, and the tilts make the contact pressure's moment balance the moment
+//! of the friction drag about the guides (the contact pressure is then not uniform).
+//!
+//! Either way the summary states the load and the total normal contact force per side.
+//! In a study, the pressure variant of `pipelines/quick.yaml` is two lines:
+//!
+//! ```yaml
+//!   model:       { ..., params: { clamped: "hub, pad_backs:xy" } }
+//!   equilibrium: { ..., params: { load: pressure, pressure: 1 MPa, mu: 0.38 } }
+//! ```
 
 mod figure;
+pub mod floating;
 
 use faer::{Mat, Par};
 use serde::{Deserialize, Serialize};
 
 use crate::artifact::{Artifact, ArtifactType};
-use crate::contact::lcp::{self, LcpSettings, LcpSolution};
+use crate::contact::lcp::{self, Balance, LcpSettings, LcpSolution};
 use crate::contact::{self, ContactFrames};
-use crate::model::Model;
+use crate::model::{CscMatrix, Model};
 use crate::modes::factor::ShiftedPencil;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
+/// The node set the pressure acts on.
+pub const PRESSURE_SET: &str = "pad_backs";
+
 /// The sliding equilibrium, as the stability analysis needs it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Equilibrium {
-    /// Displacement over the model's free DOFs (m), rigid pad approach excluded.
+    /// Displacement over the model's free DOFs (m): rigid pad approach excluded under an
+    /// interference, included (the floating pads' rigid motions) under a pressure.
     pub u: Vec<f64>,
     /// Normal reaction per pair (N, ≥ 0); r_t = μ r_n on closed pairs, r_b = 0.
     pub r_n: Vec<f64>,
@@ -54,16 +99,106 @@ pub enum Solver {
     SemismoothNewton,
 }
 
+/// What presses the pads onto the disc.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Load {
+    /// Clamped backs pushed toward the disc by this much (m).
+    Interference(f64),
+    /// This pressure (Pa) on the back faces ([`PRESSURE_SET`]), backs free along the normal.
+    Pressure(f64),
+}
+
+/// The pressure as applied: area and |z resultant| of the faces on the upper (index 0) and
+/// lower (index 1) pads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AppliedPressure {
+    pub area: [f64; 2],
+    pub force: [f64; 2],
+    pub floating_bodies: usize,
+}
+
 /// What the solve reports besides the equilibrium.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Report {
     pub solver: Solver,
+    pub load: Load,
+    /// With a pressure load: what it applies.
+    pub applied: Option<AppliedPressure>,
     pub lcp: LcpSolution,
-    /// ‖K u − Hᵀ r‖ / ‖Hᵀ r‖ of the returned state.
+    /// ‖K u − F − Gᵀ r‖ / ‖F + Gᵀ r‖ of the returned state.
     pub equation_residual: f64,
     /// Wall time (s) of the factorisation of K, of the condensation (solves and A = H_n Z),
     /// and of the contact iterations. For benchmarks only: never part of an output.
     pub seconds: [f64; 3],
+}
+
+/// K with the `pinned` rows and columns replaced by their diagonal entry alone.
+fn pin(K: &CscMatrix, pinned: &[usize]) -> CscMatrix {
+    let mut is_pinned = vec![false; K.n_rows];
+    for &dof in pinned {
+        is_pinned[dof] = true;
+    }
+    let mut triplets = Vec::with_capacity(K.values.len());
+    for col in 0..K.n_cols {
+        for entry in K.col_ptr[col]..K.col_ptr[col + 1] {
+            let row = K.row_idx[entry];
+            if (is_pinned[row] || is_pinned[col]) && row != col {
+                continue;
+            }
+            triplets.push((row, col, K.values[entry]));
+        }
+    }
+    CscMatrix::from_triplets(K.n_rows, K.n_cols, triplets)
+}
+
+/// The pressure problem's pieces: F, R, the pins, and what the summary reports.
+struct Floating {
+    forces: Vec<f64>,
+    R: Mat<f64>,
+    pinned: Vec<usize>,
+    applied: AppliedPressure,
+    bodies: Vec<floating::FloatingBody>,
+}
+
+/// Checks that the pressure pushes floating bodies, every one of them, and nothing clamped.
+fn floating_under_pressure(model: &Model, pressure: f64) -> Result<Floating, StageError> {
+    let bodies = floating::floating_bodies(model)?;
+    if bodies.bodies.is_empty() {
+        return Err(StageError::new(format!(
+            "load: pressure needs pads free along the disc normal, but every body is held by its clamps: clamp the pad backs in-plane only (`clamped: \"hub, {PRESSURE_SET}:xy\"`)"
+        )));
+    }
+    let load = floating::pressure_load(model, pressure, PRESSURE_SET)?;
+    let total = load.force[0] + load.force[1];
+    if load.on_clamped > 1e-9 * total {
+        return Err(StageError::new(format!(
+            "{:.3e} N of the {total:.3e} N pressure resultant falls on clamped DOFs of `{PRESSURE_SET}`: clamp the pad backs in-plane only (`{PRESSURE_SET}:xy`) so that they are free along the normal",
+            load.on_clamped
+        )));
+    }
+    for body in &bodies.bodies {
+        let pushed = body
+            .nodes
+            .iter()
+            .flat_map(|&node| model.dof_of_node[node as usize].iter().flatten())
+            .any(|&dof| load.forces[dof as usize] != 0.0);
+        if !pushed {
+            return Err(StageError::new(format!(
+                "{body} is not held by its clamps and carries no pressure: clamp it"
+            )));
+        }
+    }
+    Ok(Floating {
+        forces: load.forces,
+        applied: AppliedPressure {
+            area: load.area,
+            force: load.force,
+            floating_bodies: bodies.bodies.len(),
+        },
+        R: bodies.R,
+        pinned: bodies.pinned,
+        bodies: bodies.bodies,
+    })
 }
 
 /// Solves the sliding equilibrium of `model`.
@@ -71,7 +206,7 @@ pub fn solve(
     model: &Model,
     mu: f64,
     omega: f64,
-    interference: f64,
+    load: Load,
     solver: Solver,
     settings: &LcpSettings,
 ) -> Result<(Equilibrium, Report), StageError> {
@@ -85,21 +220,50 @@ pub fn solve(
     let n_pairs = mesh.contact_pairs.len();
 
     let clock = std::time::Instant::now();
-    let pencil = ShiftedPencil::new(&model.K, &model.M, &model.dof_of_node)?;
-    let factor = pencil.factor(0.0, Par::rayon(0))?;
+    let (floating, interference) = match load {
+        Load::Interference(delta) => (None, delta),
+        Load::Pressure(pressure) => (Some(floating_under_pressure(model, pressure)?), 0.0),
+    };
+    let pinned_K;
+    let K_factored = match &floating {
+        None => &model.K,
+        Some(floating) => {
+            pinned_K = pin(&model.K, &floating.pinned);
+            &pinned_K
+        }
+    };
+    let pencil = ShiftedPencil::new(K_factored, &model.M, &model.dof_of_node)?;
+    let factor = pencil
+        .factor(0.0, Par::rayon(0))
+        .map_err(|err| match &floating {
+            None => err,
+            Some(floating) => StageError::new(format!(
+                "K with the floating bodies pinned cannot be factorised ({}); floating: {}",
+                err.message,
+                body_list(&floating.bodies)
+            )),
+        })?;
     if factor.negative_pivots > 0 {
-        return Err(StageError::new(format!(
-            "K is not positive definite ({} negative pivots): a part is not supported — clamp the hub and the pad backs",
-            factor.negative_pivots
-        )));
+        return Err(StageError::new(match &floating {
+            None => format!(
+                "K is not positive definite ({} negative pivots): a part is not supported — clamp the hub and the pad backs",
+                factor.negative_pivots
+            ),
+            Some(floating) => format!(
+                "K with the floating bodies pinned is not positive definite ({} negative pivots): a body has a mechanism other than its rigid motions, unsupported; floating: {}",
+                factor.negative_pivots,
+                body_list(&floating.bodies)
+            ),
+        }));
     }
     let factor_seconds = clock.elapsed().as_secs_f64();
     let clock = std::time::Instant::now();
     let normal = |pair: usize| &columns[3 * pair];
     let tangent = |pair: usize| &columns[3 * pair + 1];
 
-    // Z = K⁻¹ (H_n + μ H_t)ᵀ, one column per pair.
-    let mut Z = Mat::<f64>::zeros(n, n_pairs);
+    // Z = S Gᵀ (one column per pair), and S F in the last column; S is K⁻¹ without
+    // floating bodies, else the pinned solve (zero at the pinned DOFs).
+    let mut Z = Mat::<f64>::zeros(n, n_pairs + usize::from(floating.is_some()));
     for pair in 0..n_pairs {
         for &(dof, value) in normal(pair) {
             Z[(dof, pair)] += value;
@@ -108,14 +272,27 @@ pub fn solve(
             Z[(dof, pair)] += mu * value;
         }
     }
+    if let Some(floating) = &floating {
+        for (dof, force) in floating.forces.iter().enumerate() {
+            Z[(dof, n_pairs)] = *force;
+        }
+        for &dof in &floating.pinned {
+            Z.row_mut(dof).fill(0.0);
+        }
+    }
     factor.solve_in_place(Z.as_mut(), Par::rayon(0));
-    let apply_normal = |pair: usize, col: usize| {
+    if let Some(floating) = &floating {
+        for &dof in &floating.pinned {
+            Z.row_mut(dof).fill(0.0);
+        }
+    }
+    let apply_normal = |pair: usize, vectors: &Mat<f64>, col: usize| {
         normal(pair)
             .iter()
-            .map(|&(dof, value)| value * Z[(dof, col)])
+            .map(|&(dof, value)| value * vectors[(dof, col)])
             .sum::<f64>()
     };
-    let A = Mat::from_fn(n_pairs, n_pairs, apply_normal);
+    let A = Mat::from_fn(n_pairs, n_pairs, |pair, col| apply_normal(pair, &Z, col));
     let q: Vec<f64> = (0..n_pairs)
         .map(|pair| {
             let contact_pair = &mesh.contact_pairs[pair];
@@ -126,28 +303,68 @@ pub fn solve(
             let g0: f64 = (0..3)
                 .map(|axis| (x_pad[axis] - x_disc[axis]) * frames.n[pair][axis])
                 .sum();
-            g0 - interference
+            match floating {
+                None => g0 - interference,
+                Some(_) => g0 + apply_normal(pair, &Z, n_pairs),
+            }
         })
         .collect();
+    let balance = match &floating {
+        None => Balance::none(n_pairs),
+        Some(floating) => {
+            let R = &floating.R;
+            let m = R.ncols();
+            let apply_g = |pair: usize, mode: usize| {
+                apply_normal(pair, R, mode)
+                    + mu * tangent(pair)
+                        .iter()
+                        .map(|&(dof, value)| value * R[(dof, mode)])
+                        .sum::<f64>()
+            };
+            let balance = Balance {
+                B: Mat::from_fn(n_pairs, m, |pair, mode| apply_normal(pair, R, mode)),
+                C: Mat::from_fn(n_pairs, m, apply_g),
+                d: (0..m)
+                    .map(|mode| {
+                        -(0..n)
+                            .map(|dof| R[(dof, mode)] * floating.forces[dof])
+                            .sum::<f64>()
+                    })
+                    .collect(),
+            };
+            check_contact_holds(&balance.B, &floating.bodies)?;
+            balance
+        }
+    };
 
     let condense_seconds = clock.elapsed().as_secs_f64();
     let clock = std::time::Instant::now();
     let lcp = match solver {
-        Solver::FixedPoint => lcp::fixed_point(&A, &q, settings),
-        Solver::SemismoothNewton => lcp::semismooth_newton(&A, &q, settings),
+        Solver::FixedPoint => lcp::fixed_point_balanced(&A, &q, &balance, settings),
+        Solver::SemismoothNewton => lcp::semismooth_newton_balanced(&A, &q, &balance, settings),
     }
     .map_err(|err| StageError::new(err.to_string()))?;
     let iterate_seconds = clock.elapsed().as_secs_f64();
 
     let u: Vec<f64> = (0..n)
         .map(|dof| {
-            (0..n_pairs)
+            let mut value = (0..n_pairs)
                 .map(|pair| Z[(dof, pair)] * lcp.r[pair])
-                .sum::<f64>()
+                .sum::<f64>();
+            if let Some(floating) = &floating {
+                value += Z[(dof, n_pairs)];
+                value += (0..lcp.a.len())
+                    .map(|mode| floating.R[(dof, mode)] * lcp.a[mode])
+                    .sum::<f64>();
+            }
+            value
         })
         .collect();
-    // Check the equation itself: K u = Hᵀ r.
-    let mut rhs = vec![0.0; n];
+    // Check the equation itself, with K (not K_pin): K u = F + Gᵀ r.
+    let mut rhs = match &floating {
+        None => vec![0.0; n],
+        Some(floating) => floating.forces.clone(),
+    };
     for pair in 0..n_pairs {
         for &(dof, value) in normal(pair) {
             rhs[dof] += value * lcp.r[pair];
@@ -176,11 +393,47 @@ pub fn solve(
         equilibrium,
         Report {
             solver,
+            load,
+            applied: floating.map(|floating| floating.applied),
             lcp,
             equation_residual,
             seconds,
         },
     ))
+}
+
+fn body_list(bodies: &[floating::FloatingBody]) -> String {
+    bodies
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<String>>()
+        .join("; ")
+}
+
+/// Each body's rigid motions must move its contact pairs along their normals (B_b of full
+/// column rank): a motion the contact does not see (a pad spinning about the normal) is
+/// held by nothing.
+fn check_contact_holds(B: &Mat<f64>, bodies: &[floating::FloatingBody]) -> Result<(), StageError> {
+    for body in bodies {
+        let modes = body.modes.clone();
+        let k = modes.len();
+        let gram = Mat::from_fn(k, k, |i, j| {
+            (0..B.nrows())
+                .map(|pair| B[(pair, modes.start + i)] * B[(pair, modes.start + j)])
+                .sum::<f64>()
+        });
+        let svd = gram.svd().map_err(|err| {
+            StageError::new(format!("SVD of the contact motions of {body}: {err:?}"))
+        })?;
+        let largest = svd.S()[0];
+        let smallest = svd.S()[k - 1];
+        if !(smallest > 1e-10 * largest) {
+            return Err(StageError::new(format!(
+                "{body}: its contact pairs do not hold all its free rigid motions (a motion moves none of them along the normal): guide it in-plane (`{PRESSURE_SET}:xy`)"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Support reactions at clamped nodes, summed per node set: the force the supports exert,
@@ -249,10 +502,10 @@ impl Stage for SlidingEquilibrium {
         "equilibrium"
     }
     fn version(&self) -> u32 {
-        2
+        3
     }
     fn doc(&self) -> &'static str {
-        "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu"
+        "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu, pads pressed by an interference or a back pressure"
     }
     fn params(&self) -> Vec<ParamSpec> {
         let defaults = LcpSettings::default();
@@ -264,11 +517,24 @@ impl Stage for SlidingEquilibrium {
                 "rad/s",
                 "disc speed (sets the sliding directions)",
             ),
+            ParamSpec::choice(
+                "load",
+                &["interference", "pressure"],
+                "interference",
+                "clamped backs pushed by `interference`, or `pressure` on backs clamped pad_backs:xy",
+            ),
             ParamSpec::float(
                 "interference",
                 1e-4,
                 "m",
-                "pad backs pushed toward the disc by this",
+                "load: interference — pad backs pushed toward the disc by this",
+            )
+            .at_least(0.0),
+            ParamSpec::float(
+                "pressure",
+                1e6,
+                "Pa",
+                "load: pressure — pressure on the pad back faces",
             )
             .at_least(0.0),
             ParamSpec::choice(
@@ -321,7 +587,7 @@ impl Stage for SlidingEquilibrium {
             PortSpec::one(
                 "summary",
                 ArtifactType::Table,
-                "solver, iterations, residuals, total forces",
+                "load, solver, iterations, residuals, total contact force per side",
             ),
             PortSpec::one(
                 "vtu",
@@ -348,11 +614,15 @@ impl Stage for SlidingEquilibrium {
             max_iterations: params.int("max_iterations") as usize,
             relaxation: params.float("relaxation"),
         };
+        let load = match params.str("load") {
+            "pressure" => Load::Pressure(params.float("pressure")),
+            _ => Load::Interference(params.float("interference")),
+        };
         let (equilibrium, report) = solve(
             model,
             params.float("mu"),
             params.float("omega"),
-            params.float("interference"),
+            load,
             solver,
             &settings,
         )?;
@@ -449,7 +719,22 @@ pub fn side_force(mesh: &crate::mesh::Mesh, r_n: &[f64], upper: bool) -> f64 {
 /// The figures that say whether the solve is to be trusted, and the resultant forces.
 fn summary_table(equilibrium: &Equilibrium, report: &Report, mesh: &crate::mesh::Mesh) -> Table {
     let total: f64 = equilibrium.r_n.iter().sum();
-    let quantities = [
+    let (load, mut quantities) = match (report.load, report.applied) {
+        (Load::Pressure(pressure), Some(applied)) => (
+            "pressure",
+            vec![
+                ("pressure_Pa", pressure),
+                ("pressure_force_upper_N", applied.force[0]),
+                ("pressure_force_lower_N", applied.force[1]),
+                ("back_area_upper_m2", applied.area[0]),
+                ("back_area_lower_m2", applied.area[1]),
+                ("floating_bodies", applied.floating_bodies as f64),
+            ],
+        ),
+        (Load::Pressure(pressure), None) => ("pressure", vec![("pressure_Pa", pressure)]),
+        (Load::Interference(delta), _) => ("interference", vec![("interference_m", delta)]),
+    };
+    quantities.extend([
         ("iterations", report.lcp.iterations as f64),
         ("complementarity_residual", report.lcp.residual()),
         ("equation_residual", report.equation_residual),
@@ -468,7 +753,7 @@ fn summary_table(equilibrium: &Equilibrium, report: &Report, mesh: &crate::mesh:
         ),
         ("normal_force_total_N", total),
         ("friction_force_total_N", equilibrium.mu * total),
-    ];
+    ]);
     let solver = match report.solver {
         Solver::FixedPoint => "fixed_point",
         Solver::SemismoothNewton => "newton",
@@ -489,6 +774,7 @@ fn summary_table(equilibrium: &Equilibrium, report: &Report, mesh: &crate::mesh:
                 .collect::<Vec<f64>>(),
         )
         .with("solver", vec![solver.to_string(); quantities.len()])
+        .with("load", vec![load.to_string(); quantities.len()])
 }
 
 #[cfg(test)]
@@ -547,7 +833,7 @@ mod tests {
             &model,
             0.38,
             4.0,
-            5e-5,
+            Load::Interference(5e-5),
             Solver::SemismoothNewton,
             &settings(),
         )
@@ -606,7 +892,7 @@ mod tests {
             &model,
             0.0,
             4.0,
-            5e-5,
+            Load::Interference(5e-5),
             Solver::SemismoothNewton,
             &settings(),
         )
@@ -623,7 +909,7 @@ mod tests {
             &model,
             0.38,
             4.0,
-            5e-5,
+            Load::Interference(5e-5),
             Solver::SemismoothNewton,
             &settings(),
         )
@@ -640,7 +926,7 @@ mod tests {
             &model,
             0.38,
             4.0,
-            load,
+            Load::Interference(load),
             Solver::SemismoothNewton,
             &settings(),
         )
@@ -650,8 +936,15 @@ mod tests {
             max_iterations: 100_000,
             ..settings()
         };
-        let (fixed, fixed_report) =
-            solve(&model, 0.38, 4.0, load, Solver::FixedPoint, &relaxed).unwrap();
+        let (fixed, fixed_report) = solve(
+            &model,
+            0.38,
+            4.0,
+            Load::Interference(load),
+            Solver::FixedPoint,
+            &relaxed,
+        )
+        .unwrap();
         let largest = newton.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
         for (a, b) in newton.r_n.iter().zip(&fixed.r_n) {
             assert!((a - b).abs() <= 1e-8 * largest, "{a} vs {b}");
@@ -659,11 +952,10 @@ mod tests {
         assert!(newton_report.lcp.iterations < fixed_report.lcp.iterations);
     }
 
-    /// Two blocks in series, pressed by an interference, with ν = 0 so that the stress is
-    /// uniaxial: F = δ / (L₁/(E₁A) + L₂/(E₂A)).
-    #[test]
-    fn two_bars_in_contact_match_the_series_spring_formula() {
-        let (width, l_disc, l_pad) = (0.02, 0.03, 0.01);
+    /// A disc block (base `base`) under a pad block (back `pad_backs`), both `width` square,
+    /// stacked along z with node-to-node pairs on the shared face, one metre off the axis
+    /// (for a sliding direction).
+    fn two_blocks(width: f64, l_disc: f64, l_pad: f64) -> Mesh {
         let mut disc = block([width, width, l_disc], [2, 2, 3], "disc");
         let pad = block([width, width, l_pad], [2, 2, 2], "pad");
         // Move the pair away from the rotation axis (for a sliding direction) and stack them.
@@ -715,12 +1007,21 @@ mod tests {
         let disc_bottom = disc.node_sets["z0"].clone();
         disc.node_sets = BTreeMap::from([
             ("base".to_string(), disc_bottom),
-            ("pad_back".to_string(), pad_top),
+            ("pad_backs".to_string(), pad_top),
         ]);
+        disc
+    }
+
+    /// Two blocks in series, pressed by an interference, with ν = 0 so that the stress is
+    /// uniaxial: F = δ / (L₁/(E₁A) + L₂/(E₂A)).
+    #[test]
+    fn two_bars_in_contact_match_the_series_spring_formula() {
+        let (width, l_disc, l_pad) = (0.02, 0.03, 0.01);
+        let disc = two_blocks(width, l_disc, l_pad);
         let (e_disc, e_pad) = (2.0e11, 3.0e8);
         let model = model(
             &disc,
-            "base, pad_back",
+            "base, pad_backs",
             &[
                 ("nu_disc", 0.0),
                 ("nu_pad", 0.0),
@@ -733,7 +1034,7 @@ mod tests {
             &model,
             0.0,
             4.0,
-            delta,
+            Load::Interference(delta),
             Solver::SemismoothNewton,
             &settings(),
         )
@@ -759,7 +1060,7 @@ mod tests {
             &model,
             0.38,
             4.0,
-            5e-5,
+            Load::Interference(5e-5),
             Solver::SemismoothNewton,
             &settings(),
         )
@@ -769,5 +1070,318 @@ mod tests {
             "{}",
             err.message
         );
+    }
+
+    const PRESSURE: f64 = 1e6;
+
+    /// The coarse brake guided in-plane at its backs, pressed by `PRESSURE`.
+    fn pressed(
+        model: &Model,
+        mu: f64,
+        solver: Solver,
+        settings: &LcpSettings,
+    ) -> (Equilibrium, Report) {
+        solve(model, mu, 4.0, Load::Pressure(PRESSURE), solver, settings).unwrap()
+    }
+
+    /// Contact area per side from the mesh's tributary areas: a puck is a prism, so its back
+    /// has the area of its friction face.
+    fn pad_area(mesh: &Mesh, upper: bool) -> f64 {
+        mesh.contact_pairs
+            .iter()
+            .filter(|pair| (pair.normal[2] >= 0.0) == upper)
+            .map(|pair| pair.area)
+            .sum()
+    }
+
+    #[test]
+    fn under_a_pressure_each_pad_carries_the_pressure_times_its_back_area() {
+        let mesh = coarse_brake();
+        let model = model(&mesh, "hub, pad_backs:xy", &[]);
+        let mu = 0.38;
+        let (equilibrium, report) = pressed(&model, mu, Solver::SemismoothNewton, &settings());
+        let applied = report.applied.unwrap();
+        // 2 pucks per pad, each free to translate along z and tilt about x and y.
+        assert_eq!(applied.floating_bodies, 4);
+        assert_eq!(report.lcp.a.len(), 12);
+        for (side, upper) in [(0, true), (1, false)] {
+            let expected = PRESSURE * pad_area(&mesh, upper);
+            let contact = side_force(&mesh, &equilibrium.r_n, upper);
+            eprintln!(
+                "side {side}: contact {contact:.12e} N, p A {expected:.12e} N, relative {:.2e}",
+                (contact - expected).abs() / expected
+            );
+            assert!((contact - expected).abs() <= 1e-10 * expected);
+            assert!((applied.force[side] - expected).abs() <= 1e-12 * expected);
+            assert!((applied.area[side] - pad_area(&mesh, upper)).abs() <= 1e-14);
+        }
+        // The contact forces, read back from K u − F at the pad nodes: normal r_n, along the
+        // sliding direction μ r_n, none across it.
+        let load = floating::pressure_load(&model, PRESSURE, PRESSURE_SET).unwrap();
+        let Ku = model.K.mul_vec(&equilibrium.u);
+        let largest = equilibrium.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
+        let mut worst_ratio = 0.0f64;
+        for (pair_idx, pair) in mesh.contact_pairs.iter().enumerate() {
+            let dofs = model.dof_of_node[pair.pad_node as usize];
+            let force: [f64; 3] = std::array::from_fn(|axis| {
+                dofs[axis].map_or(0.0, |dof| Ku[dof as usize] - load.forces[dof as usize])
+            });
+            let along = |direction: [f64; 3]| crate::mesh::dot(force, direction);
+            let r_n = equilibrium.r_n[pair_idx];
+            assert!((along(equilibrium.frames.n[pair_idx]) - r_n).abs() <= 1e-9 * largest);
+            let coulomb = (along(equilibrium.frames.t[pair_idx]) - mu * r_n).abs() / largest;
+            worst_ratio = worst_ratio.max(coulomb);
+            assert!(along(equilibrium.frames.b[pair_idx]).abs() <= 1e-9 * largest);
+        }
+        eprintln!(
+            "|r_t - mu r_n| / max r_n = {worst_ratio:.2e}, equation residual {:.2e}, complementarity {:.2e}, {} iterations",
+            report.equation_residual,
+            report.lcp.residual(),
+            report.lcp.iterations
+        );
+        assert!(worst_ratio <= 1e-9);
+        assert!(
+            report.equation_residual <= 1e-10,
+            "{}",
+            report.equation_residual
+        );
+        assert!(report.lcp.residual() <= 1e-10);
+        // Penetration within roundoff of the displacements.
+        let displacement = equilibrium.u.iter().fold(0.0f64, |max, u| max.max(u.abs()));
+        let deepest = equilibrium.gap.iter().fold(0.0f64, |min, g| min.min(*g));
+        eprintln!("deepest penetration {deepest:.2e} m, largest displacement {displacement:.2e} m");
+        assert!(deepest >= -1e-10 * displacement, "penetration {deepest}");
+        assert!(equilibrium.r_n.iter().all(|r| *r >= 0.0));
+        assert!(equilibrium.closed.iter().any(|closed| *closed));
+    }
+
+    #[test]
+    fn without_friction_under_a_pressure_the_pads_are_mirror_images() {
+        let mesh = coarse_brake();
+        let model = model(&mesh, "hub, pad_backs:xy", &[]);
+        let (equilibrium, _) = pressed(&model, 0.0, Solver::SemismoothNewton, &settings());
+        let largest = equilibrium.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
+        let position = |pair: &crate::mesh::ContactPair| mesh.nodes[pair.disc_node as usize];
+        let mut worst = 0.0f64;
+        for (upper_idx, upper) in mesh.contact_pairs.iter().enumerate() {
+            if upper.normal[2] < 0.0 {
+                continue;
+            }
+            let x = position(upper);
+            let lower_idx = mesh
+                .contact_pairs
+                .iter()
+                .position(|pair| {
+                    pair.normal[2] < 0.0 && position(pair)[0] == x[0] && position(pair)[1] == x[1]
+                })
+                .expect("every upper pair has a mirror");
+            worst = worst
+                .max((equilibrium.r_n[upper_idx] - equilibrium.r_n[lower_idx]).abs() / largest);
+        }
+        eprintln!("mirror asymmetry of r_n: {worst:.2e} of the largest");
+        assert!(worst <= 1e-8);
+        assert!(
+            (side_force(&mesh, &equilibrium.r_n, true)
+                - side_force(&mesh, &equilibrium.r_n, false))
+            .abs()
+                <= 1e-10 * side_force(&mesh, &equilibrium.r_n, true)
+        );
+    }
+
+    #[test]
+    fn fixed_point_and_newton_agree_under_a_pressure() {
+        let mesh = coarse_brake();
+        let model = model(&mesh, "hub, pad_backs:xy", &[]);
+        let (newton, newton_report) = pressed(&model, 0.38, Solver::SemismoothNewton, &settings());
+        let relaxed = LcpSettings {
+            relaxation: 0.5,
+            max_iterations: 100_000,
+            ..settings()
+        };
+        let (fixed, fixed_report) = pressed(&model, 0.38, Solver::FixedPoint, &relaxed);
+        let largest = newton.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
+        let worst = newton
+            .r_n
+            .iter()
+            .zip(&fixed.r_n)
+            .map(|(a, b)| (a - b).abs() / largest)
+            .fold(0.0, f64::max);
+        eprintln!(
+            "newton {} iterations, fixed point {} iterations, |r_newton - r_fixed| / max r = {worst:.2e}",
+            newton_report.lcp.iterations, fixed_report.lcp.iterations
+        );
+        assert!(worst <= 1e-8);
+        assert!(newton_report.lcp.iterations < fixed_report.lcp.iterations);
+    }
+
+    /// Two blocks, the pad pressed by p on its back and guided in-plane, ν = 0: the stress is
+    /// −p everywhere, so the contact pressure is p and each block shortens by p L / E.
+    #[test]
+    fn two_blocks_pressed_by_a_pressure_match_the_uniaxial_solution() {
+        let (width, l_disc, l_pad) = (0.02, 0.03, 0.01);
+        let mesh = two_blocks(width, l_disc, l_pad);
+        let (e_disc, e_pad) = (2.0e11, 3.0e8);
+        let model = model(
+            &mesh,
+            "base, pad_backs:xy",
+            &[
+                ("nu_disc", 0.0),
+                ("nu_pad", 0.0),
+                ("E_disc", e_disc),
+                ("E_pad", e_pad),
+            ],
+        );
+        let pressure = 2e6;
+        // Jacobi on a pad whose pairs all move together needs the damped step; it converges
+        // linearly, so a tighter residual for the 1e-9 check.
+        let relaxed = LcpSettings {
+            relaxation: 0.5,
+            max_iterations: 100_000,
+            tolerance: 1e-13,
+        };
+        for (solver, settings) in [
+            (Solver::SemismoothNewton, settings()),
+            (Solver::FixedPoint, relaxed),
+        ] {
+            let (equilibrium, report) = solve(
+                &model,
+                0.0,
+                4.0,
+                Load::Pressure(pressure),
+                solver,
+                &settings,
+            )
+            .unwrap();
+            let mut worst_pressure = 0.0f64;
+            for (r, pair) in equilibrium.r_n.iter().zip(&mesh.contact_pairs) {
+                worst_pressure = worst_pressure.max((r / pair.area - pressure).abs() / pressure);
+            }
+            let u_z =
+                |node: u32| equilibrium.u[model.dof_of_node[node as usize][2].unwrap() as usize];
+            let disc_top = -pressure * l_disc / e_disc;
+            let back = disc_top - pressure * l_pad / e_pad;
+            let mut worst_displacement = 0.0f64;
+            for pair in &mesh.contact_pairs {
+                worst_displacement =
+                    worst_displacement.max((u_z(pair.disc_node) - disc_top).abs() / disc_top.abs());
+            }
+            for &node in &mesh.node_sets[PRESSURE_SET] {
+                worst_displacement = worst_displacement.max((u_z(node) - back).abs() / back.abs());
+            }
+            eprintln!(
+                "{solver:?}: contact pressure error {worst_pressure:.2e}, displacement error {worst_displacement:.2e}, {} iterations",
+                report.lcp.iterations
+            );
+            assert!(worst_pressure <= 1e-9);
+            assert!(worst_displacement <= 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_pressure_on_fully_clamped_backs_is_an_error() {
+        let mesh = coarse_brake();
+        let model = model(&mesh, "hub, pad_backs", &[]);
+        let err = solve(
+            &model,
+            0.38,
+            4.0,
+            Load::Pressure(PRESSURE),
+            Solver::SemismoothNewton,
+            &settings(),
+        )
+        .unwrap_err();
+        assert!(err.message.contains("pad_backs:xy"), "{}", err.message);
+        // Backs held along z only where the pressure acts, but a puck left floating in-plane.
+        let model = model_with_pucks_free_in_plane(&mesh);
+        let err = solve(
+            &model,
+            0.38,
+            4.0,
+            Load::Pressure(PRESSURE),
+            Solver::SemismoothNewton,
+            &settings(),
+        )
+        .unwrap_err();
+        assert!(err.message.contains("pad_backs:xy"), "{}", err.message);
+    }
+
+    /// Backs clamped along z only: the pressure falls on the supports.
+    fn model_with_pucks_free_in_plane(mesh: &Mesh) -> Model {
+        model(mesh, "hub, pad_backs:z", &[])
+    }
+
+    #[test]
+    fn a_nonconverging_solver_under_a_pressure_reports_its_residual_history() {
+        let mesh = coarse_brake();
+        let model = model(&mesh, "hub, pad_backs:xy", &[]);
+        let few = LcpSettings {
+            max_iterations: 3,
+            relaxation: 0.5,
+            ..settings()
+        };
+        let err = solve(
+            &model,
+            0.38,
+            4.0,
+            Load::Pressure(PRESSURE),
+            Solver::FixedPoint,
+            &few,
+        )
+        .unwrap_err();
+        assert!(
+            err.message
+                .starts_with("fixed point did not converge in 3 iterations"),
+            "{}",
+            err.message
+        );
+        assert!(err.message.contains("last residuals:"), "{}", err.message);
+    }
+
+    /// The stage itself with `load: pressure` (the two lines a study adds: `clamped: "hub,
+    /// pad_backs:xy"` on `assemble`, `load: pressure` on `equilibrium`).
+    #[test]
+    fn the_stage_runs_with_a_pressure_load() {
+        use crate::stage::Input;
+        use std::sync::Arc;
+        let mesh = coarse_brake();
+        let model = model(&mesh, "hub, pad_backs:xy", &[]);
+        let mut values: BTreeMap<String, Value> = SlidingEquilibrium
+            .params()
+            .into_iter()
+            .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
+            .collect();
+        values.insert("load".into(), Value::Str("pressure".into()));
+        values.insert("pressure".into(), Value::Float(2e6));
+        let inputs = Inputs(BTreeMap::from([(
+            "model".to_string(),
+            Input::One(Arc::new(Artifact::Model(Box::new(model)))),
+        )]));
+        let outputs = SlidingEquilibrium.run(&Params(values), &inputs).unwrap();
+        let summary = outputs["summary"].as_table().unwrap();
+        let Some(crate::table::ColumnData::Str(names)) = summary.column("quantity") else {
+            panic!("no quantity column")
+        };
+        let Some(crate::table::ColumnData::F64(values)) = summary.column("value") else {
+            panic!("no value column")
+        };
+        let value = |name: &str| values[names.iter().position(|n| n == name).unwrap()];
+        assert_eq!(value("pressure_Pa"), 2e6);
+        for side in ["upper", "lower"] {
+            let applied = value(&format!("pressure_force_{side}_N"));
+            let contact = value(&format!("normal_force_{side}_N"));
+            assert!(
+                (applied - contact).abs() <= 1e-10 * applied,
+                "{side}: {applied} vs {contact}"
+            );
+            assert!(
+                (applied - 2e6 * value(&format!("back_area_{side}_m2"))).abs() <= 1e-12 * applied
+            );
+        }
+        assert_eq!(value("floating_bodies"), 4.0);
+        let Some(crate::table::ColumnData::Str(load)) = summary.column("load") else {
+            panic!("no load column")
+        };
+        assert!(load.iter().all(|load| load == "pressure"));
+        assert!(matches!(outputs["equilibrium"], Artifact::Equilibrium(_)));
     }
 }

@@ -11,7 +11,7 @@ use faer::c64;
 use super::*;
 use crate::assemble::test_model;
 use crate::contact::lcp::LcpSettings;
-use crate::equilibrium::{self, Solver};
+use crate::equilibrium::{self, Load, Solver};
 use crate::mesh::brake::{BrakeGeometry, brake};
 use crate::mesh::{ContactPair, Mesh};
 use crate::model::CscMatrix;
@@ -37,7 +37,7 @@ fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
         model,
         mu,
         4.0,
-        5e-5,
+        Load::Interference(5e-5),
         Solver::SemismoothNewton,
         &LcpSettings::default(),
     )

@@ -1,0 +1,442 @@
+//! The pressure on the pad backs and the floating bodies it pushes.
+//!
+//! - [`pressure_load`]: consistent nodal forces of a pressure p on the boundary faces whose
+//!   four nodes all lie in a node set. On a bilinear face x(ξ, η), the traction −p n pushes
+//!   into the body (n the outward normal) and node a receives
+//!   f_a = −p ∫ N_a (x_ξ × x_η) dξ dη. The integrand is of degree ≤ 2 in each of ξ, η, so
+//!   2 × 2 Gauss points integrate it exactly: Σ_a f_a = −p × (area vector) to roundoff, and
+//!   on a flat face each node receives p × area / 4 only for a parallelogram (a general
+//!   quadrilateral shifts load toward its larger corners).
+//! - [`floating_bodies`]: the connected components of the elements (nodes shared) and, for
+//!   each, the rigid motions its clamps leave free. A rigid motion is u(x) = t + θ × (x − c)
+//!   (c the body's centroid); each clamped (node, axis) is a linear condition on (t, θ), and
+//!   the free motions are the null space of those conditions, found by an SVD of their 6 × 6
+//!   Gram matrix. A pad puck guided in-plane at its flat back (`pad_backs:xy`) keeps three:
+//!   the translation along the normal and two tilts about in-plane axes through its back.
+//!   Each free motion is a column of R over the free DOFs, scaled to a largest component of 1
+//!   (so its amplitude is a displacement in metres). K R = 0 is checked, and per body as many
+//!   DOFs as it has free motions are chosen to pin (greedy, best conditioned rows of R), so
+//!   that R restricted to the pinned DOFs is invertible.
+
+use std::collections::BTreeMap;
+
+use faer::Mat;
+
+use crate::mesh::{Mesh, cross, dot, sub};
+use crate::model::Model;
+use crate::stage::StageError;
+
+/// The six faces of a hexahedron, each as a cycle of local nodes (see [`crate::mesh`]).
+const HEX_FACES: [[usize; 4]; 6] = [
+    [0, 1, 2, 3],
+    [4, 5, 6, 7],
+    [0, 1, 5, 4],
+    [1, 2, 6, 5],
+    [2, 3, 7, 6],
+    [3, 0, 4, 7],
+];
+
+/// The pressure load on a node set's faces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PressureLoad {
+    /// Consistent nodal forces over the free DOFs (N).
+    pub forces: Vec<f64>,
+    /// Loaded area (m²) of the faces pushed toward −z (upper pads) and +z (lower pads).
+    pub area: [f64; 2],
+    /// |z resultant| (N) of the same two groups of faces.
+    pub force: [f64; 2],
+    /// Magnitude of the resultant that falls on clamped DOFs (N), lost to the supports.
+    pub on_clamped: f64,
+    /// Number of loaded faces.
+    pub n_faces: usize,
+}
+
+/// Nodal forces of the pressure `pressure` (Pa) on the boundary faces of the node set `set`.
+pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<PressureLoad, StageError> {
+    let mesh = &model.mesh;
+    let nodes = mesh
+        .node_sets
+        .get(set)
+        .ok_or_else(|| StageError::new(format!("no node set `{set}` to apply the pressure on")))?;
+    let mut in_set = vec![false; mesh.n_nodes()];
+    for &node in nodes {
+        in_set[node as usize] = true;
+    }
+    // Candidate faces (all four nodes in the set); a face met twice is interior.
+    let mut faces: BTreeMap<[u32; 4], (usize, usize)> = BTreeMap::new();
+    let mut count: BTreeMap<[u32; 4], usize> = BTreeMap::new();
+    for (hex_idx, hex) in mesh.hexes.iter().enumerate() {
+        for (face_idx, face) in HEX_FACES.iter().enumerate() {
+            if face.iter().all(|&local| in_set[hex[local] as usize]) {
+                let mut key = face.map(|local| hex[local]);
+                key.sort_unstable();
+                faces.entry(key).or_insert((hex_idx, face_idx));
+                *count.entry(key).or_default() += 1;
+            }
+        }
+    }
+    let mut load = PressureLoad {
+        forces: vec![0.0; model.n_dofs()],
+        area: [0.0; 2],
+        force: [0.0; 2],
+        on_clamped: 0.0,
+        n_faces: 0,
+    };
+    let mut clamped_resultant = [0.0; 3];
+    for (key, (hex_idx, face_idx)) in &faces {
+        if count[key] != 1 {
+            continue;
+        }
+        let hex = mesh.hexes[*hex_idx];
+        let face = HEX_FACES[*face_idx].map(|local| hex[local]);
+        let corners = face.map(|node| mesh.nodes[node as usize]);
+        let (mut nodal, area_vector) = face_integrals(&corners);
+        // Orient outward: from the element's centroid toward the face's.
+        let centroid = |points: &[[f64; 3]]| {
+            let mut sum = [0.0; 3];
+            for point in points {
+                for axis in 0..3 {
+                    sum[axis] += point[axis] / points.len() as f64;
+                }
+            }
+            sum
+        };
+        let element_points: Vec<[f64; 3]> =
+            hex.iter().map(|&node| mesh.nodes[node as usize]).collect();
+        let outward = sub(centroid(&corners), centroid(&element_points));
+        let sign = if dot(area_vector, outward) >= 0.0 {
+            -pressure
+        } else {
+            pressure
+        };
+        for vector in &mut nodal {
+            *vector = vector.map(|component| sign * component);
+        }
+        let resultant_z: f64 = nodal.iter().map(|f| f[2]).sum();
+        let side = usize::from(resultant_z > 0.0);
+        load.area[side] += dot(area_vector, area_vector).sqrt();
+        load.force[side] += resultant_z.abs();
+        load.n_faces += 1;
+        for (node, force) in face.iter().zip(&nodal) {
+            for axis in 0..3 {
+                match model.dof_of_node[*node as usize][axis] {
+                    Some(dof) => load.forces[dof as usize] += force[axis],
+                    None => clamped_resultant[axis] += force[axis],
+                }
+            }
+        }
+    }
+    load.on_clamped = dot(clamped_resultant, clamped_resultant).sqrt();
+    if load.n_faces == 0 {
+        return Err(StageError::new(format!(
+            "node set `{set}` holds no boundary face (four nodes of one element face) to apply the pressure on"
+        )));
+    }
+    Ok(load)
+}
+
+/// ∫ N_a (x_ξ × x_η) dξ dη for the four nodes of a bilinear face, and their sum (the area
+/// vector), by 2 × 2 Gauss points (exact, see the module docs).
+fn face_integrals(corners: &[[f64; 3]; 4]) -> ([[f64; 3]; 4], [f64; 3]) {
+    const REFERENCE: [(f64, f64); 4] = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    let gauss = 1.0 / 3f64.sqrt();
+    let mut nodal = [[0.0; 3]; 4];
+    for (xi, eta) in [
+        (-gauss, -gauss),
+        (gauss, -gauss),
+        (gauss, gauss),
+        (-gauss, gauss),
+    ] {
+        let (mut x_xi, mut x_eta) = ([0.0; 3], [0.0; 3]);
+        for (corner, (xi_a, eta_a)) in corners.iter().zip(REFERENCE) {
+            for axis in 0..3 {
+                x_xi[axis] += corner[axis] * 0.25 * xi_a * (1.0 + eta * eta_a);
+                x_eta[axis] += corner[axis] * 0.25 * eta_a * (1.0 + xi * xi_a);
+            }
+        }
+        let normal = cross(x_xi, x_eta);
+        for (vector, (xi_a, eta_a)) in nodal.iter_mut().zip(REFERENCE) {
+            // Gauss weights are 1.
+            let shape = 0.25 * (1.0 + xi * xi_a) * (1.0 + eta * eta_a);
+            for axis in 0..3 {
+                vector[axis] += shape * normal[axis];
+            }
+        }
+    }
+    let mut total = [0.0; 3];
+    for vector in &nodal {
+        for axis in 0..3 {
+            total[axis] += vector[axis];
+        }
+    }
+    (nodal, total)
+}
+
+/// A connected body of elements that its clamps do not hold completely.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FloatingBody {
+    /// Index of the body among all connected bodies (ordered by first element).
+    pub body: usize,
+    pub n_elements: usize,
+    /// Part of its first element.
+    pub part: String,
+    pub centroid: [f64; 3],
+    /// Its nodes.
+    pub nodes: Vec<u32>,
+    /// Its columns of R.
+    pub modes: std::ops::Range<usize>,
+}
+
+impl std::fmt::Display for FloatingBody {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [x, y, z] = self.centroid;
+        write!(
+            f,
+            "body {} (part `{}`, {} elements, centroid ({x:.4}, {y:.4}, {z:.4}) m, {} free rigid motion{})",
+            self.body,
+            self.part,
+            self.n_elements,
+            self.modes.len(),
+            if self.modes.len() == 1 { "" } else { "s" }
+        )
+    }
+}
+
+/// The zero-energy rigid motions left by the clamps, body by body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FloatingBodies {
+    pub bodies: Vec<FloatingBody>,
+    /// n_dofs × m: one free rigid motion per column, largest component 1.
+    pub R: Mat<f64>,
+    /// The pinned DOFs, as many per body as it has motions; R on them is invertible.
+    pub pinned: Vec<usize>,
+}
+
+/// Connected components of the elements: the body of each node (`usize::MAX` for a node in
+/// no element), numbered by first element.
+fn bodies_of_nodes(mesh: &Mesh) -> (Vec<usize>, usize) {
+    let mut parent: Vec<usize> = (0..mesh.n_nodes()).collect();
+    fn root(parent: &mut [usize], mut node: usize) -> usize {
+        while parent[node] != node {
+            parent[node] = parent[parent[node]];
+            node = parent[node];
+        }
+        node
+    }
+    for hex in &mesh.hexes {
+        let first = root(&mut parent, hex[0] as usize);
+        for &node in &hex[1..] {
+            let other = root(&mut parent, node as usize);
+            if other != first {
+                parent[other] = first;
+            }
+        }
+    }
+    let mut body_of_root = vec![usize::MAX; mesh.n_nodes()];
+    let mut n_bodies = 0;
+    for hex in &mesh.hexes {
+        let top = root(&mut parent, hex[0] as usize);
+        if body_of_root[top] == usize::MAX {
+            body_of_root[top] = n_bodies;
+            n_bodies += 1;
+        }
+    }
+    let mut in_element = vec![false; mesh.n_nodes()];
+    for hex in &mesh.hexes {
+        for &node in hex {
+            in_element[node as usize] = true;
+        }
+    }
+    let body = (0..mesh.n_nodes())
+        .map(|node| {
+            if in_element[node] {
+                body_of_root[root(&mut parent, node)]
+            } else {
+                usize::MAX
+            }
+        })
+        .collect();
+    (body, n_bodies)
+}
+
+/// The rigid motion (t, θ) = `coefficients` at `x`: t + θ × (x − c) / length.
+fn rigid_motion(coefficients: &[f64; 6], x: [f64; 3], centroid: [f64; 3], length: f64) -> [f64; 3] {
+    let theta = [coefficients[3], coefficients[4], coefficients[5]];
+    let rotation = cross(theta, sub(x, centroid));
+    std::array::from_fn(|axis| coefficients[axis] + rotation[axis] / length)
+}
+
+/// The floating bodies of `model` and their free rigid motions (module docs).
+pub fn floating_bodies(model: &Model) -> Result<FloatingBodies, StageError> {
+    let mesh = &model.mesh;
+    let n = model.n_dofs();
+    let (body_of_node, n_bodies) = bodies_of_nodes(mesh);
+    let mut nodes_of_body: Vec<Vec<u32>> = vec![Vec::new(); n_bodies];
+    for (node, &body) in body_of_node.iter().enumerate() {
+        if body != usize::MAX {
+            nodes_of_body[body].push(node as u32);
+        }
+    }
+    let mut elements_of_body = vec![0usize; n_bodies];
+    let mut part_of_body = vec![None; n_bodies];
+    for (hex, part) in mesh.hexes.iter().zip(&mesh.hex_part) {
+        let body = body_of_node[hex[0] as usize];
+        elements_of_body[body] += 1;
+        part_of_body[body].get_or_insert(*part as usize);
+    }
+    let mut bodies = Vec::new();
+    let mut columns: Vec<Vec<f64>> = Vec::new();
+    for (body, nodes) in nodes_of_body.iter().enumerate() {
+        let points: Vec<[f64; 3]> = nodes
+            .iter()
+            .map(|&node| mesh.nodes[node as usize])
+            .collect();
+        let centroid: [f64; 3] = std::array::from_fn(|axis| {
+            points.iter().map(|x| x[axis]).sum::<f64>() / points.len() as f64
+        });
+        let length = points
+            .iter()
+            .map(|x| {
+                let d = sub(*x, centroid);
+                dot(d, d).sqrt()
+            })
+            .fold(f64::MIN_POSITIVE, f64::max);
+        // Gram matrix of the clamp conditions on (t, θ).
+        let mut gram = Mat::<f64>::zeros(6, 6);
+        for (node, x) in nodes.iter().zip(&points) {
+            for axis in 0..3 {
+                if model.dof_of_node[*node as usize][axis].is_some() {
+                    continue;
+                }
+                let row: [f64; 6] = std::array::from_fn(|k| {
+                    let mut unit = [0.0; 6];
+                    unit[k] = 1.0;
+                    rigid_motion(&unit, *x, centroid, length)[axis]
+                });
+                for i in 0..6 {
+                    for j in 0..6 {
+                        gram[(i, j)] += row[i] * row[j];
+                    }
+                }
+            }
+        }
+        let svd = gram.svd().map_err(|err| {
+            StageError::new(format!(
+                "SVD of the clamp conditions of body {body} failed: {err:?}"
+            ))
+        })?;
+        let largest = svd.S()[0];
+        // Clamps of a well-held body give singular values of order one (unit motions);
+        // a free motion gives roundoff.
+        let free: Vec<usize> = (0..6)
+            .filter(|&k| svd.S()[k] <= 1e-10 * largest.max(1.0))
+            .collect();
+        if free.is_empty() {
+            continue;
+        }
+        let first_mode = columns.len();
+        for &k in &free {
+            let coefficients: [f64; 6] = std::array::from_fn(|i| svd.V()[(i, k)]);
+            let mut column = vec![0.0; n];
+            for (node, x) in nodes.iter().zip(&points) {
+                let motion = rigid_motion(&coefficients, *x, centroid, length);
+                for (dof, value) in model.dof_of_node[*node as usize].iter().zip(motion) {
+                    if let Some(dof) = dof {
+                        column[*dof as usize] = value;
+                    }
+                }
+            }
+            // Largest component +1: a deterministic sign, amplitudes in metres.
+            let largest =
+                column.iter().copied().fold(
+                    0.0f64,
+                    |best, v| if v.abs() > best.abs() { v } else { best },
+                );
+            column.iter_mut().for_each(|v| *v /= largest);
+            columns.push(column);
+        }
+        bodies.push(FloatingBody {
+            body,
+            n_elements: elements_of_body[body],
+            part: part_of_body[body]
+                .map(|part| mesh.parts[part].clone())
+                .unwrap_or_default(),
+            centroid,
+            nodes: nodes.clone(),
+            modes: first_mode..columns.len(),
+        });
+    }
+    let m = columns.len();
+    let R = Mat::from_fn(n, m, |dof, mode| columns[mode][dof]);
+    check_kernel(model, &R, &bodies)?;
+    let pinned = pins(model, &R, &bodies)?;
+    Ok(FloatingBodies { bodies, R, pinned })
+}
+
+/// K R = 0 to roundoff: the elements are exact for rigid motions.
+fn check_kernel(model: &Model, R: &Mat<f64>, bodies: &[FloatingBody]) -> Result<(), StageError> {
+    let K = &model.K;
+    let mut row_sums = vec![0.0; K.n_rows];
+    for col in 0..K.n_cols {
+        for entry in K.col_ptr[col]..K.col_ptr[col + 1] {
+            row_sums[K.row_idx[entry]] += K.values[entry].abs();
+        }
+    }
+    let norm = row_sums.iter().copied().fold(0.0, f64::max);
+    for body in bodies {
+        for mode in body.modes.clone() {
+            let column: Vec<f64> = R.col(mode).iter().copied().collect();
+            let KR = K.mul_vec(&column);
+            let worst = KR.iter().fold(0.0f64, |max, v| max.max(v.abs()));
+            if worst > 1e-8 * norm {
+                return Err(StageError::new(format!(
+                    "{body}: a free rigid motion is not a zero-energy mode of K (|K R| = {worst:.3e} against |K| = {norm:.3e})"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Per body, the DOFs whose rows of R are best conditioned (greedy Gram–Schmidt on rows).
+fn pins(model: &Model, R: &Mat<f64>, bodies: &[FloatingBody]) -> Result<Vec<usize>, StageError> {
+    let mut pinned = Vec::new();
+    for body in bodies {
+        let dofs: Vec<usize> = body
+            .nodes
+            .iter()
+            .flat_map(|&node| model.dof_of_node[node as usize].iter().flatten())
+            .map(|&dof| dof as usize)
+            .collect();
+        let modes = body.modes.clone();
+        let mut basis: Vec<Vec<f64>> = Vec::new();
+        for _ in modes.clone() {
+            let mut best: Option<(f64, usize, Vec<f64>)> = None;
+            for &dof in &dofs {
+                let mut row: Vec<f64> = modes.clone().map(|mode| R[(dof, mode)]).collect();
+                for direction in &basis {
+                    let projection: f64 = row.iter().zip(direction).map(|(a, b)| a * b).sum();
+                    for (value, unit) in row.iter_mut().zip(direction) {
+                        *value -= projection * unit;
+                    }
+                }
+                let length = row.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if best.as_ref().is_none_or(|(top, _, _)| length > *top) {
+                    best = Some((length, dof, row));
+                }
+            }
+            match best {
+                Some((length, dof, row)) if length > 1e-6 => {
+                    basis.push(row.iter().map(|v| v / length).collect());
+                    pinned.push(dof);
+                }
+                _ => {
+                    return Err(StageError::new(format!(
+                        "{body}: no set of its DOFs pins its free rigid motions"
+                    )));
+                }
+            }
+        }
+    }
+    Ok(pinned)
+}
