@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::contact::lcp::LcpSettings;
-use squeal_stages::equilibrium::{Solver, solve as equilibrium};
+use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::export::matrix_market::write_matrix_market;
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::stability::sliding::Part;
@@ -47,7 +47,7 @@ fn main() {
         &model,
         0.38,
         4.0,
-        1e-4,
+        Load::Interference(1e-4),
         Solver::SemismoothNewton,
         &LcpSettings::default(),
     )
