@@ -55,13 +55,13 @@ fn relative_residual(Q: &Mat<c64>, q: &[c64]) -> f64 {
     }
 }
 
+/// `(α, β, Y)`: eigenvalues `α/β` of a pencil and their vectors (columns of Y).
+type PencilEigen = (Vec<c64>, Vec<c64>, Mat<c64>);
+
 /// Eigenvalues of the pencil `A y = λ B y` as `α/β` with their vectors: Hessenberg QR on
 /// `B⁻¹ A` when B is well conditioned (a mass matrix is), QZ otherwise (faer's QZ is two
 /// orders of magnitude slower on these pencils, so it is the fallback).
-fn linearised_eigen(
-    A: Mat<f64>,
-    B: Mat<f64>,
-) -> Result<(Vec<c64>, Vec<c64>, Mat<c64>), StageError> {
+fn linearised_eigen(A: Mat<f64>, B: Mat<f64>) -> Result<PencilEigen, StageError> {
     use faer::linalg::solvers::Solve;
     let n = A.nrows();
     let lu = B.partial_piv_lu();

@@ -224,7 +224,7 @@ fn solve_shift(
     let b = options.block_size.max(1).min(n);
     // The basis may not exceed the dimension (less one block, for the residual block).
     let max_basis = (options.max_basis.min(n.saturating_sub(b)) / b * b).max(b);
-    let mut random = SplitMix64::new(0x5EED_0F_51D1E);
+    let mut random = SplitMix64::new(0x05EE_D0F5_1D1E);
     let mut V = Mat::<c64>::zeros(n, max_basis + b);
     let mut H = Mat::<c64>::zeros(max_basis + b, max_basis);
     let mut start = random_block(n, b, &mut random);

@@ -22,6 +22,10 @@ use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError, Value};
 use crate::table::{ColumnData, Table};
 
+/// A row of the tracked table: axis value, branch, mode, freq_hz, re, im, unstable, residual,
+/// MAC with the previous point.
+type TrackedRow = (f64, i64, i64, f64, f64, f64, bool, f64, f64);
+
 /// One sweep point: its axis value, eigenvalue rows and shapes (columns in eigenvalue order).
 struct Point {
     axis: f64,
@@ -236,7 +240,7 @@ impl Stage for Track {
             mac_of.push(macs);
         }
 
-        let mut table_rows: Vec<(f64, i64, i64, f64, f64, f64, bool, f64, f64)> = Vec::new();
+        let mut table_rows: Vec<TrackedRow> = Vec::new();
         let mut branches: Vec<Branch> = vec![Vec::new(); n_branches];
         for (index, point) in points.iter().enumerate() {
             for mode in 0..point.mode.len() {
@@ -262,9 +266,8 @@ impl Stage for Track {
             }
         }
         table_rows.sort_by(|a, b| a.1.cmp(&b.1).then(a.0.total_cmp(&b.0)));
-        let column = |f: &dyn Fn(&(f64, i64, i64, f64, f64, f64, bool, f64, f64)) -> f64| {
-            table_rows.iter().map(f).collect::<Vec<f64>>()
-        };
+        let column =
+            |f: &dyn Fn(&TrackedRow) -> f64| table_rows.iter().map(f).collect::<Vec<f64>>();
         let table = Table::new()
             .with(axis.clone(), column(&|row| row.0))
             .with(
