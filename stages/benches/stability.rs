@@ -17,7 +17,9 @@ use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::export::matrix_market::write_matrix_market;
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::stability::sliding::Part;
-use squeal_stages::stability::{Method, Settings, divergence_rate, is_unstable, solve};
+use squeal_stages::stability::{
+    Method, Settings, divergence_rate, is_unstable, nearest_relative_errors, solve,
+};
 use squeal_stages::{Params, Stage, Value};
 
 /// Peak resident memory of this process (MiB), from /proc.
@@ -119,18 +121,7 @@ fn main() {
     )
     .expect("projection");
     let projection_seconds = started.elapsed().as_secs_f64();
-    let errors: Vec<f64> = solution
-        .pairs
-        .iter()
-        .map(|pair| {
-            projected
-                .pairs
-                .iter()
-                .map(|other| (other.lambda - pair.lambda).norm() / pair.lambda.norm())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
-    let mut sorted = errors.clone();
+    let mut sorted = nearest_relative_errors(&solution.pairs, &projected.pairs);
     sorted.sort_by(f64::total_cmp);
     println!(
         "real_mode_projection: {:.1} s with {} real modes; eigenvalue error against krylov: median {:.1e}, max {:.1e}; {} unstable",

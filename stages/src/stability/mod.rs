@@ -284,6 +284,20 @@ pub fn mode_shape(system: &SlidingSystem, q: &[c64]) -> Vec<c64> {
     u.into_iter().map(|value| value * scale).collect()
 }
 
+/// Per eigenvalue of `reference`, the relative distance `|λ' − λ| / |λ|` to the nearest one
+/// of `approximate` (how far an approximate method lands from the reference).
+pub fn nearest_relative_errors(reference: &[EigenPair], approximate: &[EigenPair]) -> Vec<f64> {
+    reference
+        .iter()
+        .map(|pair| {
+            approximate
+                .iter()
+                .map(|other| (other.lambda - pair.lambda).norm() / pair.lambda.norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect()
+}
+
 pub fn divergence_rate(lambda: c64) -> f64 {
     2.0 * lambda.re / lambda.im
 }

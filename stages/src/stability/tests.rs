@@ -368,16 +368,8 @@ fn real_mode_projection_approaches_krylov() {
         )
         .unwrap();
         // Error of each reference eigenvalue against the nearest projected one.
-        reference
-            .pairs
-            .iter()
-            .map(|pair| {
-                projected
-                    .pairs
-                    .iter()
-                    .map(|other| (other.lambda - pair.lambda).norm() / pair.lambda.norm())
-                    .fold(f64::INFINITY, f64::min)
-            })
+        nearest_relative_errors(&reference.pairs, &projected.pairs)
+            .into_iter()
             .fold(0.0, f64::max)
     };
     let n = reference.pairs.len();
