@@ -1,7 +1,10 @@
 //! Every complex mode below 17 kHz of the default brake (`mesh.brake` defaults, μ = 0.38,
 //! ω = 4 rad/s, interference 0.1 mm): wall time, shifts, counts, worst residual and peak memory
 //! of `method: krylov`, then `real_mode_projection` and its error against it.
-//! Run with `cargo bench -p squeal-stages --bench stability`.
+//! Run with `cargo bench -p squeal-stages --bench stability`. `SQUEAL_BENCH_F_MAX_HZ`,
+//! `SQUEAL_BENCH_MAX_DIVERGENCE_RATE`, `SQUEAL_BENCH_BLOCK`, `SQUEAL_BENCH_MAX_BASIS` and
+//! `SQUEAL_BENCH_PER_SHIFT` override the settings; `SQUEAL_BENCH_PROJECTION=0` skips the
+//! projection; `SQUEAL_LOG=debug` shows each shift's convergence.
 //!
 //! With `SQUEAL_EXPORT_DIR=<dir>` the reduced matrices M̃, C̃, K̃ (Matrix Market) and the
 //! eigenvalues found (`eigenvalues.csv`) are written there for `scipy_eigs.py`, which times
@@ -18,7 +21,7 @@ use squeal_stages::export::matrix_market::write_matrix_market;
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::stability::sliding::Part;
 use squeal_stages::stability::{
-    Method, Settings, divergence_rate, is_unstable, nearest_relative_errors, solve,
+    KrylovOptions, Method, Settings, divergence_rate, is_unstable, nearest_relative_errors, solve,
 };
 use squeal_stages::{Params, Stage, Value};
 
@@ -36,7 +39,22 @@ fn peak_memory_mib() -> f64 {
         .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
+/// An override from the environment (`SQUEAL_BENCH_<NAME>`), for exploring the tuning.
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(format!("SQUEAL_BENCH_{name}"))
+        .ok()
+        .and_then(|value| value.parse().ok())
+        .unwrap_or(default)
+}
+
 fn main() {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("SQUEAL_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
     let mesh = brake(&BrakeGeometry::default()).expect("default brake");
     let values: BTreeMap<String, Value> = Assemble
         .params()
@@ -61,7 +79,19 @@ fn main() {
         equilibrium.closed.len()
     );
 
-    let settings = Settings::default();
+    let defaults = Settings::default();
+    let settings = Settings {
+        f_max_hz: env_or("F_MAX_HZ", defaults.f_max_hz),
+        max_divergence_rate: env_or("MAX_DIVERGENCE_RATE", defaults.max_divergence_rate),
+        krylov: KrylovOptions {
+            block_size: env_or("BLOCK", defaults.krylov.block_size),
+            basis: env_or("BASIS", defaults.krylov.basis),
+            max_basis: env_or("MAX_BASIS", defaults.krylov.max_basis),
+            per_shift: env_or("PER_SHIFT", defaults.krylov.per_shift),
+            ..defaults.krylov
+        },
+        ..defaults
+    };
     let started = Instant::now();
     let solution = solve(&model, &equilibrium, &settings).expect("krylov");
     let seconds = started.elapsed().as_secs_f64();
@@ -110,31 +140,33 @@ fn main() {
         );
     }
 
-    let started = Instant::now();
-    let projected = solve(
-        &model,
-        &equilibrium,
-        &Settings {
-            method: Method::RealModeProjection { n_real_modes: 0 },
-            ..Settings::default()
-        },
-    )
-    .expect("projection");
-    let projection_seconds = started.elapsed().as_secs_f64();
-    let mut sorted = nearest_relative_errors(&solution.pairs, &projected.pairs);
-    sorted.sort_by(f64::total_cmp);
-    println!(
-        "real_mode_projection: {:.1} s with {} real modes; eigenvalue error against krylov: median {:.1e}, max {:.1e}; {} unstable",
-        projection_seconds,
-        projected.report.real_modes,
-        sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
-        sorted.last().copied().unwrap_or(f64::NAN),
-        projected
-            .pairs
-            .iter()
-            .filter(|pair| is_unstable(pair.lambda))
-            .count()
-    );
+    if env_or("PROJECTION", 1) != 0 {
+        let started = Instant::now();
+        let projected = solve(
+            &model,
+            &equilibrium,
+            &Settings {
+                method: Method::RealModeProjection { n_real_modes: 0 },
+                ..settings
+            },
+        )
+        .expect("projection");
+        let projection_seconds = started.elapsed().as_secs_f64();
+        let mut sorted = nearest_relative_errors(&solution.pairs, &projected.pairs);
+        sorted.sort_by(f64::total_cmp);
+        println!(
+            "real_mode_projection: {:.1} s with {} real modes; eigenvalue error against krylov: median {:.1e}, max {:.1e}; {} unstable",
+            projection_seconds,
+            projected.report.real_modes,
+            sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
+            sorted.last().copied().unwrap_or(f64::NAN),
+            projected
+                .pairs
+                .iter()
+                .filter(|pair| is_unstable(pair.lambda))
+                .count()
+        );
+    }
 
     if let Ok(dir) = std::env::var("SQUEAL_EXPORT_DIR") {
         let dir = std::path::PathBuf::from(dir);

@@ -46,6 +46,9 @@ pub struct KrylovOptions {
     /// Basis size at which a shift's Ritz values are first examined, and the most it may grow to.
     pub basis: usize,
     pub max_basis: usize,
+    /// Eigenvalues each shift's disk should hold: shifts are spaced by the density the previous
+    /// one met. Fewer mean more factorisations, more mean longer orthogonalisations.
+    pub per_shift: usize,
     /// Arnoldi residual `‖Op y − θ y‖ / |θ|` below which a Ritz pair has converged.
     pub arnoldi_tolerance: f64,
     /// Largest residual of a reported eigenpair.
@@ -56,9 +59,10 @@ pub struct KrylovOptions {
 impl Default for KrylovOptions {
     fn default() -> Self {
         KrylovOptions {
-            block_size: 8,
-            basis: 240,
-            max_basis: 960,
+            block_size: 2,
+            basis: 32,
+            max_basis: 480,
+            per_shift: 64,
             arnoldi_tolerance: 1e-10,
             residual_tolerance: 1e-8,
             par: Par::rayon(0),
@@ -261,10 +265,24 @@ fn solve_shift(
                 column_norm((residual_block * S.submatrix(k - b, i, b, 1)).as_ref(), 0);
             if arnoldi_residual > options.arnoldi_tolerance * theta[i].norm() * column_norm(S, i) {
                 radius = theta[i].inv().norm();
+                let lambda = sigma + theta[i].inv();
+                tracing::debug!(
+                    "stability: nearest unconverged Ritz value {:.1} Hz (divergence rate {:.2e}), Arnoldi residual {:.1e}",
+                    lambda.im / (2.0 * PI),
+                    2.0 * lambda.re / lambda.im,
+                    arnoldi_residual / (theta[i].norm() * column_norm(S, i))
+                );
                 break;
             }
             converged.push(i);
         }
+        tracing::debug!(
+            "stability: shift {:.0} Hz, basis {k}, {} converged, trusted radius {:.0} Hz, {:.1} s",
+            sigma.im / (2.0 * PI),
+            converged.len(),
+            radius / (2.0 * PI),
+            clock.elapsed().as_secs_f64()
+        );
         if radius < radius_needed && k + b <= max_basis {
             next_check = k + (k / 4).max(b);
             k += b;
@@ -343,7 +361,7 @@ pub fn solve_band(
     // The previous shift: its coverage top, its cell's lower cut, and its eigenpairs.
     let mut previous: Option<(f64, f64, Vec<EigenPair>)> = None;
     let mut covered_to = 0.0_f64;
-    let mut step = omega_max / 8.0;
+    let mut step = omega_max / 10.0;
     while covered_to < omega_max {
         let omega = (covered_to + step).min(omega_max);
         // The disk must reach down to what is covered: to the origin for the first shift.
@@ -424,8 +442,13 @@ pub fn solve_band(
         report.shifts.push(shift_report);
         covered_to = high;
         progress((covered_to / omega_max).min(1.0));
+        // Aim the next disk at `per_shift` eigenvalues: their number grows at most like the
+        // disk's area, so the radius scales with the square root of the ratio.
+        let density_scale = (options.per_shift as f64 / inside.len().max(1) as f64)
+            .sqrt()
+            .clamp(0.5, 2.0);
         previous = Some((high, cut, inside));
-        step = 0.8 * result.radius;
+        step = 0.8 * result.radius * density_scale;
     }
     if let Some((_, cut, pairs)) = previous {
         kept.extend(pairs.into_iter().filter(|pair| pair.lambda.im >= cut));

@@ -273,27 +273,49 @@ impl<'a> ShiftedSolver<'a> {
         Ok(solver)
     }
 
-    /// `A⁻¹ F` for the symmetric part, columns of F complex.
+    /// `A⁻¹ F` for the symmetric part, columns of F complex. The triangular solves of one
+    /// right-hand side barely use a second core, so the columns are shared out among threads.
     fn solve_symmetric(&self, F: MatRef<'_, c64>) -> Mat<c64> {
         let m = self.pattern.m;
         let k = F.ncols();
-        let mut R = Mat::<f64>::from_fn(2 * m, k, |row, col| {
-            let value = F[(row / 2, col)];
-            if row % 2 == 0 { value.re } else { value.im }
-        });
-        let factor = IntranodeLbltRef::new(
-            &self.pattern.symbolic,
-            &self.L_values,
-            &self.subdiag,
-            PermRef::new_checked(&self.forward, &self.inverse, 2 * m),
-        );
-        let mut buffer = MemBuffer::new(
-            self.pattern
-                .symbolic
-                .solve_in_place_scratch::<f64>(k, self.par),
-        );
-        factor.solve_in_place_with_conj(Conj::No, R.as_mut(), self.par, MemStack::new(&mut buffer));
+        let threads = match self.par {
+            Par::Seq => 1,
+            Par::Rayon(threads) => threads.get(),
+        };
+        let chunk = k.div_ceil(threads).max(1);
+        let blocks: Vec<Mat<f64>> = (0..k)
+            .step_by(chunk)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|first| {
+                let width = chunk.min(k - first);
+                let mut R = Mat::<f64>::from_fn(2 * m, width, |row, col| {
+                    let value = F[(row / 2, first + col)];
+                    if row % 2 == 0 { value.re } else { value.im }
+                });
+                let factor = IntranodeLbltRef::new(
+                    &self.pattern.symbolic,
+                    &self.L_values,
+                    &self.subdiag,
+                    PermRef::new_checked(&self.forward, &self.inverse, 2 * m),
+                );
+                let mut buffer = MemBuffer::new(
+                    self.pattern
+                        .symbolic
+                        .solve_in_place_scratch::<f64>(width, Par::Seq),
+                );
+                factor.solve_in_place_with_conj(
+                    Conj::No,
+                    R.as_mut(),
+                    Par::Seq,
+                    MemStack::new(&mut buffer),
+                );
+                R
+            })
+            .collect();
         Mat::from_fn(m, k, |row, col| {
+            let R = &blocks[col / chunk];
+            let col = col % chunk;
             c64::new(R[(2 * row, col)], -R[(2 * row + 1, col)])
         })
     }

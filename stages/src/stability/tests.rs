@@ -242,8 +242,8 @@ fn krylov_finds_every_eigenvalue_of_the_dense_solve_on_a_coarse_brake() {
         f_max_hz: 12_000.0,
         dense_limit: 0,
         krylov: KrylovOptions {
-            block_size: 4,
-            basis: 48,
+            // Small disks, so that the band needs several shifts and their overlaps are checked.
+            per_shift: 24,
             max_basis: 400,
             ..KrylovOptions::default()
         },
@@ -297,8 +297,7 @@ fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes()
         f_max_hz: 8_000.0,
         dense_limit: 0,
         krylov: KrylovOptions {
-            block_size: 4,
-            basis: 48,
+            per_shift: 24,
             ..KrylovOptions::default()
         },
         ..Settings::default()
