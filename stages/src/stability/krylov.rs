@@ -442,13 +442,18 @@ pub fn solve_band(
         report.shifts.push(shift_report);
         covered_to = high;
         progress((covered_to / omega_max).min(1.0));
-        // Aim the next disk at `per_shift` eigenvalues: their number grows at most like the
-        // disk's area, so the radius scales with the square root of the ratio.
-        let density_scale = (options.per_shift as f64 / inside.len().max(1) as f64)
-            .sqrt()
-            .clamp(0.5, 2.0);
+        // Aim the next disk at `per_shift` eigenvalues. It spans about twice the step in
+        // height; the density is that of this disk's upper half, raised by half as modal
+        // density grows with frequency.
+        let above = inside.iter().filter(|pair| pair.lambda.im >= omega).count();
+        step = if above == 0 {
+            1.6 * result.radius
+        } else {
+            let density = 1.5 * above as f64 / result.radius;
+            (options.per_shift as f64 / (2.0 * density))
+                .clamp(0.1 * result.radius, 1.6 * result.radius)
+        };
         previous = Some((high, cut, inside));
-        step = 0.8 * result.radius * density_scale;
     }
     if let Some((_, cut, pairs)) = previous {
         kept.extend(pairs.into_iter().filter(|pair| pair.lambda.im >= cut));
