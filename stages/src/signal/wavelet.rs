@@ -323,9 +323,19 @@ impl MorletCwt {
                     while let Some((scale_idx, row)) = next_row() {
                         self.transform(scale_idx, &mut work, |first, stride, values, factor| {
                             let factor_squared = factor * factor;
-                            for (out, value) in row[first..].iter_mut().step_by(stride).zip(values)
-                            {
-                                *out = value.norm_sqr() * factor_squared;
+                            let power = |value: &Complex64| value.norm_sqr() * factor_squared;
+                            if stride == 1 {
+                                // Contiguous runs (blocks) vectorise without the stride.
+                                let run = &mut row[first..first + values.len()];
+                                for (out, value) in run.iter_mut().zip(values) {
+                                    *out = power(value);
+                                }
+                            } else {
+                                for (out, value) in
+                                    row[first..].iter_mut().step_by(stride).zip(values)
+                                {
+                                    *out = power(value);
+                                }
                             }
                         });
                     }
@@ -442,7 +452,7 @@ impl RecordSpectrum {
             phases * (FOLD_NS * band_len + per_level * len as f64 * (len as f64).log2()) + scatter
         };
         let len = (1..=n.isqrt())
-            .filter(|d| n % d == 0)
+            .filter(|d| n.is_multiple_of(*d))
             .flat_map(|d| [d, n / d])
             .filter(|len| *len >= MIN_ZOOM_LEN.min(n))
             .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))
