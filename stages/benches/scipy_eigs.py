@@ -52,7 +52,7 @@ def main(folder):
     worst = 0.0
     for frequency, radius, converged in shifts:
         sigma = 2j * np.pi * frequency
-        k = int(min(converged, 2 * m - 2))
+        k = int(min(max(converged, 1), 2 * m - 2))
         lam, Y = eigs(A, k=k, M=B, sigma=sigma, which="LM", tol=1e-10)
         inside = np.abs(lam - sigma) < radius
         for value, y in zip(lam[inside], Y[:, inside].T):
