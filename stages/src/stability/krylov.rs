@@ -28,6 +28,17 @@
 //!
 //! The band is `0 < Im λ ≤ ω_max` with `|2 Re λ / Im λ| ≤ d_max` (divergence rates beyond
 //! ±d_max, far from any squeal mode, are not sought).
+//!
+//! # Cost and spacing
+//!
+//! A shift costs one factorisation plus a contact correction (a solve with one right-hand
+//! side per closed pair), then one solve and one orthogonalisation against the basis per
+//! Arnoldi vector; the latter grows with the basis, so disks are kept to about `per_shift`
+//! eigenvalues: each shift is placed from the density the previous one met in its upper
+//! half. Ritz values are checked from a small basis on (then every quarter more), so that a
+//! nearly empty disk stops early. A block of two vectors converged the most eigenvalues per
+//! second on the default brake (measured against blocks of four and eight) and still
+//! catches double modes.
 
 use std::f64::consts::PI;
 
