@@ -146,17 +146,33 @@ impl Operator<'_> {
     }
 }
 
-/// Removes from `W` its components along the orthonormal columns of `V` (two passes: one is
-/// not enough in floating point); returns the coefficients.
+/// Removes from `W` its components along the orthonormal columns of `V`; returns the
+/// coefficients. A second pass follows unless no column lost more than 1 − 1/√2 of its norm
+/// in the first (Daniel–Gragg–Kaufman–Stewart): after a large cancellation one pass is not
+/// enough in floating point.
 fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
     let mut coefficients = Mat::<c64>::zeros(V.ncols(), W.ncols());
     if V.ncols() == 0 {
         return coefficients;
     }
-    for _ in 0..2 {
+    let norms = |W: &Mat<c64>| -> Vec<f64> {
+        (0..W.ncols())
+            .map(|col| column_norm(W.as_ref(), col))
+            .collect()
+    };
+    let before = norms(W);
+    for pass_index in 0..2 {
         let pass = V.adjoint() * &*W;
         *W -= V * &pass;
         coefficients += &pass;
+        if pass_index == 0
+            && norms(W)
+                .iter()
+                .zip(&before)
+                .all(|(after, before)| *after >= std::f64::consts::FRAC_1_SQRT_2 * before)
+        {
+            break;
+        }
     }
     coefficients
 }
