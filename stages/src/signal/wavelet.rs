@@ -48,8 +48,8 @@
 //!
 //! an inverse FFT of length `Λ` of the band phase-shifted by `p` and folded modulo `Λ`: `E`
 //! transforms that fit in cache instead of one of length `L`, still exact. `Λ` is the divisor
-//! that minimises the cost model (`E` folds of the band plus `E` transforms of length `Λ`);
-//! for narrow bands it is about twice as fast as the transform of the whole record.
+//! that minimises the cost model (`E` folds of the band plus `E` transforms of length `Λ`,
+//! plus the strided writes); `Λ = L` is the plain transform of the whole record.
 //!
 //! *Short scales* (every sample kept): a daughter of half-support `K = CUTOFF a / Δt` samples
 //! needs no transform of the whole record. Overlap-save blocks of `B` samples (a power of two,
@@ -109,13 +109,13 @@ const MIN_BLOCK_LEN: usize = 1024;
 /// butterfly level for 2–16 k points, 0.46 ns at 110 k).
 const MAX_BLOCK_LEN: usize = 16_384;
 
-/// Cost model of a zoomed whole-record evaluation (ns, measured here with rustfft): a
-/// butterfly level per point of an inverse FFT in cache and out of it, and one term of the
-/// phase-shifted fold.
+/// Cost model of a zoomed whole-record evaluation (ns): a butterfly level per point of an
+/// inverse FFT in cache and out of it (measured with rustfft, see `MAX_BLOCK_LEN`), and
+/// estimates of one term of the phase-shifted fold and of one output written with a stride
+/// (a cache line each).
 const FFT_NS_IN_CACHE: f64 = 0.27;
 const FFT_NS_OUT_OF_CACHE: f64 = 0.46;
 const FOLD_NS: f64 = 1.5;
-/// Extra cost per output written with a stride (a cache line each).
 const SCATTER_NS: f64 = 2.0;
 /// Shortest zoomed inverse transform: below it, per-transform overheads dominate.
 const MIN_ZOOM_LEN: usize = 256;
@@ -137,8 +137,6 @@ struct RecordSpectrum {
     n_folded: usize,
     /// `S_k`, k = 0..P, Hermitian-completed so the band loop needs no conjugation branch.
     spectrum: Vec<Complex64>,
-    /// `e^{2πi m / L}`, m = 0..L: the phase factors of the zoomed evaluation.
-    roots: Vec<Complex64>,
     zooms: Vec<Arc<dyn Fft<f64>>>,
 }
 
@@ -323,19 +321,9 @@ impl MorletCwt {
                     while let Some((scale_idx, row)) = next_row() {
                         self.transform(scale_idx, &mut work, |first, stride, values, factor| {
                             let factor_squared = factor * factor;
-                            let power = |value: &Complex64| value.norm_sqr() * factor_squared;
-                            if stride == 1 {
-                                // Contiguous runs (blocks) vectorise without the stride.
-                                let run = &mut row[first..first + values.len()];
-                                for (out, value) in run.iter_mut().zip(values) {
-                                    *out = power(value);
-                                }
-                            } else {
-                                for (out, value) in
-                                    row[first..].iter_mut().step_by(stride).zip(values)
-                                {
-                                    *out = power(value);
-                                }
+                            for (out, value) in row[first..].iter_mut().step_by(stride).zip(values)
+                            {
+                                *out = value.norm_sqr() * factor_squared;
                             }
                         });
                     }
@@ -422,14 +410,10 @@ impl RecordSpectrum {
         for k in half.len()..n_padded {
             spectrum[k] = spectrum[n_padded - k].conj();
         }
-        let roots = (0..n_folded)
-            .map(|m| Complex64::from_polar(1.0, 2.0 * PI * m as f64 / n_folded as f64))
-            .collect();
         RecordSpectrum {
             n_padded,
             n_folded,
             spectrum,
-            roots,
             zooms: Vec::new(),
         }
     }
@@ -504,8 +488,10 @@ impl RecordSpectrum {
             buffer.fill(Complex64::new(0.0, 0.0));
             // The phase factors by recurrence: sequential, and 1e-13 off after 10⁴ steps.
             let mut r = first_bin % len;
-            let mut twiddle = self.roots[(first_bin * phase) % self.n_folded];
-            let step = self.roots[phase];
+            let root =
+                |m: usize| Complex64::from_polar(1.0, 2.0 * PI * m as f64 / self.n_folded as f64);
+            let mut twiddle = root((first_bin * phase) % self.n_folded);
+            let step = root(phase);
             for value in &work.band {
                 buffer[r] += value * twiddle;
                 twiddle *= step;

@@ -290,14 +290,15 @@ fn solve_shift(
         for &i in &order {
             let arnoldi_residual =
                 column_norm((residual_block * S.submatrix(k - b, i, b, 1)).as_ref(), 0);
-            if arnoldi_residual > options.arnoldi_tolerance * theta[i].norm() * column_norm(S, i) {
+            let scale = theta[i].norm() * column_norm(S, i);
+            if arnoldi_residual > options.arnoldi_tolerance * scale {
                 radius = theta[i].inv().norm();
                 let lambda = sigma + theta[i].inv();
                 tracing::debug!(
                     "stability: nearest unconverged Ritz value {:.1} Hz (divergence rate {:.2e}), Arnoldi residual {:.1e}",
                     lambda.im / (2.0 * PI),
                     2.0 * lambda.re / lambda.im,
-                    arnoldi_residual / (theta[i].norm() * column_norm(S, i))
+                    arnoldi_residual / scale
                 );
                 break;
             }
