@@ -39,18 +39,6 @@
 //! With `P = D L`, keeping `W` at `m = q D` is an inverse FFT of length `L` of the spectrum
 //! folded modulo `L` (`Y_r = Σ_{k ≡ r (mod L)} S_k Ĝ_k`): exact, and `D` times cheaper.
 //!
-//! *Zoom*: a wide scale's daughter has a narrow band, a few hundred of the `L` bins. For any
-//! divisor `Λ` of `L`, with `E = L/Λ` phases, the outputs `q = p + iE` are
-//!
-//! ```text
-//! W_{p + iE} = Σ_j (Y_j e^{2πi j p / L}) e^{2πi j i / Λ}     (i = 0..Λ)
-//! ```
-//!
-//! an inverse FFT of length `Λ` of the band phase-shifted by `p` and folded modulo `Λ`: `E`
-//! transforms that fit in cache instead of one of length `L`, still exact. `Λ` is the divisor
-//! that minimises the cost model (`E` folds of the band plus `E` transforms of length `Λ`,
-//! plus the strided writes); `Λ = L` is the plain transform of the whole record.
-//!
 //! *Short scales* (every sample kept): a daughter of half-support `K = CUTOFF a / Δt` samples
 //! needs no transform of the whole record. Overlap-save blocks of `B` samples (a power of two,
 //! `8K ≤ B`, 1 024 ≤ B ≤ 16 384) overlapping by the group's widest `2K` give `B − 2K` exact
@@ -60,6 +48,28 @@
 //! daughter's band covers are multiplied.
 //!
 //! Scales are independent: workers (one per rayon thread) take them in turn.
+//!
+//! # Power from the sampled envelope
+//!
+//! In a transform of `N` bins (`L` for the whole record, `B` for a block) a scale's band
+//! covers `β` consecutive bins, so its coefficients are `W_n = c Σ_{k ∈ band} Y_k e^{2πi k n/N}`
+//! and its power is a real trigonometric polynomial of the differences of those bins:
+//!
+//! ```text
+//! |W_n|² = c² Σ_{|d| < β} C_d e^{2πi d n / N}
+//! ```
+//!
+//! For any divisor `Λ ≥ 2β − 1` of `N`, the samples at `n = E m` (`E = N/Λ`, m = 0..Λ) hold
+//! every `C_d` once, unaliased: their length-`Λ` DFT is `Λ C_d`. The samples themselves are one
+//! inverse DFT of length `Λ` of the band folded modulo `Λ` (no two bins meet, as `β ≤ Λ`). So
+//! the power at every `n` is: an inverse DFT of length `Λ`, `|·|²`, a real forward DFT of
+//! length `Λ`, and one real inverse DFT of length `N` of those coefficients zero-padded — exact,
+//! and half the cost of the complex inverse DFT of length `N` when `Λ ≤ N/4` (the wide scales,
+//! whose bands are narrow). Broader bands take the complex transform and `|W|²` per point.
+//!
+//! The round-off of this route is absolute, about 1e-16 of the scale's peak power, where the
+//! complex route's is relative to each coefficient: points 100 dB below their scale's peak
+//! carry ~1e-6 relative error, and round-off below zero where the power vanishes is set to 0.
 //!
 //! # Cone of influence
 //!
@@ -73,7 +83,7 @@ use std::sync::Arc;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use rayon::prelude::*;
-use realfft::RealFftPlanner;
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
@@ -108,36 +118,35 @@ const MIN_BLOCK_LEN: usize = 1024;
 /// the whole record is as cheap per output sample (measured: 0.21–0.33 ns per point and
 /// butterfly level for 2–16 k points, 0.46 ns at 110 k).
 const MAX_BLOCK_LEN: usize = 16_384;
+/// The power goes through the sampled envelope when its `Λ` samples are at most this fraction
+/// of the transform length: a real inverse transform of length `N` costs half a complex one,
+/// and the two transforms of length `Λ` must not eat the saving.
+const MAX_ENVELOPE_FRACTION: usize = 4;
 
-/// Cost model of a zoomed whole-record evaluation (ns): a butterfly level per point of an
-/// inverse FFT in cache and out of it (measured with rustfft, see `MAX_BLOCK_LEN`), and
-/// estimates of one term of the phase-shifted fold and of one output written with a stride
-/// (a cache line each).
-const FFT_NS_IN_CACHE: f64 = 0.27;
-const FFT_NS_OUT_OF_CACHE: f64 = 0.46;
-const FOLD_NS: f64 = 1.5;
-const SCATTER_NS: f64 = 2.0;
-/// Shortest zoomed inverse transform: below it, per-transform overheads dominate.
-const MIN_ZOOM_LEN: usize = 256;
-
-/// How one scale is evaluated (module doc).
+/// Where a scale's transforms are taken (module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Evaluation {
-    /// The whole record's spectrum, inverse-transformed in phases of a length that divides
-    /// it: index into [`RecordSpectrum::zooms`].
-    WholeRecord(usize),
+enum Domain {
+    /// The whole record's spectrum, folded to `L` bins.
+    WholeRecord,
     /// Overlap-save blocks, index into [`MorletCwt::block_groups`].
     Blocks(usize),
 }
 
-/// The signal's spectrum zero-padded to `P = D L` samples, with inverse plans for the
-/// divisors `Λ` of `L` the scales are evaluated with.
+/// How one scale is evaluated: its domain, and for the power the envelope plan (index into
+/// [`MorletCwt::envelopes`]) when its band is narrow enough for one.
+#[derive(Debug, Clone, Copy)]
+struct Route {
+    domain: Domain,
+    envelope: Option<usize>,
+}
+
+/// The signal's spectrum zero-padded to `P = D L` samples, and the inverse plan of length `L`.
 struct RecordSpectrum {
     n_padded: usize,
     n_folded: usize,
     /// `S_k`, k = 0..P, Hermitian-completed so the band loop needs no conjugation branch.
     spectrum: Vec<Complex64>,
-    zooms: Vec<Arc<dyn Fft<f64>>>,
+    inverse: Arc<dyn Fft<f64>>,
 }
 
 /// The signal cut into overlapping blocks of one length, each block's spectrum computed once
@@ -154,25 +163,75 @@ struct BlockGroup {
     inverse: Arc<dyn Fft<f64>>,
 }
 
-/// A signal prepared for Morlet transforms at a set of scales: spectra and inverse plans,
-/// shared read-only by the parallel workers.
+/// Plans of the power's envelope route (module doc) for a transform of `N` bins sampled at
+/// `Λ` points.
+struct EnvelopePlan {
+    /// Inverse, length `Λ`: the coefficients at every `N/Λ`-th point.
+    samples: Arc<dyn Fft<f64>>,
+    /// Forward, length `Λ`: the spectrum of their power.
+    spectrum: Arc<dyn RealToComplex<f64>>,
+    /// Inverse, length `N`: the power at every point.
+    expand: Arc<dyn ComplexToReal<f64>>,
+}
+
+/// A scale's band in a transform of `len` bins, from bin `first` (mod `len`) on.
+struct Band<'a> {
+    len: usize,
+    first: usize,
+    values: BandValues<'a>,
+}
+
+/// The values of a [`Band`], `i` counting bins from its first.
+#[derive(Clone, Copy)]
+enum BandValues<'a> {
+    /// `values[i]`.
+    Computed(&'a [Complex64]),
+    /// `spectrum[(first + i) mod len] · gains[i]`: a block's spectrum times the daughter's
+    /// gains, multiplied where they are folded.
+    Product {
+        spectrum: &'a [Complex64],
+        gains: &'a [f64],
+    },
+}
+
+/// One inverse transform of a scale and where its valid outputs go: outputs
+/// `skip..skip + n_valid` are the samples from `first_output` on.
+struct Segment<'a> {
+    band: Band<'a>,
+    first_output: usize,
+    skip: usize,
+    n_valid: usize,
+}
+
+/// A signal prepared for Morlet transforms at a set of scales: spectra and plans, shared
+/// read-only by the parallel workers.
 pub struct MorletCwt {
     k0: f64,
     dt: f64,
     scales: Vec<f64>,
-    evaluations: Vec<Evaluation>,
+    routes: Vec<Route>,
     n_samples: usize,
     n_out: usize,
     record: Option<RecordSpectrum>,
     block_groups: Vec<BlockGroup>,
+    envelopes: Vec<EnvelopePlan>,
 }
 
 /// Per-worker buffers for one scale at a time.
 struct Workspace {
-    buffer: Vec<Complex64>,
-    gain: Vec<f64>,
-    /// `S_k Ĝ_k` over a whole-record scale's band.
+    /// A whole-record scale's band values, and a block scale's Gaussian gains over its band.
     band: Vec<Complex64>,
+    gains: Vec<f64>,
+    buffers: Buffers,
+}
+
+/// Per-worker buffers of the inverse transforms.
+struct Buffers {
+    complex: Vec<Complex64>,
+    samples: Vec<Complex64>,
+    sample_power: Vec<f64>,
+    half_spectrum: Vec<Complex64>,
+    power: Vec<f64>,
     scratch: Vec<Complex64>,
 }
 
@@ -185,7 +244,7 @@ impl MorletCwt {
         // (block length, the widest half-support among its scales): one group each.
         let mut block_shapes: Vec<(usize, usize)> = Vec::new();
         let mut widest_record_scale: Option<f64> = None;
-        let evaluations = scales
+        let domains: Vec<Domain> = scales
             .iter()
             .map(|&scale| {
                 let half_support = (CUTOFF * scale / dt).ceil() as usize + 1;
@@ -200,38 +259,77 @@ impl MorletCwt {
                         }
                     };
                     block_shapes[group].1 = block_shapes[group].1.max(half_support);
-                    Evaluation::Blocks(group)
+                    Domain::Blocks(group)
                 } else {
                     widest_record_scale = Some(widest_record_scale.unwrap_or(0.0).max(scale));
-                    Evaluation::WholeRecord(0)
+                    Domain::WholeRecord
                 }
-            })
-            .collect::<Vec<_>>();
-        let mut record =
-            widest_record_scale.map(|scale| RecordSpectrum::new(signal, dt, scale, decimation));
-        let evaluations = evaluations
-            .into_iter()
-            .zip(scales)
-            .map(|(evaluation, &scale)| match (evaluation, record.as_mut()) {
-                (Evaluation::WholeRecord(_), Some(record)) => {
-                    Evaluation::WholeRecord(record.zoom_for(k0, dt, scale))
-                }
-                (evaluation, _) => evaluation,
             })
             .collect();
-        let block_groups = block_shapes
+        let mut planner = FftPlanner::<f64>::new();
+        let mut real_planner = RealFftPlanner::<f64>::new();
+        let record = widest_record_scale.map(|scale| {
+            RecordSpectrum::new(
+                signal,
+                dt,
+                scale,
+                decimation,
+                &mut planner,
+                &mut real_planner,
+            )
+        });
+        let block_groups: Vec<BlockGroup> = block_shapes
             .iter()
-            .map(|&(block_len, margin)| BlockGroup::new(signal, block_len, margin))
+            .map(|&(block_len, margin)| BlockGroup::new(signal, block_len, margin, &mut planner))
+            .collect();
+        // One envelope plan per (N, Λ) pair the scales need.
+        let mut envelope_shapes: Vec<(usize, usize)> = Vec::new();
+        let routes = domains
+            .into_iter()
+            .zip(scales)
+            .map(|(domain, &scale)| {
+                let (len, omega_step) = match domain {
+                    Domain::WholeRecord => {
+                        let record = record.as_ref().expect("built for whole-record scales");
+                        (record.n_folded, 2.0 * PI / (record.n_padded as f64 * dt))
+                    }
+                    Domain::Blocks(group) => {
+                        let len = block_groups[group].block_len;
+                        (len, 2.0 * PI / (len as f64 * dt))
+                    }
+                };
+                let (band, _) = gaussian_band(k0, scale, omega_step);
+                let width = band.count().min(len);
+                let envelope = envelope_len(len, width).map(|samples| {
+                    match envelope_shapes.iter().position(|&s| s == (len, samples)) {
+                        Some(index) => index,
+                        None => {
+                            envelope_shapes.push((len, samples));
+                            envelope_shapes.len() - 1
+                        }
+                    }
+                });
+                Route { domain, envelope }
+            })
+            .collect();
+        let envelopes = envelope_shapes
+            .iter()
+            .map(|&(len, samples)| EnvelopePlan {
+                samples: planner.plan_fft_inverse(samples),
+                spectrum: real_planner.plan_fft_forward(samples),
+                expand: real_planner.plan_fft_inverse(len),
+            })
             .collect();
         MorletCwt {
             k0,
             dt,
             scales: scales.to_vec(),
-            evaluations,
+            routes,
             n_samples,
             n_out: (n_samples - 1) / decimation + 1,
             record,
             block_groups,
+            envelopes,
         }
     }
 
@@ -241,51 +339,100 @@ impl MorletCwt {
     }
 
     fn workspace(&self) -> Workspace {
-        let mut buffer_len = 0;
+        let mut complex_len = 0;
         let mut scratch_len = 0;
+        let mut band_len = 0;
         if let Some(record) = &self.record {
-            for zoom in &record.zooms {
-                buffer_len = buffer_len.max(zoom.len());
-                scratch_len = scratch_len.max(zoom.get_inplace_scratch_len());
-            }
+            complex_len = record.n_folded;
+            scratch_len = record.inverse.get_inplace_scratch_len();
+            band_len = record.n_folded;
         }
         for group in &self.block_groups {
-            buffer_len = buffer_len.max(group.block_len);
+            complex_len = complex_len.max(group.block_len);
             scratch_len = scratch_len.max(group.inverse.get_inplace_scratch_len());
+            band_len = band_len.max(group.block_len);
         }
-        let max_block = self.block_groups.iter().map(|g| g.block_len).max();
+        let (mut samples_len, mut power_len) = (0, 0);
+        for plan in &self.envelopes {
+            samples_len = samples_len.max(plan.samples.len());
+            power_len = power_len.max(plan.expand.len());
+            scratch_len = scratch_len
+                .max(plan.samples.get_inplace_scratch_len())
+                .max(plan.spectrum.get_scratch_len())
+                .max(plan.expand.get_scratch_len());
+        }
+        let zero = Complex64::new(0.0, 0.0);
         Workspace {
-            buffer: vec![Complex64::new(0.0, 0.0); buffer_len],
-            gain: vec![0.0; max_block.unwrap_or(0)],
-            band: Vec::new(),
-            scratch: vec![Complex64::new(0.0, 0.0); scratch_len],
+            band: Vec::with_capacity(band_len),
+            gains: Vec::with_capacity(band_len),
+            buffers: Buffers {
+                complex: vec![zero; complex_len],
+                samples: vec![zero; samples_len],
+                sample_power: vec![0.0; samples_len],
+                half_spectrum: vec![zero; power_len / 2 + 1],
+                power: vec![0.0; power_len],
+                scratch: vec![zero; scratch_len],
+            },
         }
     }
 
-    /// Hands the coefficients over in strided runs: `emit(q, stride, values, factor)` means
-    /// `W(scale, t_{(q + i stride) D}) = factor · values[i]`. Together the runs cover
-    /// q = 0..n_out once.
-    fn transform(
+    /// The complex inverse plan and the factor `a^{1/2} √(2π) / N_DFT` of a scale's domain:
+    /// Ĝ's constant and the inverse DFT's normalisation. The rectangle rule's Δt is already
+    /// in Ĝ: Poisson summation of the Δt-weighted samples gives the analytic transform.
+    fn inverse_and_factor(&self, scale_idx: usize) -> (&Arc<dyn Fft<f64>>, f64) {
+        let root = (2.0 * PI * self.scales[scale_idx]).sqrt();
+        match self.routes[scale_idx].domain {
+            Domain::WholeRecord => {
+                let record = self.record.as_ref().expect("built for whole-record scales");
+                (&record.inverse, root / record.n_padded as f64)
+            }
+            Domain::Blocks(group) => {
+                let group = &self.block_groups[group];
+                (&group.inverse, root / group.block_len as f64)
+            }
+        }
+    }
+
+    /// Calls `each` on every segment of a scale: one for the whole record, one per block.
+    fn segments(
         &self,
         scale_idx: usize,
         work: &mut Workspace,
-        emit: impl FnMut(usize, usize, &[Complex64], f64),
+        mut each: impl FnMut(&Segment, &mut Buffers),
     ) {
         let scale = self.scales[scale_idx];
-        match self.evaluations[scale_idx] {
-            Evaluation::WholeRecord(zoom) => {
-                let record = self.record.as_ref().expect("built when a scale needs it");
-                record.transform(self.k0, self.dt, scale, zoom, self.n_out, work, emit);
+        match self.routes[scale_idx].domain {
+            Domain::WholeRecord => {
+                let record = self.record.as_ref().expect("built for whole-record scales");
+                let band = record.band(self.k0, self.dt, scale, &mut work.band);
+                let segment = Segment {
+                    band,
+                    first_output: 0,
+                    skip: 0,
+                    n_valid: self.n_out,
+                };
+                each(&segment, &mut work.buffers);
             }
-            Evaluation::Blocks(group) => {
-                self.block_groups[group].transform(
-                    self.k0,
-                    self.dt,
-                    scale,
-                    self.n_samples,
-                    work,
-                    emit,
-                );
+            Domain::Blocks(group) => {
+                let group = &self.block_groups[group];
+                let first = group.gains(self.k0, self.dt, scale, &mut work.gains);
+                for (block, spectrum) in group.spectra.chunks_exact(group.block_len).enumerate() {
+                    let first_output = block * group.hop;
+                    let segment = Segment {
+                        band: Band {
+                            len: group.block_len,
+                            first,
+                            values: BandValues::Product {
+                                spectrum,
+                                gains: &work.gains,
+                            },
+                        },
+                        first_output,
+                        skip: group.margin,
+                        n_valid: group.hop.min(self.n_samples - first_output),
+                    };
+                    each(&segment, &mut work.buffers);
+                }
             }
         }
     }
@@ -294,12 +441,41 @@ impl MorletCwt {
     pub fn coefficients(&self, scale_idx: usize) -> Vec<Complex64> {
         let mut work = self.workspace();
         let mut coefficients = vec![Complex64::new(0.0, 0.0); self.n_out];
-        self.transform(scale_idx, &mut work, |first, stride, values, factor| {
-            for (out, value) in coefficients[first..].iter_mut().step_by(stride).zip(values) {
+        let (inverse, factor) = self.inverse_and_factor(scale_idx);
+        self.segments(scale_idx, &mut work, |segment, buffers| {
+            let values = segment.band.inverse(inverse.as_ref(), buffers);
+            let out = &mut coefficients[segment.first_output..][..segment.n_valid];
+            for (out, value) in out.iter_mut().zip(&values[segment.skip..]) {
                 *out = value * factor;
             }
         });
         coefficients
+    }
+
+    /// `|W|²` of one scale into `row` (q = 0..n_out).
+    fn power_row(&self, scale_idx: usize, work: &mut Workspace, row: &mut [f64]) {
+        let (inverse, factor) = self.inverse_and_factor(scale_idx);
+        let factor_squared = factor * factor;
+        let envelope = self.routes[scale_idx].envelope.map(|e| &self.envelopes[e]);
+        self.segments(scale_idx, work, |segment, buffers| {
+            let out = &mut row[segment.first_output..][..segment.n_valid];
+            match envelope {
+                Some(plan) => {
+                    let power = segment.band.envelope_power(plan, buffers);
+                    let factor_squared = factor_squared / plan.samples.len() as f64;
+                    for (out, value) in out.iter_mut().zip(&power[segment.skip..]) {
+                        // Round-off may dip below zero where the power is nil.
+                        *out = (value * factor_squared).max(0.0);
+                    }
+                }
+                None => {
+                    let values = segment.band.inverse(inverse.as_ref(), buffers);
+                    for (out, value) in out.iter_mut().zip(&values[segment.skip..]) {
+                        *out = value.norm_sqr() * factor_squared;
+                    }
+                }
+            }
+        });
     }
 
     /// `|W|²`, scale-major: `power[s n_out + q]` at scale `s` and output time `q`.
@@ -319,13 +495,7 @@ impl MorletCwt {
                 scope.spawn(|_| {
                     let mut work = self.workspace();
                     while let Some((scale_idx, row)) = next_row() {
-                        self.transform(scale_idx, &mut work, |first, stride, values, factor| {
-                            let factor_squared = factor * factor;
-                            for (out, value) in row[first..].iter_mut().step_by(stride).zip(values)
-                            {
-                                *out = value.norm_sqr() * factor_squared;
-                            }
-                        });
+                        self.power_row(scale_idx, &mut work, row);
                     }
                 });
             }
@@ -335,15 +505,12 @@ impl MorletCwt {
 
     #[cfg(test)]
     fn uses_blocks(&self, scale_idx: usize) -> bool {
-        matches!(self.evaluations[scale_idx], Evaluation::Blocks(_))
+        matches!(self.routes[scale_idx].domain, Domain::Blocks(_))
     }
 
     #[cfg(test)]
-    fn zoom_len(&self, scale_idx: usize) -> Option<usize> {
-        match (self.evaluations[scale_idx], &self.record) {
-            (Evaluation::WholeRecord(zoom), Some(record)) => Some(record.zooms[zoom].len()),
-            _ => None,
-        }
+    fn uses_envelope(&self, scale_idx: usize) -> bool {
+        self.routes[scale_idx].envelope.is_some()
     }
 }
 
@@ -387,8 +554,115 @@ fn gaussian_band(k0: f64, scale: f64, omega_step: f64) -> (std::ops::RangeInclus
     (j_first..=j_last, x_step)
 }
 
+/// The number of samples `Λ` of the envelope route for a band `width` bins wide in a
+/// transform of `len` bins, if that route pays: the least divisor of `len` with
+/// `Λ ≥ 2 width − 1` (module doc), at most `len / MAX_ENVELOPE_FRACTION`.
+fn envelope_len(len: usize, width: usize) -> Option<usize> {
+    let least = (2 * width).max(3) - 1;
+    (least..=len / MAX_ENVELOPE_FRACTION).find(|samples| len.is_multiple_of(*samples))
+}
+
+impl Band<'_> {
+    /// The unnormalised inverse DFT `Σ_i values[i] e^{2πi (first + i) n / len}`, n = 0..len.
+    fn inverse<'b>(&self, plan: &dyn Fft<f64>, buffers: &'b mut Buffers) -> &'b [Complex64] {
+        let buffer = &mut buffers.complex[..self.len];
+        self.fold_into(buffer);
+        plan.process_with_scratch(buffer, &mut buffers.scratch);
+        buffer
+    }
+
+    /// `|inverse|²` at every n through its envelope (module doc): the coefficients at every
+    /// `len/Λ`-th point, their power's spectrum, and one real inverse DFT of length `len`.
+    /// The result is `Λ` times the power.
+    fn envelope_power<'b>(&self, plan: &EnvelopePlan, buffers: &'b mut Buffers) -> &'b [f64] {
+        let n_samples = plan.samples.len();
+        let samples = &mut buffers.samples[..n_samples];
+        self.fold_into(samples);
+        plan.samples
+            .process_with_scratch(samples, &mut buffers.scratch);
+        let sample_power = &mut buffers.sample_power[..n_samples];
+        for (power, value) in sample_power.iter_mut().zip(samples.iter()) {
+            *power = value.norm_sqr();
+        }
+        // The spectrum of |W|² has no frequency of Λ/2 or above (in magnitude): its first
+        // half, less the Nyquist bin, is the whole of it.
+        let half = &mut buffers.half_spectrum[..self.len / 2 + 1];
+        let n_kept = n_samples.div_ceil(2);
+        plan.spectrum
+            .process_with_scratch(
+                sample_power,
+                &mut half[..n_samples / 2 + 1],
+                &mut buffers.scratch,
+            )
+            .expect("buffers sized by the plan");
+        half[n_kept..].fill(Complex64::new(0.0, 0.0));
+        half[0].im = 0.0;
+        let power = &mut buffers.power[..self.len];
+        plan.expand
+            .process_with_scratch(half, power, &mut buffers.scratch)
+            .expect("buffers sized by the plan, and the DC and Nyquist bins real");
+        power
+    }
+
+    /// `buffer[r] = Σ_{(first + i) ≡ r mod buffer.len()} value_i`, where `buffer.len()`
+    /// divides `len`: in runs of bins contiguous both in the band and in the buffer.
+    fn fold_into(&self, buffer: &mut [Complex64]) {
+        let modulus = buffer.len();
+        let width = match self.values {
+            BandValues::Computed(values) => values.len(),
+            BandValues::Product { gains, .. } => gains.len(),
+        };
+        let first = self.first % modulus;
+        // A band no wider than the buffer is written once per bin: zero only the other bins.
+        let overlaps = width > modulus;
+        if overlaps {
+            buffer.fill(Complex64::new(0.0, 0.0));
+        } else if first + width <= modulus {
+            buffer[..first].fill(Complex64::new(0.0, 0.0));
+            buffer[first + width..].fill(Complex64::new(0.0, 0.0));
+        } else {
+            buffer[first + width - modulus..first].fill(Complex64::new(0.0, 0.0));
+        }
+        let (mut i, mut bin, mut r) = (0, self.first % self.len, first);
+        while i < width {
+            let run = (width - i).min(modulus - r).min(self.len - bin);
+            let out = &mut buffer[r..r + run];
+            match (self.values, overlaps) {
+                (BandValues::Computed(values), false) => out.copy_from_slice(&values[i..i + run]),
+                (BandValues::Computed(values), true) => {
+                    for (out, value) in out.iter_mut().zip(&values[i..i + run]) {
+                        *out += value;
+                    }
+                }
+                (BandValues::Product { spectrum, gains }, false) => {
+                    let products = spectrum[bin..bin + run].iter().zip(&gains[i..i + run]);
+                    for (out, (value, gain)) in out.iter_mut().zip(products) {
+                        *out = value * gain;
+                    }
+                }
+                (BandValues::Product { spectrum, gains }, true) => {
+                    let products = spectrum[bin..bin + run].iter().zip(&gains[i..i + run]);
+                    for (out, (value, gain)) in out.iter_mut().zip(products) {
+                        *out += value * gain;
+                    }
+                }
+            }
+            i += run;
+            bin = (bin + run) % self.len;
+            r = (r + run) % modulus;
+        }
+    }
+}
+
 impl RecordSpectrum {
-    fn new(signal: &[f64], dt: f64, widest_scale: f64, decimation: usize) -> Self {
+    fn new(
+        signal: &[f64],
+        dt: f64,
+        widest_scale: f64,
+        decimation: usize,
+        planner: &mut FftPlanner<f64>,
+        real_planner: &mut RealFftPlanner<f64>,
+    ) -> Self {
         let n_samples = signal.len();
         // Padding beyond the widest scale with a point outside the cone of influence buys
         // nothing: those scales are wholly inside it.
@@ -400,7 +674,7 @@ impl RecordSpectrum {
 
         let mut padded = vec![0.0; n_padded];
         padded[..n_samples].copy_from_slice(signal);
-        let forward = RealFftPlanner::<f64>::new().plan_fft_forward(n_padded);
+        let forward = real_planner.plan_fft_forward(n_padded);
         let mut half = forward.make_output_vec();
         forward
             .process(&mut padded, &mut half)
@@ -414,104 +688,46 @@ impl RecordSpectrum {
             n_padded,
             n_folded,
             spectrum,
-            zooms: Vec::new(),
+            inverse: planner.plan_fft_inverse(n_folded),
         }
     }
 
-    /// The divisor `Λ` of `L` that evaluates `scale` cheapest (module doc), as an index
-    /// into `zooms`, planned on first use.
-    fn zoom_for(&mut self, k0: f64, dt: f64, scale: f64) -> usize {
-        let omega_step = 2.0 * PI / (self.n_padded as f64 * dt);
-        let (band, _) = gaussian_band(k0, scale, omega_step);
-        let band_len = (band.end() - band.start() + 1).max(0) as f64;
-        let n = self.n_folded;
-        let cost = |len: usize| {
-            let per_level = if len <= MAX_BLOCK_LEN {
-                FFT_NS_IN_CACHE
-            } else {
-                FFT_NS_OUT_OF_CACHE
-            };
-            let phases = (n / len) as f64;
-            let scatter = if len < n { SCATTER_NS * n as f64 } else { 0.0 };
-            phases * (FOLD_NS * band_len + per_level * len as f64 * (len as f64).log2()) + scatter
-        };
-        let len = (1..=n.isqrt())
-            .filter(|d| n.is_multiple_of(*d))
-            .flat_map(|d| [d, n / d])
-            .filter(|len| *len >= MIN_ZOOM_LEN.min(n))
-            .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))
-            .expect("n itself divides n");
-        match self.zooms.iter().position(|zoom| zoom.len() == len) {
-            Some(index) => index,
-            None => {
-                self.zooms
-                    .push(FftPlanner::<f64>::new().plan_fft_inverse(len));
-                self.zooms.len() - 1
-            }
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn transform(
-        &self,
-        k0: f64,
-        dt: f64,
-        scale: f64,
-        zoom: usize,
-        n_out: usize,
-        work: &mut Workspace,
-        mut emit: impl FnMut(usize, usize, &[Complex64], f64),
-    ) {
-        let inverse = &self.zooms[zoom];
-        let len = inverse.len();
-        let phases = self.n_folded / len;
+    /// `Y_r = Σ_{k ≡ r mod L} S_k Ĝ_k / (a^{1/2} √(2π))` over the scale's band (module doc),
+    /// held in `values`.
+    fn band<'v>(&self, k0: f64, dt: f64, scale: f64, values: &'v mut Vec<Complex64>) -> Band<'v> {
         let omega_step = 2.0 * PI / (self.n_padded as f64 * dt);
         let (band, x_step) = gaussian_band(k0, scale, omega_step);
-        // Y_j = S_j Ĝ_j over the band, once.
-        work.band.clear();
+        let width = band.clone().count().min(self.n_folded);
+        values.clear();
+        values.resize(width, Complex64::new(0.0, 0.0));
+        let first = band.start().rem_euclid(self.n_folded as i64) as usize;
         let mut k = band.start().rem_euclid(self.n_padded as i64) as usize;
-        for j in band.clone() {
+        let mut i = 0;
+        for j in band {
             let x = x_step * j as f64 - k0;
-            work.band.push(self.spectrum[k] * (-0.5 * x * x).exp());
+            values[i] += self.spectrum[k] * (-0.5 * x * x).exp();
             k += 1;
             if k == self.n_padded {
                 k = 0;
             }
-        }
-        let first_bin = band.start().rem_euclid(self.n_folded as i64) as usize;
-        // Ĝ's constant a^{1/2} √(2π) and the inverse DFT's 1/P. The rectangle rule's Δt is
-        // already in Ĝ: Poisson summation of the Δt-weighted samples gives the analytic transform.
-        let factor = (2.0 * PI * scale).sqrt() / self.n_padded as f64;
-        let buffer = &mut work.buffer[..len];
-        for phase in 0..phases.min(n_out) {
-            // Outputs q = phase + i·phases: Σ_j Y_j e^{2πi j phase / L} e^{2πi j i / Λ}.
-            buffer.fill(Complex64::new(0.0, 0.0));
-            // The phase factors by recurrence: sequential, and 1e-13 off after 10⁴ steps.
-            let mut r = first_bin % len;
-            let root =
-                |m: usize| Complex64::from_polar(1.0, 2.0 * PI * m as f64 / self.n_folded as f64);
-            let mut twiddle = root((first_bin * phase) % self.n_folded);
-            let step = root(phase);
-            for value in &work.band {
-                buffer[r] += value * twiddle;
-                twiddle *= step;
-                r += 1;
-                if r == len {
-                    r = 0;
-                }
+            i += 1;
+            if i == width {
+                i = 0;
             }
-            inverse.process_with_scratch(buffer, &mut work.scratch);
-            let n_valid = (n_out - phase).div_ceil(phases);
-            emit(phase, phases, &buffer[..n_valid], factor);
+        }
+        Band {
+            len: self.n_folded,
+            first,
+            values: BandValues::Computed(values),
         }
     }
 }
 
 impl BlockGroup {
-    fn new(signal: &[f64], block_len: usize, margin: usize) -> Self {
+    fn new(signal: &[f64], block_len: usize, margin: usize, planner: &mut FftPlanner<f64>) -> Self {
         let hop = block_len - 2 * margin;
         let n_blocks = signal.len().div_ceil(hop);
-        let forward = FftPlanner::<f64>::new().plan_fft_forward(block_len);
+        let forward = planner.plan_fft_forward(block_len);
         let mut spectra = vec![Complex64::new(0.0, 0.0); n_blocks * block_len];
         spectra.par_chunks_mut(block_len).enumerate().for_each_init(
             || vec![Complex64::new(0.0, 0.0); forward.get_inplace_scratch_len()],
@@ -532,69 +748,26 @@ impl BlockGroup {
             margin,
             hop,
             spectra,
-            inverse: FftPlanner::<f64>::new().plan_fft_inverse(block_len),
+            inverse: planner.plan_fft_inverse(block_len),
         }
     }
 
-    fn transform(
-        &self,
-        k0: f64,
-        dt: f64,
-        scale: f64,
-        n_samples: usize,
-        work: &mut Workspace,
-        mut emit: impl FnMut(usize, usize, &[Complex64], f64),
-    ) {
-        let block_len = self.block_len;
-        // The block-length DFT of the sampled daughter is real: the Gaussian summed over the
-        // frequencies that alias onto each bin.
-        let gain = &mut work.gain[..block_len];
-        gain.fill(0.0);
-        let omega_step = 2.0 * PI / (block_len as f64 * dt);
+    /// The block-length DFT of the sampled daughter (less `a^{1/2} √(2π)`), which is real:
+    /// the Gaussian summed over the frequencies that alias onto each bin. `gains[i]` belongs
+    /// to bin `first + i` (mod the block length); `first` is returned. Only the band's bins
+    /// are kept, so narrow bands read a fraction of each block's spectrum.
+    fn gains(&self, k0: f64, dt: f64, scale: f64, gains: &mut Vec<f64>) -> usize {
+        let omega_step = 2.0 * PI / (self.block_len as f64 * dt);
         let (band, x_step) = gaussian_band(k0, scale, omega_step);
-        // The bins the band covers, as up to two ranges (it may wrap past the last bin).
-        let band_len = (band.end() - band.start() + 1).max(0) as usize;
-        let band_first = band.start().rem_euclid(block_len as i64) as usize;
-        let covered: [std::ops::Range<usize>; 2] = if band_len >= block_len {
-            [0..block_len, 0..0]
-        } else if band_first + band_len <= block_len {
-            [band_first..band_first + band_len, 0..0]
-        } else {
-            [band_first..block_len, 0..band_first + band_len - block_len]
-        };
-        let mut k = band_first;
-        for j in band {
+        let width = band.clone().count().min(self.block_len);
+        gains.clear();
+        gains.resize(width, 0.0);
+        let first = band.start().rem_euclid(self.block_len as i64) as usize;
+        for (i, j) in band.enumerate() {
             let x = x_step * j as f64 - k0;
-            gain[k] += (-0.5 * x * x).exp();
-            k += 1;
-            if k == block_len {
-                k = 0;
-            }
+            gains[i % width] += (-0.5 * x * x).exp();
         }
-        let factor = (2.0 * PI * scale).sqrt() / block_len as f64;
-        let buffer = &mut work.buffer[..block_len];
-        for (block, spectrum) in self.spectra.chunks_exact(block_len).enumerate() {
-            // Only the covered bins are nonzero: narrow bands read a fraction of the spectrum.
-            buffer.fill(Complex64::new(0.0, 0.0));
-            for range in covered.iter().cloned() {
-                for ((out, s), g) in buffer[range.clone()]
-                    .iter_mut()
-                    .zip(&spectrum[range.clone()])
-                    .zip(&gain[range])
-                {
-                    *out = s * g;
-                }
-            }
-            self.inverse.process_with_scratch(buffer, &mut work.scratch);
-            let first_output = block * self.hop;
-            let n_valid = self.hop.min(n_samples - first_output);
-            emit(
-                first_output,
-                1,
-                &buffer[self.margin..self.margin + n_valid],
-                factor,
-            );
-        }
+        first
     }
 }
 
@@ -1051,49 +1224,89 @@ mod tests {
             .collect()
     }
 
-    /// Checks every scale of `freqs` against [`direct_cwt`]; `expect_blocks` says which
-    /// evaluation each scale must take, so both code paths are covered.
-    fn check_against_direct_sum(n: usize, dt: f64, freqs: &[f64], expect_blocks: &[bool]) {
-        // Tolerance: 1e-9 of the largest coefficient of each scale (round-off is ~1e-14).
+    /// Which evaluation a scale must take: overlap-save blocks or the whole record, and for
+    /// the power the sampled envelope or the complex transform.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    struct Expected {
+        blocks: bool,
+        envelope: bool,
+    }
+
+    const RECORD: Expected = Expected {
+        blocks: false,
+        envelope: false,
+    };
+    const RECORD_ENVELOPE: Expected = Expected {
+        blocks: false,
+        envelope: true,
+    };
+    const BLOCKS: Expected = Expected {
+        blocks: true,
+        envelope: false,
+    };
+    const BLOCKS_ENVELOPE: Expected = Expected {
+        blocks: true,
+        envelope: true,
+    };
+
+    /// Checks every scale of `freqs` against [`direct_cwt`], the coefficients and the power;
+    /// `expected` says which evaluation each scale must take, so every code path is covered.
+    fn check_against_direct_sum(n: usize, dt: f64, freqs: &[f64], expected: &[Expected]) {
+        // Tolerance: 1e-9 of the largest coefficient (power) of each scale; round-off is
+        // ~1e-14.
         let signal = broadband(n);
         let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
         let cwt = MorletCwt::new(&signal, dt, K0, &scales, 1);
+        let power = cwt.power();
         for (scale_idx, (&freq, &scale)) in freqs.iter().zip(&scales).enumerate() {
-            assert_eq!(
-                cwt.uses_blocks(scale_idx),
-                expect_blocks[scale_idx],
-                "{freq} Hz"
-            );
+            let route = Expected {
+                blocks: cwt.uses_blocks(scale_idx),
+                envelope: cwt.uses_envelope(scale_idx),
+            };
+            assert_eq!(route, expected[scale_idx], "{freq} Hz");
             let fast = cwt.coefficients(scale_idx);
             let direct = direct_cwt(&signal, dt, scale, K0);
             let error: Vec<Complex64> = fast.iter().zip(&direct).map(|(a, b)| a - b).collect();
             let relative = max_norm(&error) / max_norm(&direct);
             assert!(relative < 1e-9, "{freq} Hz: relative error {relative:e}");
+
+            let row = &power[scale_idx * n..][..n];
+            let peak = max_norm(&direct).powi(2);
+            let power_error = row
+                .iter()
+                .zip(&direct)
+                .map(|(p, d)| (p - d.norm_sqr()).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                power_error < 1e-9 * peak,
+                "{freq} Hz: power error {:e} of the peak",
+                power_error / peak
+            );
         }
     }
 
     #[test]
     fn whole_record_evaluation_equals_the_direct_sum() {
-        // Up to Nyquist (500 Hz), where the aliased images of the daughter's spectrum matter.
+        // Up to Nyquist (500 Hz), where the aliased images of the daughter's spectrum matter
+        // and the band is too wide for the envelope.
         let freqs = log_spaced(5.0, 500.0, 7);
-        check_against_direct_sum(600, 1e-3, &freqs, &[false; 7]);
+        let expected = [
+            RECORD_ENVELOPE,
+            RECORD_ENVELOPE,
+            RECORD_ENVELOPE,
+            RECORD,
+            RECORD,
+            RECORD,
+            RECORD,
+        ];
+        check_against_direct_sum(600, 1e-3, &freqs, &expected);
     }
 
     #[test]
-    fn zoomed_evaluation_equals_the_direct_sum() {
-        // Wide scales on a long record: their narrow bands are inverse-transformed in phases,
-        // with a divisor of the padded length much shorter than it (a record too long for
-        // its transform to stay in cache).
-        let (n, dt) = (40_000, 1e-3);
-        let freqs = [3.0, 8.0];
-        check_against_direct_sum(n, dt, &freqs, &[false, false]);
-        let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
-        let cwt = MorletCwt::new(&broadband(n), dt, K0, &scales, 1);
-        let n_folded = cwt.record.as_ref().expect("whole-record scales").n_folded;
-        for scale_idx in 0..freqs.len() {
-            let zoom = cwt.zoom_len(scale_idx).expect("whole record");
-            assert!(zoom < n_folded / 2, "zoom {zoom} of {n_folded}");
-        }
+    fn envelope_of_a_long_record_equals_the_direct_sum() {
+        // Wide scales on a long record: narrow bands, sampled at a few hundred points of the
+        // padded length.
+        check_against_direct_sum(40_000, 1e-3, &[3.0, 8.0], &[RECORD_ENVELOPE; 2]);
     }
 
     #[test]
@@ -1101,7 +1314,13 @@ mod tests {
         // Short scales on a long record go through overlap-save blocks of 1024 (sharing the
         // margin of the wider one); the widest scale through the whole record.
         let freqs = [40.0, 150.0, 500.0];
-        check_against_direct_sum(4200, 1e-3, &freqs, &[false, true, true]);
+        check_against_direct_sum(4200, 1e-3, &freqs, &[RECORD_ENVELOPE, BLOCKS, BLOCKS]);
+    }
+
+    #[test]
+    fn block_envelope_equals_the_direct_sum() {
+        // Blocks of 2048 for 40 Hz, whose band covers an eighth of them: the envelope route.
+        check_against_direct_sum(20_000, 1e-3, &[40.0, 500.0], &[BLOCKS_ENVELOPE, BLOCKS]);
     }
 
     #[test]
