@@ -78,7 +78,7 @@
 //! care) when it lies within `√2 a` of either end of the record.
 
 use std::f64::consts::PI;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -140,13 +140,14 @@ struct Route {
     envelope: Option<usize>,
 }
 
-/// The signal's spectrum zero-padded to `P = D L` samples, and the inverse plan of length `L`.
+/// The signal's spectrum zero-padded to `P = D L` samples.
 struct RecordSpectrum {
     n_padded: usize,
     n_folded: usize,
     /// `S_k`, k = 0..P, Hermitian-completed so the band loop needs no conjugation branch.
     spectrum: Vec<Complex64>,
-    inverse: Arc<dyn Fft<f64>>,
+    /// Complex inverse of length `L`, planned on first use: the envelope route needs none.
+    inverse: OnceLock<Arc<dyn Fft<f64>>>,
 }
 
 /// The signal cut into overlapping blocks of one length, each block's spectrum computed once
@@ -160,7 +161,8 @@ struct BlockGroup {
     hop: usize,
     /// Spectra of the blocks, one after the other.
     spectra: Vec<Complex64>,
-    inverse: Arc<dyn Fft<f64>>,
+    /// Complex inverse of length `block_len`, planned on first use.
+    inverse: OnceLock<Arc<dyn Fft<f64>>>,
 }
 
 /// Plans of the power's envelope route (module doc) for a transform of `N` bins sampled at
@@ -266,22 +268,17 @@ impl MorletCwt {
                 }
             })
             .collect();
-        let mut planner = FftPlanner::<f64>::new();
-        let mut real_planner = RealFftPlanner::<f64>::new();
-        let record = widest_record_scale.map(|scale| {
-            RecordSpectrum::new(
-                signal,
-                dt,
-                scale,
-                decimation,
-                &mut planner,
-                &mut real_planner,
-            )
-        });
-        let block_groups: Vec<BlockGroup> = block_shapes
-            .iter()
-            .map(|&(block_len, margin)| BlockGroup::new(signal, block_len, margin, &mut planner))
-            .collect();
+        // The record's transform is serial: the blocks' run beside it.
+        let (record, block_groups) = rayon::join(
+            || widest_record_scale.map(|scale| RecordSpectrum::new(signal, dt, scale, decimation)),
+            || {
+                let mut planner = FftPlanner::<f64>::new();
+                block_shapes
+                    .iter()
+                    .map(|&(len, margin)| BlockGroup::new(signal, len, margin, &mut planner))
+                    .collect::<Vec<_>>()
+            },
+        );
         // One envelope plan per (N, Λ) pair the scales need.
         let mut envelope_shapes: Vec<(usize, usize)> = Vec::new();
         let routes = domains
@@ -312,6 +309,8 @@ impl MorletCwt {
                 Route { domain, envelope }
             })
             .collect();
+        let mut planner = FftPlanner::<f64>::new();
+        let mut real_planner = RealFftPlanner::<f64>::new();
         let envelopes = envelope_shapes
             .iter()
             .map(|&(len, samples)| EnvelopePlan {
@@ -344,12 +343,10 @@ impl MorletCwt {
         let mut band_len = 0;
         if let Some(record) = &self.record {
             complex_len = record.n_folded;
-            scratch_len = record.inverse.get_inplace_scratch_len();
             band_len = record.n_folded;
         }
         for group in &self.block_groups {
             complex_len = complex_len.max(group.block_len);
-            scratch_len = scratch_len.max(group.inverse.get_inplace_scratch_len());
             band_len = band_len.max(group.block_len);
         }
         let (mut samples_len, mut power_len) = (0, 0);
@@ -381,16 +378,18 @@ impl MorletCwt {
     /// in Ĝ: Poisson summation of the Δt-weighted samples gives the analytic transform.
     fn inverse_and_factor(&self, scale_idx: usize) -> (&Arc<dyn Fft<f64>>, f64) {
         let root = (2.0 * PI * self.scales[scale_idx]).sqrt();
-        match self.routes[scale_idx].domain {
+        let (inverse, len, n_dft) = match self.routes[scale_idx].domain {
             Domain::WholeRecord => {
                 let record = self.record.as_ref().expect("built for whole-record scales");
-                (&record.inverse, root / record.n_padded as f64)
+                (&record.inverse, record.n_folded, record.n_padded)
             }
             Domain::Blocks(group) => {
                 let group = &self.block_groups[group];
-                (&group.inverse, root / group.block_len as f64)
+                (&group.inverse, group.block_len, group.block_len)
             }
-        }
+        };
+        let inverse = inverse.get_or_init(|| FftPlanner::new().plan_fft_inverse(len));
+        (inverse, root / n_dft as f64)
     }
 
     /// Calls `each` on every segment of a scale: one for the whole record, one per block.
@@ -565,6 +564,13 @@ fn envelope_len(len: usize, width: usize) -> Option<usize> {
 impl Band<'_> {
     /// The unnormalised inverse DFT `Σ_i values[i] e^{2πi (first + i) n / len}`, n = 0..len.
     fn inverse<'b>(&self, plan: &dyn Fft<f64>, buffers: &'b mut Buffers) -> &'b [Complex64] {
+        let scratch_len = plan.get_inplace_scratch_len();
+        if buffers.scratch.len() < scratch_len {
+            // Complex plans are made on first use, after the workspace.
+            buffers
+                .scratch
+                .resize(scratch_len, Complex64::new(0.0, 0.0));
+        }
         let buffer = &mut buffers.complex[..self.len];
         self.fold_into(buffer);
         plan.process_with_scratch(buffer, &mut buffers.scratch);
@@ -655,14 +661,7 @@ impl Band<'_> {
 }
 
 impl RecordSpectrum {
-    fn new(
-        signal: &[f64],
-        dt: f64,
-        widest_scale: f64,
-        decimation: usize,
-        planner: &mut FftPlanner<f64>,
-        real_planner: &mut RealFftPlanner<f64>,
-    ) -> Self {
+    fn new(signal: &[f64], dt: f64, widest_scale: f64, decimation: usize) -> Self {
         let n_samples = signal.len();
         // Padding beyond the widest scale with a point outside the cone of influence buys
         // nothing: those scales are wholly inside it.
@@ -674,7 +673,7 @@ impl RecordSpectrum {
 
         let mut padded = vec![0.0; n_padded];
         padded[..n_samples].copy_from_slice(signal);
-        let forward = real_planner.plan_fft_forward(n_padded);
+        let forward = RealFftPlanner::<f64>::new().plan_fft_forward(n_padded);
         let mut half = forward.make_output_vec();
         forward
             .process(&mut padded, &mut half)
@@ -688,7 +687,7 @@ impl RecordSpectrum {
             n_padded,
             n_folded,
             spectrum,
-            inverse: planner.plan_fft_inverse(n_folded),
+            inverse: OnceLock::new(),
         }
     }
 
@@ -748,7 +747,7 @@ impl BlockGroup {
             margin,
             hop,
             spectra,
-            inverse: planner.plan_fft_inverse(block_len),
+            inverse: OnceLock::new(),
         }
     }
 
