@@ -83,7 +83,7 @@ use std::sync::{Arc, OnceLock};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use rayon::prelude::*;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use realfft::{RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
@@ -172,8 +172,11 @@ struct EnvelopePlan {
     samples: Arc<dyn Fft<f64>>,
     /// Forward, length `Λ`: the spectrum of their power.
     spectrum: Arc<dyn RealToComplex<f64>>,
-    /// Inverse, length `N`: the power at every point.
-    expand: Arc<dyn ComplexToReal<f64>>,
+    /// Inverse, length `N/2`: the power at every point, as a real inverse DFT of length `N`
+    /// folded into a complex one of half the length.
+    expand: Arc<dyn Fft<f64>>,
+    /// `e^{2πi d/N}` for the kept frequencies `d < Λ/2`.
+    twiddles: Vec<Complex64>,
 }
 
 /// A scale's band in a transform of `len` bins, from bin `first` (mod `len`) on.
@@ -229,11 +232,11 @@ struct Workspace {
 
 /// Per-worker buffers of the inverse transforms.
 struct Buffers {
+    /// A complex transform of `N` bins, or the folded real one of the envelope route.
     complex: Vec<Complex64>,
     samples: Vec<Complex64>,
     sample_power: Vec<f64>,
-    half_spectrum: Vec<Complex64>,
-    power: Vec<f64>,
+    sample_spectrum: Vec<Complex64>,
     scratch: Vec<Complex64>,
 }
 
@@ -316,7 +319,10 @@ impl MorletCwt {
             .map(|&(len, samples)| EnvelopePlan {
                 samples: planner.plan_fft_inverse(samples),
                 spectrum: real_planner.plan_fft_forward(samples),
-                expand: real_planner.plan_fft_inverse(len),
+                expand: planner.plan_fft_inverse(len / 2),
+                twiddles: (0..samples.div_ceil(2))
+                    .map(|d| Complex64::from_polar(1.0, 2.0 * PI * d as f64 / len as f64))
+                    .collect(),
             })
             .collect();
         MorletCwt {
@@ -349,14 +355,13 @@ impl MorletCwt {
             complex_len = complex_len.max(group.block_len);
             band_len = band_len.max(group.block_len);
         }
-        let (mut samples_len, mut power_len) = (0, 0);
+        let mut samples_len = 0;
         for plan in &self.envelopes {
             samples_len = samples_len.max(plan.samples.len());
-            power_len = power_len.max(plan.expand.len());
             scratch_len = scratch_len
                 .max(plan.samples.get_inplace_scratch_len())
                 .max(plan.spectrum.get_scratch_len())
-                .max(plan.expand.get_scratch_len());
+                .max(plan.expand.get_inplace_scratch_len());
         }
         let zero = Complex64::new(0.0, 0.0);
         Workspace {
@@ -366,8 +371,7 @@ impl MorletCwt {
                 complex: vec![zero; complex_len],
                 samples: vec![zero; samples_len],
                 sample_power: vec![0.0; samples_len],
-                half_spectrum: vec![zero; power_len / 2 + 1],
-                power: vec![0.0; power_len],
+                sample_spectrum: vec![zero; samples_len / 2 + 1],
                 scratch: vec![zero; scratch_len],
             },
         }
@@ -460,9 +464,10 @@ impl MorletCwt {
             let out = &mut row[segment.first_output..][..segment.n_valid];
             match envelope {
                 Some(plan) => {
-                    let power = segment.band.envelope_power(plan, buffers);
+                    let folded = segment.band.envelope_power(plan, buffers);
+                    let power = &interleaved(folded)[segment.skip..];
                     let factor_squared = factor_squared / plan.samples.len() as f64;
-                    for (out, value) in out.iter_mut().zip(&power[segment.skip..]) {
+                    for (out, value) in out.iter_mut().zip(power) {
                         // Round-off may dip below zero where the power is nil.
                         *out = (value * factor_squared).max(0.0);
                     }
@@ -557,8 +562,18 @@ fn gaussian_band(k0: f64, scale: f64, omega_step: f64) -> (std::ops::RangeInclus
 /// transform of `len` bins, if that route pays: the least divisor of `len` with
 /// `Λ ≥ 2 width − 1` (module doc), at most `len / MAX_ENVELOPE_FRACTION`.
 fn envelope_len(len: usize, width: usize) -> Option<usize> {
+    if !len.is_multiple_of(2) {
+        return None; // the real inverse DFT is folded into a complex one of half the length
+    }
     let least = (2 * width).max(3) - 1;
     (least..=len / MAX_ENVELOPE_FRACTION).find(|samples| len.is_multiple_of(*samples))
+}
+
+/// The real sequence `p_{2m} = z_m.re, p_{2m+1} = z_m.im`, without a copy.
+fn interleaved(folded: &[Complex64]) -> &[f64] {
+    // SAFETY: `Complex<f64>` is `#[repr(C)]` with fields `re, im` (documented by num-complex),
+    // so a slice of them is a slice of twice as many f64 with the same alignment and lifetime.
+    unsafe { std::slice::from_raw_parts(folded.as_ptr().cast::<f64>(), 2 * folded.len()) }
 }
 
 impl Band<'_> {
@@ -579,8 +594,14 @@ impl Band<'_> {
 
     /// `|inverse|²` at every n through its envelope (module doc): the coefficients at every
     /// `len/Λ`-th point, their power's spectrum, and one real inverse DFT of length `len`.
-    /// The result is `Λ` times the power.
-    fn envelope_power<'b>(&self, plan: &EnvelopePlan, buffers: &'b mut Buffers) -> &'b [f64] {
+    /// The result is `Λ` times the power, `z_m = p_{2m} + i p_{2m+1}` (see [`interleaved`]).
+    ///
+    /// The real inverse DFT `p_n = Σ_k X_k e^{2πi kn/N}` of a Hermitian `X` is one complex
+    /// inverse DFT of length `N/2`: `z_m = p_{2m} + i p_{2m+1} = Σ_k Z_k e^{2πi km/(N/2)}`
+    /// with `Z_k = (X_k + X_{k+N/2}) + i e^{2πi k/N} (X_k − X_{k+N/2})`. Here `X_d = C_d` and
+    /// `X_{N−d} = C_d*` for `d < Λ/2 ≤ N/8`, zero elsewhere, so `Z_d = C_d (1 + i w_d)` and
+    /// `Z_{N/2−d} = (C_d (1 − i w_d))*` with `w_d = e^{2πi d/N}`, and the rest vanishes.
+    fn envelope_power<'b>(&self, plan: &EnvelopePlan, buffers: &'b mut Buffers) -> &'b [Complex64] {
         let n_samples = plan.samples.len();
         let samples = &mut buffers.samples[..n_samples];
         self.fold_into(samples);
@@ -590,24 +611,26 @@ impl Band<'_> {
         for (power, value) in sample_power.iter_mut().zip(samples.iter()) {
             *power = value.norm_sqr();
         }
-        // The spectrum of |W|² has no frequency of Λ/2 or above (in magnitude): its first
-        // half, less the Nyquist bin, is the whole of it.
-        let half = &mut buffers.half_spectrum[..self.len / 2 + 1];
-        let n_kept = n_samples.div_ceil(2);
+        let coefficients = &mut buffers.sample_spectrum[..n_samples / 2 + 1];
         plan.spectrum
-            .process_with_scratch(
-                sample_power,
-                &mut half[..n_samples / 2 + 1],
-                &mut buffers.scratch,
-            )
+            .process_with_scratch(sample_power, coefficients, &mut buffers.scratch)
             .expect("buffers sized by the plan");
-        half[n_kept..].fill(Complex64::new(0.0, 0.0));
-        half[0].im = 0.0;
-        let power = &mut buffers.power[..self.len];
+        // The spectrum of |W|² has no frequency of Λ/2 or above (in magnitude): the first
+        // half of the samples' spectrum, less its Nyquist bin, is the whole of it.
+        coefficients[0].im = 0.0;
+        let half_len = self.len / 2;
+        let folded = &mut buffers.complex[..half_len];
+        folded.fill(Complex64::new(0.0, 0.0));
+        for (d, (c, w)) in coefficients.iter().zip(&plan.twiddles).enumerate() {
+            let i_w = Complex64::new(-w.im, w.re);
+            folded[d] = c * (1.0 + i_w);
+            if d > 0 {
+                folded[half_len - d] = (c * (1.0 - i_w)).conj();
+            }
+        }
         plan.expand
-            .process_with_scratch(half, power, &mut buffers.scratch)
-            .expect("buffers sized by the plan, and the DC and Nyquist bins real");
-        power
+            .process_with_scratch(folded, &mut buffers.scratch);
+        folded
     }
 
     /// `buffer[r] = Σ_{(first + i) ≡ r mod buffer.len()} value_i`, where `buffer.len()`
