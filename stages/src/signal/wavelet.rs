@@ -818,7 +818,7 @@ impl Stage for Wavelet {
         "wavelet"
     }
     fn version(&self) -> u32 {
-        1
+        2 // 2: the power of narrow bands from their sampled envelope
     }
     fn doc(&self) -> &'static str {
         "Morlet wavelet power of one signal column on a log-spaced time-frequency grid, with its cone of influence"
@@ -862,7 +862,7 @@ impl Stage for Wavelet {
             PortSpec::one(
                 "power",
                 ArtifactType::Table,
-                "long table: t (s), freq_hz, power = |W|², in_coi (edge effects matter)",
+                "long table: t (s), freq_hz, power = |W|² (round-off ~1e-15 of each frequency's peak), in_coi (edge effects matter)",
             ),
             PortSpec::one(
                 "map",
