@@ -13,8 +13,15 @@
 //! ```
 //!
 //! so each step costs one solve with `Q̃(σ)` ([`super::shift_invert`]). Block Arnoldi with full
-//! (twice repeated) Gram–Schmidt builds `Op V = V H + V₊ R Eᵀ`; the Ritz pairs `(θ, V s)` of
-//! `H` have Arnoldi residuals `‖R s_last‖`. Eigenvalues nearest σ converge first.
+//! Gram–Schmidt builds `Op V = V H + V₊ R Eᵀ`; the Ritz pairs `(θ, V s)` of `H` have Arnoldi
+//! residuals `‖R s_last‖`. Eigenvalues nearest σ converge first.
+//!
+//! **Two-level basis** (TOAR, Su, Zhang & Bai 2008). The second half of `Op y` is a
+//! combination of `x₁` and `z₁`, so the halves of every basis vector lie in the span of one
+//! orthonormal `Q` (`m` rows) that grows by the new `z₁` alone: `V = [Q U₁; Q U₂]`. Only `Q` is
+//! stored in full, at half the size of `V`; each step orthogonalises `z₁` against `Q` (vectors
+//! of length `m`, not `2m`), and the Arnoldi Gram–Schmidt runs on the small coordinates
+//! `[U₁; U₂]`, whose inner products are those of `V` since `Q` is orthonormal.
 //!
 //! # Why none is missed
 //!
@@ -119,30 +126,75 @@ struct Operator<'a> {
 }
 
 impl Operator<'_> {
-    fn apply(&self, X: MatRef<'_, c64>) -> Mat<c64> {
+    /// `z₁ = −Q̃(σ)⁻¹ (M̃ (s x₂ + σ x₁) + C̃ x₁)` for the columns of `[X₁; X₂]`: the first half
+    /// of `Op [X₁; X₂]`, whose second half is `(X₁ + σ z₁)/s`.
+    fn first_half(&self, X1: MatRef<'_, c64>, X2: MatRef<'_, c64>) -> Mat<c64> {
         let m = self.system.dim();
         let (sigma, scale) = (self.solver.sigma, self.scale);
-        let columns: Vec<Vec<c64>> = (0..X.ncols())
+        let columns: Vec<Vec<c64>> = (0..X1.ncols())
             .into_par_iter()
             .map(|col| {
-                let x1: Vec<c64> = (0..m).map(|i| X[(i, col)]).collect();
+                let x1: Vec<c64> = X1.col(col).iter().copied().collect();
                 let shifted: Vec<c64> = (0..m)
-                    .map(|i| X[(m + i, col)] * scale + sigma * x1[i])
+                    .map(|i| X2[(i, col)] * scale + sigma * x1[i])
                     .collect();
                 let Mx = self.system.apply(Part::M, &shifted);
                 let Cx = self.system.apply(Part::C, &x1);
                 (0..m).map(|i| -(Mx[i] + Cx[i])).collect()
             })
             .collect();
-        let rhs = Mat::from_fn(m, X.ncols(), |i, col| columns[col][i]);
-        let z1 = self.solver.solve(rhs.as_ref());
-        Mat::from_fn(2 * m, X.ncols(), |i, col| {
-            if i < m {
-                z1[(i, col)]
-            } else {
-                (X[(i - m, col)] + sigma * z1[(i - m, col)]) / scale
+        let rhs = Mat::from_fn(m, X1.ncols(), |i, col| columns[col][i]);
+        self.solver.solve(rhs.as_ref())
+    }
+}
+
+/// The first-half basis `Q` of the two-level representation (module doc): `rank` orthonormal
+/// columns in use.
+struct HalfBasis {
+    Q: Mat<c64>,
+    rank: usize,
+}
+
+impl HalfBasis {
+    /// Expresses the columns of `Z` in `Q`, adding the directions it lacks: returns `C` with
+    /// `Z = Q[:, ..rank] C` (the new rank). A column whose remainder is at round-off level
+    /// (or with no room left) adds nothing.
+    fn extend(&mut self, mut Z: Mat<c64>) -> Mat<c64> {
+        let b = Z.ncols();
+        let original: Vec<f64> = (0..b).map(|j| column_norm(Z.as_ref(), j)).collect();
+        let projection = project_out(self.Q.subcols(0, self.rank), &mut Z);
+        let first_new = self.rank;
+        let mut coefficients = Mat::<c64>::zeros(first_new + b, b);
+        coefficients
+            .submatrix_mut(0, 0, first_new, b)
+            .copy_from(&projection);
+        for j in 0..b {
+            let mut column = Z.subcols(j, 1).to_owned();
+            let added = self.rank - first_new;
+            let within = project_out(self.Q.subcols(first_new, added), &mut column);
+            for i in 0..added {
+                coefficients[(first_new + i, j)] = within[(i, 0)];
             }
-        })
+            let norm = column_norm(column.as_ref(), 0);
+            if norm > 1e-12 * original[j] && norm > 0.0 && self.rank < self.Q.ncols() {
+                for row in 0..self.Q.nrows() {
+                    self.Q[(row, self.rank)] = column[(row, 0)] / norm;
+                }
+                coefficients[(self.rank, j)] = c64::new(norm, 0.0);
+                self.rank += 1;
+            }
+        }
+        coefficients.subrows(0, self.rank).to_owned()
+    }
+
+    /// Adds a random direction orthogonal to `Q`, for room when the Krylov space is exhausted.
+    fn add_random(&mut self, random: &mut SplitMix64) {
+        self.extend(random_block(self.Q.nrows(), 1, random));
+    }
+
+    /// `Q[:, ..rank] C`, for coordinates `C` over the first `rank` columns.
+    fn expand(&self, C: MatRef<'_, c64>) -> Mat<c64> {
+        self.Q.subcols(0, C.nrows()) * C
     }
 }
 
@@ -215,6 +267,18 @@ fn orthonormalise(
     (H, R)
 }
 
+/// Coordinates `[C₁ C₂]` (rank × 2b, the halves side by side) interleaved into the layout of
+/// `U`: rows 2i and 2i + 1 hold row i of `C₁` and `C₂`.
+fn interleave(C: MatRef<'_, c64>, b: usize) -> Mat<c64> {
+    Mat::from_fn(2 * C.nrows(), b, |row, j| C[(row / 2, j + (row % 2) * b)])
+}
+
+/// The inverse of [`interleave`]: `[U₁ U₂]` (rank × 2b) from interleaved rows.
+fn deinterleave(U: MatRef<'_, c64>) -> Mat<c64> {
+    let b = U.ncols();
+    Mat::from_fn(U.nrows() / 2, 2 * b, |i, j| U[(2 * i + j / b, j % b)])
+}
+
 fn random_block(rows: usize, cols: usize, random: &mut SplitMix64) -> Mat<c64> {
     Mat::from_fn(rows, cols, |_, _| {
         c64::new(random.next_signed(), random.next_signed())
@@ -256,20 +320,58 @@ fn solve_shift(
     // The basis may not exceed the dimension (less one block, for the residual block).
     let max_basis = (options.max_basis.min(n.saturating_sub(b)) / b * b).max(b);
     let mut random = SplitMix64::new(0x05EE_D0F5_1D1E);
-    let mut V = Mat::<c64>::zeros(n, max_basis + b);
+    // Q gains at most one column per Arnoldi vector, after the start block's two halves.
+    let mut half = HalfBasis {
+        Q: Mat::<c64>::zeros(m, (max_basis + 2 * b).min(m)),
+        rank: 0,
+    };
+    // Coordinates, interleaved so that those in use are the leading rows: Arnoldi vector j is
+    // [Q u₁; Q u₂] with (u₁)_i = U[2i, j] and (u₂)_i = U[2i + 1, j].
+    let mut U = Mat::<c64>::zeros(2 * half.Q.ncols(), max_basis + b);
     let mut H = Mat::<c64>::zeros(max_basis + b, max_basis);
-    let mut start = random_block(n, b, &mut random);
-    orthonormalise(V.subcols(0, 0), &mut start, &mut random);
-    V.subcols_mut(0, b).copy_from(&start);
+    let start = random_block(n, b, &mut random);
+    let halves = Mat::from_fn(m, 2 * b, |i, j| start[(i + (j / b) * m, j % b)]);
+    let start_coordinates = half.extend(halves);
+    let mut W = interleave(start_coordinates.as_ref(), b);
+    orthonormalise(U.submatrix(0, 0, W.nrows(), 0), &mut W, &mut random);
+    U.submatrix_mut(0, 0, W.nrows(), b).copy_from(&W);
     let mut k = b;
     let mut next_check = options.basis.min(max_basis).max(b);
     loop {
-        // Op V[:, k−b..k] = V[:, ..k] H + W R.
-        let mut W = operator.apply(V.subcols(k - b, b));
-        let (coefficients, R) = orthonormalise(V.subcols(0, k), &mut W, &mut random);
+        // Op V[:, k−b..k] = V[:, ..k] H + W R, in coordinates.
+        let rank = half.rank;
+        let block = U.submatrix(0, k - b, 2 * rank, b);
+        let halves = half.expand(deinterleave(block).as_ref());
+        let z1 = operator.first_half(halves.subcols(0, b), halves.subcols(b, b));
+        let z_coordinates = half.extend(z1);
+        while 2 * half.rank < k + b && half.rank < m {
+            half.add_random(&mut random);
+        }
+        // w₁ = z₁ and w₂ = (x₁ + σ z₁)/s in coordinates.
+        let new_rank = half.rank;
+        let mut W = Mat::<c64>::from_fn(2 * new_rank, b, |row, j| {
+            let i = row / 2;
+            let w1 = if i < z_coordinates.nrows() {
+                z_coordinates[(i, j)]
+            } else {
+                c64::new(0.0, 0.0)
+            };
+            if row % 2 == 0 {
+                w1
+            } else {
+                let x1 = if i < rank {
+                    U[(2 * i, k - b + j)]
+                } else {
+                    c64::new(0.0, 0.0)
+                };
+                (x1 + sigma * w1) / scale
+            }
+        });
+        let (coefficients, R) =
+            orthonormalise(U.submatrix(0, 0, 2 * new_rank, k), &mut W, &mut random);
         H.submatrix_mut(0, k - b, k, b).copy_from(&coefficients);
         H.submatrix_mut(k, k - b, b, b).copy_from(&R);
-        V.subcols_mut(k, b).copy_from(&W);
+        U.submatrix_mut(0, k, 2 * new_rank, b).copy_from(&W);
         if k < next_check && k + b <= max_basis {
             k += b;
             continue;
@@ -319,7 +421,9 @@ fn solve_shift(
         report.seconds_arnoldi += clock.elapsed().as_secs_f64();
         // Eigenvectors y = V s: q is either half (x₁, or s x₂/λ); keep the better one.
         let selected = Mat::<c64>::from_fn(k, converged.len(), |row, col| S[(row, converged[col])]);
-        let Y = V.subcols(0, k) * &selected;
+        let coordinates = U.submatrix(0, 0, 2 * half.rank, k) * &selected;
+        let Y = half.expand(deinterleave(coordinates.as_ref()).as_ref());
+        let n_converged = converged.len();
         let pairs: Vec<EigenPair> = converged
             .par_iter()
             .enumerate()
@@ -328,7 +432,7 @@ fn solve_shift(
                 let halves = [
                     (0..m).map(|row| Y[(row, col)]).collect::<Vec<c64>>(),
                     (0..m)
-                        .map(|row| Y[(m + row, col)] * scale / lambda)
+                        .map(|row| Y[(row, n_converged + col)] * scale / lambda)
                         .collect(),
                 ];
                 halves
