@@ -78,14 +78,14 @@
 //! care) when it lies within `√2 a` of either end of the record.
 
 use std::f64::consts::PI;
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, LazyLock, Mutex, OnceLock};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use rayon::prelude::*;
 use realfft::{RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex64;
-use rustfft::{Fft, FftPlanner};
+use rustfft::{Fft, FftDirection as Direction, FftPlanner};
 
 use super::figure::{self, DrawResult, Drawing, drawing_error};
 use super::{UniformSeries, log_spaced, uniform_series};
@@ -275,10 +275,9 @@ impl MorletCwt {
         let (record, block_groups) = rayon::join(
             || widest_record_scale.map(|scale| RecordSpectrum::new(signal, dt, scale, decimation)),
             || {
-                let mut planner = FftPlanner::<f64>::new();
                 block_shapes
                     .iter()
-                    .map(|&(len, margin)| BlockGroup::new(signal, len, margin, &mut planner))
+                    .map(|&(len, margin)| BlockGroup::new(signal, len, margin))
                     .collect::<Vec<_>>()
             },
         );
@@ -312,14 +311,12 @@ impl MorletCwt {
                 Route { domain, envelope }
             })
             .collect();
-        let mut planner = FftPlanner::<f64>::new();
-        let mut real_planner = RealFftPlanner::<f64>::new();
         let envelopes = envelope_shapes
             .iter()
             .map(|&(len, samples)| EnvelopePlan {
-                samples: planner.plan_fft_inverse(samples),
-                spectrum: real_planner.plan_fft_forward(samples),
-                expand: planner.plan_fft_inverse(len / 2),
+                samples: complex_plan(samples, Direction::Inverse),
+                spectrum: real_forward_plan(samples),
+                expand: complex_plan(len / 2, Direction::Inverse),
                 twiddles: (0..samples.div_ceil(2))
                     .map(|d| Complex64::from_polar(1.0, 2.0 * PI * d as f64 / len as f64))
                     .collect(),
@@ -392,7 +389,7 @@ impl MorletCwt {
                 (&group.inverse, group.block_len, group.block_len)
             }
         };
-        let inverse = inverse.get_or_init(|| FftPlanner::new().plan_fft_inverse(len));
+        let inverse = inverse.get_or_init(|| complex_plan(len, Direction::Inverse));
         (inverse, root / n_dft as f64)
     }
 
@@ -547,6 +544,27 @@ fn advise_huge_pages(buffer: &mut [f64]) {
     let _ = buffer;
 }
 
+/// FFT plans shared by every transform of the process: planning computes the twiddle factors,
+/// milliseconds per length that repeated transforms (a sweep's runs) need not pay again.
+/// They are kept for the life of the process, as numpy's and scipy's FFTs keep theirs.
+static PLANNER: LazyLock<Mutex<FftPlanner<f64>>> = LazyLock::new(|| Mutex::new(FftPlanner::new()));
+static REAL_PLANNER: LazyLock<Mutex<RealFftPlanner<f64>>> =
+    LazyLock::new(|| Mutex::new(RealFftPlanner::new()));
+
+fn complex_plan(len: usize, direction: Direction) -> Arc<dyn Fft<f64>> {
+    let mut planner = PLANNER
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    planner.plan_fft(len, direction)
+}
+
+fn real_forward_plan(len: usize) -> Arc<dyn RealToComplex<f64>> {
+    let mut planner = REAL_PLANNER
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    planner.plan_fft_forward(len)
+}
+
 /// The unwrapped frequency indices `j` where the daughter's Gaussian `e^{−(a ω_j − k₀)²/2}`,
 /// `ω_j = j ω_step`, is above the cut-off, and the step of `x_j = a ω_j − k₀` per index.
 fn gaussian_band(k0: f64, scale: f64, omega_step: f64) -> (std::ops::RangeInclusive<i64>, f64) {
@@ -696,7 +714,7 @@ impl RecordSpectrum {
 
         let mut padded = vec![0.0; n_padded];
         padded[..n_samples].copy_from_slice(signal);
-        let forward = RealFftPlanner::<f64>::new().plan_fft_forward(n_padded);
+        let forward = real_forward_plan(n_padded);
         let mut half = forward.make_output_vec();
         forward
             .process(&mut padded, &mut half)
@@ -746,10 +764,10 @@ impl RecordSpectrum {
 }
 
 impl BlockGroup {
-    fn new(signal: &[f64], block_len: usize, margin: usize, planner: &mut FftPlanner<f64>) -> Self {
+    fn new(signal: &[f64], block_len: usize, margin: usize) -> Self {
         let hop = block_len - 2 * margin;
         let n_blocks = signal.len().div_ceil(hop);
-        let forward = planner.plan_fft_forward(block_len);
+        let forward = complex_plan(block_len, Direction::Forward);
         let mut spectra = vec![Complex64::new(0.0, 0.0); n_blocks * block_len];
         spectra.par_chunks_mut(block_len).enumerate().for_each_init(
             || vec![Complex64::new(0.0, 0.0); forward.get_inplace_scratch_len()],
