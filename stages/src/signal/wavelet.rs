@@ -187,7 +187,6 @@ struct Band<'a> {
 }
 
 /// The values of a [`Band`], `i` counting bins from its first.
-#[derive(Clone, Copy)]
 enum BandValues<'a> {
     /// `values[i]`.
     Computed(&'a [Complex64]),
@@ -651,20 +650,19 @@ impl Band<'_> {
         folded
     }
 
-    /// `buffer[r] = Σ_{(first + i) ≡ r mod buffer.len()} value_i`, where `buffer.len()`
-    /// divides `len`: in runs of bins contiguous both in the band and in the buffer.
+    /// `buffer[(first + i) mod buffer.len()] = value_i`, zero elsewhere, where `buffer.len()`
+    /// divides `len` and is no less than the band's width (bands are folded to at most `len`
+    /// bins, and the envelope's `Λ` exceeds twice the width), so no two values meet. Written
+    /// in runs of bins contiguous both in the band and in the buffer.
     fn fold_into(&self, buffer: &mut [Complex64]) {
         let modulus = buffer.len();
         let width = match self.values {
             BandValues::Computed(values) => values.len(),
             BandValues::Product { gains, .. } => gains.len(),
         };
+        debug_assert!(width <= modulus && self.len.is_multiple_of(modulus));
         let first = self.first % modulus;
-        // A band no wider than the buffer is written once per bin: zero only the other bins.
-        let overlaps = width > modulus;
-        if overlaps {
-            buffer.fill(Complex64::new(0.0, 0.0));
-        } else if first + width <= modulus {
+        if first + width <= modulus {
             buffer[..first].fill(Complex64::new(0.0, 0.0));
             buffer[first + width..].fill(Complex64::new(0.0, 0.0));
         } else {
@@ -674,23 +672,12 @@ impl Band<'_> {
         while i < width {
             let run = (width - i).min(modulus - r).min(self.len - bin);
             let out = &mut buffer[r..r + run];
-            match (self.values, overlaps) {
-                (BandValues::Computed(values), false) => out.copy_from_slice(&values[i..i + run]),
-                (BandValues::Computed(values), true) => {
-                    for (out, value) in out.iter_mut().zip(&values[i..i + run]) {
-                        *out += value;
-                    }
-                }
-                (BandValues::Product { spectrum, gains }, false) => {
+            match self.values {
+                BandValues::Computed(values) => out.copy_from_slice(&values[i..i + run]),
+                BandValues::Product { spectrum, gains } => {
                     let products = spectrum[bin..bin + run].iter().zip(&gains[i..i + run]);
                     for (out, (value, gain)) in out.iter_mut().zip(products) {
                         *out = value * gain;
-                    }
-                }
-                (BandValues::Product { spectrum, gains }, true) => {
-                    let products = spectrum[bin..bin + run].iter().zip(&gains[i..i + run]);
-                    for (out, (value, gain)) in out.iter_mut().zip(products) {
-                        *out += value * gain;
                     }
                 }
             }

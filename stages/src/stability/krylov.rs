@@ -329,9 +329,8 @@ fn solve_shift(
     // [Q u₁; Q u₂] with (u₁)_i = U[2i, j] and (u₂)_i = U[2i + 1, j].
     let mut U = Mat::<c64>::zeros(2 * half.Q.ncols(), max_basis + b);
     let mut H = Mat::<c64>::zeros(max_basis + b, max_basis);
-    let start = random_block(n, b, &mut random);
-    let halves = Mat::from_fn(m, 2 * b, |i, j| start[(i + (j / b) * m, j % b)]);
-    let start_coordinates = half.extend(halves);
+    // A random start block, its two halves side by side.
+    let start_coordinates = half.extend(random_block(m, 2 * b, &mut random));
     let mut W = interleave(start_coordinates.as_ref(), b);
     orthonormalise(U.submatrix(0, 0, W.nrows(), 0), &mut W, &mut random);
     U.submatrix_mut(0, 0, W.nrows(), b).copy_from(&W);
