@@ -116,6 +116,7 @@ fn main() {
         report.band.factor_entries
     );
     for shift in &report.band.shifts {
+        let seconds = &shift.seconds;
         println!(
             "  shift {:>8.0} Hz: basis {:>4}, trusted radius {:>7.0} Hz, {:>4} converged, {:>4} kept, {:>3} matched in the overlap",
             shift.frequency_hz,
@@ -124,6 +125,14 @@ fn main() {
             shift.found,
             shift.kept,
             shift.overlap_matched
+        );
+        println!(
+            "      {:.1} s factor, {:.1} s operator, {:.1} s orthogonalisation, {:.1} s Ritz, {:.1} s vectors",
+            seconds.factor,
+            seconds.operator,
+            seconds.orthogonalisation,
+            seconds.ritz,
+            seconds.vectors
         );
     }
     let unstable: Vec<_> = solution

@@ -28,7 +28,12 @@
 //! A shift's **trusted disk** is `|λ − σ| < ρ`, with ρ the distance to the nearest Ritz value
 //! that has *not* converged: every Ritz value inside has converged, and an eigenvalue inside
 //! that the Krylov space had not seen at all would have to be orthogonal to a random start
-//! block of several vectors. The disks are made to overlap; in each overlap the eigenvalues
+//! block of several vectors. The radius is trusted only once the space has resolved
+//! something: after [`MIN_BLOCK_STEPS`] block steps and once the Ritz value nearest σ has
+//! converged. Before that, Ritz values lie inside the spectrum's hull and understate how near
+//! the nearest eigenvalue is (two steps of a block of 16 claimed a disk 2 kHz wide over 25
+//! eigenvalues of the default brake; the μ = 0 test caught the same with blocks of eight and
+//! no convergence required). The disks are made to overlap; in each overlap the eigenvalues
 //! both shifts found must agree one to one (within the merging tolerance), which a missed
 //! eigenvalue would break. Eigenvalues are then kept from the shift whose cell they lie in
 //! (cells cut in the middle of each overlap), so none is reported twice.
@@ -39,15 +44,22 @@
 //! # Cost and spacing
 //!
 //! A shift costs one factorisation plus a contact correction (a solve with one right-hand
-//! side per closed pair), then one solve and one orthogonalisation against the basis per
-//! Arnoldi vector; the latter grows with the basis, so disks are kept to about `per_shift`
-//! eigenvalues: each shift is placed from the density the previous one met in its upper
-//! half. Ritz values are checked from a small basis on (then every quarter more), so that a
-//! nearly empty disk stops early. A block of two vectors converged the most eigenvalues per
-//! second on the default brake (measured against blocks of four and eight) and still
-//! catches double modes.
+//! side per closed pair), then, per block of b Arnoldi vectors, one solve with b right-hand
+//! sides and one orthogonalisation against the basis, which grows with the basis. Ritz values
+//! are checked from a small basis on (then every quarter more), so that a nearly empty disk
+//! stops early; each shift is placed from the density the previous one met in its upper half,
+//! aiming at `per_shift` eigenvalues.
+//!
+//! The solves dominate and are bound by memory traffic: the factor (26 M entries on the
+//! default brake) is read once per solve, whatever its width. Per vector, a block of eight
+//! costs 18 ms against 38 ms for two (and the orthogonalisation becomes matrix–matrix), so
+//! although blocks of eight need about a third more vectors for the same disk, they halved
+//! the 17 kHz band of the default brake (417 s against 862 s). Wide disks of up to 1280
+//! vectors beat narrow ones there: factorisations and the overlaps' double work are paid
+//! fewer times, and the band's width forces disks of 1 kHz radius at the top anyway.
 
 use std::f64::consts::PI;
+use std::time::Instant;
 
 use faer::{Mat, MatRef, Par, c64};
 use rayon::prelude::*;
@@ -57,11 +69,19 @@ use super::sliding::{Part, SlidingSystem};
 use crate::modes::lanczos::SplitMix64;
 use crate::stage::StageError;
 
+/// Block steps before a shift's Ritz values are first examined (module doc, "Why none is
+/// missed").
+const MIN_BLOCK_STEPS: usize = 6;
+/// A Ritz vector's first half is its eigenvector when its residual is below this (round-off is
+/// about 1e-15); otherwise the second half is tried too.
+const ROUND_OFF_RESIDUAL: f64 = 1e-12;
+
 /// Tuning of [`solve_band`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KrylovOptions {
     pub block_size: usize,
-    /// Basis size at which a shift's Ritz values are first examined, and the most it may grow to.
+    /// Basis size at which a shift's Ritz values are first examined (at least
+    /// [`MIN_BLOCK_STEPS`] blocks), and the most it may grow to.
     pub basis: usize,
     pub max_basis: usize,
     /// Eigenvalues each shift's disk should hold: shifts are spaced by the density the previous
@@ -77,10 +97,10 @@ pub struct KrylovOptions {
 impl Default for KrylovOptions {
     fn default() -> Self {
         KrylovOptions {
-            block_size: 2,
+            block_size: 8,
             basis: 32,
-            max_basis: 480,
-            per_shift: 64,
+            max_basis: 1280,
+            per_shift: 256,
             arnoldi_tolerance: 1e-10,
             residual_tolerance: 1e-8,
             par: Par::rayon(0),
@@ -115,6 +135,22 @@ pub struct ShiftReport {
     pub kept: usize,
     /// Eigenvalues in the overlap with the previous shift found by both.
     pub overlap_matched: usize,
+    pub seconds: ShiftSeconds,
+}
+
+/// Wall time of a shift's phases (s).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ShiftSeconds {
+    /// Factorisation and contact correction.
+    pub factor: f64,
+    /// Each block rebuilt from `Q` and put through the operator (the solves).
+    pub operator: f64,
+    /// Gram–Schmidt of z₁ against `Q` and of the coordinates.
+    pub orthogonalisation: f64,
+    /// Eigenvalues of the Arnoldi matrix and their convergence checks.
+    pub ritz: f64,
+    /// Eigenvectors and their residuals.
+    pub vectors: f64,
 }
 
 /// The shift-invert operator on the linearisation.
@@ -291,6 +327,7 @@ struct ShiftResult {
     radius: f64,
     basis: usize,
     pairs: Vec<EigenPair>,
+    seconds: ShiftSeconds,
 }
 
 /// Block Arnoldi at `sigma` until the trusted radius reaches `radius_needed` (and the basis
@@ -305,10 +342,14 @@ fn solve_shift(
 ) -> Result<ShiftResult, StageError> {
     let m = system.dim();
     let n = 2 * m;
-    let clock = std::time::Instant::now();
+    let clock = Instant::now();
     let solver = ShiftedSolver::new(pattern, system, sigma, options.par)?;
-    report.seconds_factor += clock.elapsed().as_secs_f64();
-    let clock = std::time::Instant::now();
+    let mut seconds = ShiftSeconds {
+        factor: clock.elapsed().as_secs_f64(),
+        ..ShiftSeconds::default()
+    };
+    report.seconds_factor += seconds.factor;
+    let clock = Instant::now();
     let [M_norm, _, K_norm] = system.norms;
     let scale = (K_norm / M_norm).sqrt();
     let operator = Operator {
@@ -335,13 +376,16 @@ fn solve_shift(
     orthonormalise(U.submatrix(0, 0, W.nrows(), 0), &mut W, &mut random);
     U.submatrix_mut(0, 0, W.nrows(), b).copy_from(&W);
     let mut k = b;
-    let mut next_check = options.basis.min(max_basis).max(b);
+    let mut next_check = options.basis.max(MIN_BLOCK_STEPS * b).min(max_basis).max(b);
     loop {
+        let phase = Instant::now();
         // Op V[:, k−b..k] = V[:, ..k] H + W R, in coordinates.
         let rank = half.rank;
         let block = U.submatrix(0, k - b, 2 * rank, b);
         let halves = half.expand(deinterleave(block).as_ref());
         let z1 = operator.first_half(halves.subcols(0, b), halves.subcols(b, b));
+        seconds.operator += phase.elapsed().as_secs_f64();
+        let phase = Instant::now();
         let z_coordinates = half.extend(z1);
         while 2 * half.rank < k + b && half.rank < m {
             half.add_random(&mut random);
@@ -371,11 +415,13 @@ fn solve_shift(
         H.submatrix_mut(0, k - b, k, b).copy_from(&coefficients);
         H.submatrix_mut(k, k - b, b, b).copy_from(&R);
         U.submatrix_mut(0, k, 2 * new_rank, b).copy_from(&W);
+        seconds.orthogonalisation += phase.elapsed().as_secs_f64();
         if k < next_check && k + b <= max_basis {
             k += b;
             continue;
         }
         // Ritz values of the k × k section, nearest σ (largest |θ|) first.
+        let phase = Instant::now();
         let eigen = H.submatrix(0, 0, k, k).to_owned().eigen().map_err(|err| {
             StageError::new(format!(
                 "dense eigensolver failed on the Arnoldi matrix: {err:?}"
@@ -405,6 +451,11 @@ fn solve_shift(
             }
             converged.push(i);
         }
+        if converged.is_empty() {
+            // Not even the dominant eigenvalue is resolved: the Ritz values say nothing yet.
+            radius = 0.0;
+        }
+        seconds.ritz += phase.elapsed().as_secs_f64();
         tracing::debug!(
             "stability: shift {:.0} Hz, basis {k}, {} converged, trusted radius {:.0} Hz, {:.1} s",
             sigma.im / (2.0 * PI),
@@ -417,42 +468,50 @@ fn solve_shift(
             k += b;
             continue;
         }
-        report.seconds_arnoldi += clock.elapsed().as_secs_f64();
-        // Eigenvectors y = V s: q is either half (x₁, or s x₂/λ); keep the better one.
+        let phase = Instant::now();
+        // Eigenvectors y = V s: q is either half of y, x₁ or s x₂/λ. The first is kept when
+        // its residual is at round-off level, else the better of the two.
         let selected = Mat::<c64>::from_fn(k, converged.len(), |row, col| S[(row, converged[col])]);
-        let coordinates = U.submatrix(0, 0, 2 * half.rank, k) * &selected;
-        let Y = half.expand(deinterleave(coordinates.as_ref()).as_ref());
+        let coordinates = deinterleave((U.submatrix(0, 0, 2 * half.rank, k) * &selected).as_ref());
         let n_converged = converged.len();
-        let pairs: Vec<EigenPair> = converged
-            .par_iter()
-            .enumerate()
-            .map(|(col, &i)| {
-                let lambda = sigma + theta[i].inv();
-                let halves = [
-                    (0..m).map(|row| Y[(row, col)]).collect::<Vec<c64>>(),
-                    (0..m)
-                        .map(|row| Y[(row, n_converged + col)] * scale / lambda)
-                        .collect(),
-                ];
-                halves
-                    .into_iter()
-                    .map(|q| {
-                        let residual = system.residual(lambda, &q);
-                        EigenPair {
-                            lambda,
-                            q,
-                            residual,
-                        }
-                    })
-                    .min_by(|a, b| a.residual.total_cmp(&b.residual))
-                    .expect("two halves")
+        let first = half.expand(coordinates.subcols(0, n_converged));
+        let lambdas: Vec<c64> = converged.iter().map(|&i| sigma + theta[i].inv()).collect();
+        let residuals = system.residuals(&lambdas, first.as_ref());
+        let mut pairs: Vec<EigenPair> = (0..n_converged)
+            .map(|col| EigenPair {
+                lambda: lambdas[col],
+                q: first.col(col).iter().copied().collect(),
+                residual: residuals[col],
             })
             .collect();
+        let retry: Vec<usize> = (0..n_converged)
+            .filter(|&col| !(pairs[col].residual <= ROUND_OFF_RESIDUAL))
+            .collect();
+        if !retry.is_empty() {
+            let second = Mat::<c64>::from_fn(coordinates.nrows(), retry.len(), |row, j| {
+                coordinates[(row, n_converged + retry[j])]
+            });
+            let second = half.expand(second.as_ref());
+            let second = Mat::<c64>::from_fn(m, retry.len(), |row, j| {
+                second[(row, j)] * scale / lambdas[retry[j]]
+            });
+            let retry_lambdas: Vec<c64> = retry.iter().map(|&col| lambdas[col]).collect();
+            let residuals = system.residuals(&retry_lambdas, second.as_ref());
+            for (j, &col) in retry.iter().enumerate() {
+                if residuals[j] < pairs[col].residual {
+                    pairs[col].q = second.col(j).iter().copied().collect();
+                    pairs[col].residual = residuals[j];
+                }
+            }
+        }
+        seconds.vectors = phase.elapsed().as_secs_f64();
+        report.seconds_arnoldi += clock.elapsed().as_secs_f64();
         return Ok(ShiftResult {
             sigma,
             radius: 0.99 * radius,
             basis: k,
             pairs,
+            seconds,
         });
     }
 }
@@ -524,6 +583,7 @@ pub fn solve_band(
             radius: result.radius,
             basis: result.basis,
             found: result.pairs.len(),
+            seconds: result.seconds,
             ..ShiftReport::default()
         };
         let inside: Vec<EigenPair> = result

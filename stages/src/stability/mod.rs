@@ -347,7 +347,7 @@ impl Stage for Stability {
         "stability"
     }
     fn version(&self) -> u32 {
-        2 // 2: two-level (TOAR) Arnoldi basis
+        3 // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"

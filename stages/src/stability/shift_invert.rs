@@ -270,6 +270,7 @@ impl<'a> ShiftedSolver<'a> {
         };
         solver.check_symmetric_part()?;
         solver.prepare_correction()?;
+
         Ok(solver)
     }
 

@@ -30,7 +30,8 @@
 //!
 //! a symmetric matrix (the μ = 0 problem) plus a correction of rank ≤ number of closed pairs.
 
-use faer::c64;
+use faer::{MatRef, c64};
+use rayon::prelude::*;
 
 use crate::contact::{self, ContactFrames};
 use crate::equilibrium::Equilibrium;
@@ -347,16 +348,67 @@ impl SlidingSystem {
     /// The residual figure of an eigenpair:
     /// `‖(λ² M̃ + λ C̃ + K̃) q‖ / ((|λ|² ‖M̃‖ + |λ| ‖C̃‖ + ‖K̃‖) ‖q‖)`.
     pub fn residual(&self, lambda: c64, q: &[c64]) -> f64 {
-        let u = self.expand(q);
-        let [Mu, Cu, Ku] = [Part::M, Part::C, Part::K].map(|part| mul_complex(self.full(part), &u));
-        let y: Vec<c64> = (0..u.len())
-            .map(|dof| lambda * lambda * Mu[dof] + lambda * Cu[dof] + Ku[dof])
-            .collect();
-        let r = self.restrict(&y, true);
-        let scale =
-            lambda.norm_sqr() * self.norms[0] + lambda.norm() * self.norms[1] + self.norms[2];
-        norm(&r) / (scale * norm(q)).max(f64::MIN_POSITIVE)
+        self.residuals(&[lambda], MatRef::from_column_major_slice(q, q.len(), 1))[0]
     }
+
+    /// [`Self::residual`] of the eigenpairs `(lambdas[j], Q[:, j])`. The vectors go through the
+    /// matrices in blocks, each matrix entry read once per block: the products are bound by
+    /// memory traffic, not arithmetic.
+    pub fn residuals(&self, lambdas: &[c64], Q: MatRef<'_, c64>) -> Vec<f64> {
+        const BLOCK: usize = 16;
+        let n = self.full_dim();
+        let blocks: Vec<Vec<f64>> = (0..lambdas.len())
+            .step_by(BLOCK)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|first| {
+                let width = BLOCK.min(lambdas.len() - first);
+                // Row-major: entry (dof, j) at dof · width + j.
+                let mut u = vec![c64::new(0.0, 0.0); n * width];
+                for j in 0..width {
+                    let q: Vec<c64> = Q.col(first + j).iter().copied().collect();
+                    for (dof, value) in self.expand(&q).into_iter().enumerate() {
+                        u[dof * width + j] = value;
+                    }
+                }
+                let [Mu, Cu, Ku] =
+                    [Part::M, Part::C, Part::K].map(|part| mul_rows(self.full(part), &u, width));
+                (0..width)
+                    .map(|j| {
+                        let lambda = lambdas[first + j];
+                        let y: Vec<c64> = (0..n)
+                            .map(|dof| {
+                                let e = dof * width + j;
+                                lambda * lambda * Mu[e] + lambda * Cu[e] + Ku[e]
+                            })
+                            .collect();
+                        let r = self.restrict(&y, true);
+                        let scale = lambda.norm_sqr() * self.norms[0]
+                            + lambda.norm() * self.norms[1]
+                            + self.norms[2];
+                        let q_norm = Q.col(first + j).iter().map(|v| v.norm_sqr()).sum::<f64>();
+                        norm(&r) / (scale * q_norm.sqrt()).max(f64::MIN_POSITIVE)
+                    })
+                    .collect()
+            })
+            .collect();
+        blocks.concat()
+    }
+}
+
+/// `Y = A X` for a real sparse `A` and complex vectors `X` stored row-major, `width` per row.
+fn mul_rows(A: &CscMatrix, X: &[c64], width: usize) -> Vec<c64> {
+    let mut Y = vec![c64::new(0.0, 0.0); A.n_rows * width];
+    for col in 0..A.n_cols {
+        let x = &X[col * width..(col + 1) * width];
+        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
+            let (row, a) = (A.row_idx[entry], A.values[entry]);
+            for (y, x) in Y[row * width..(row + 1) * width].iter_mut().zip(x) {
+                *y += x * a;
+            }
+        }
+    }
+    Y
 }
 
 /// `y = A x` for a real sparse `A` and a complex `x`.
