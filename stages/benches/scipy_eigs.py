@@ -11,6 +11,11 @@ mode (complex arithmetic, SuperLU factorisation of A - sigma B) at the same shif
 as many eigenvalues as squeal converged there, and reports the wall time, the peak memory, the
 residuals of the quadratic problem (same normwise definition as squeal) and the largest
 distance between the two sets of eigenvalues in the band.
+
+    python3 stages/benches/scipy_eigs.py stability-export --shift 6
+
+runs only the listed shifts (0-based rows of shifts.csv; the full 17 kHz band takes scipy
+hours) and compares with squeal's eigenvalues inside their disks.
 """
 
 import resource
@@ -28,13 +33,19 @@ def norm_1(A):
     return abs(A).sum(axis=0).max()
 
 
-def main(folder):
+def main(folder, only=None):
     folder = Path(folder)
     M, C, K = (sp.csc_matrix(scipy.io.mmread(folder / f"{name}.mtx")) for name in "MCK")
     m = M.shape[0]
     found = np.loadtxt(folder / "eigenvalues.csv", delimiter=",", skiprows=1, ndmin=2)
     ours = found[:, 0] + 1j * found[:, 1]
     shifts = np.loadtxt(folder / "shifts.csv", delimiter=",", skiprows=1, ndmin=2)
+    if only:
+        shifts = shifts[only]
+        inside_any = np.zeros(len(ours), dtype=bool)
+        for frequency, radius, _ in shifts:
+            inside_any |= np.abs(ours - 2j * np.pi * frequency) < radius
+        ours = ours[inside_any]
     s = np.sqrt(norm_1(K) / norm_1(M))
     I = sp.identity(m, format="csc")
     Z = sp.csc_matrix((m, m))
@@ -74,4 +85,7 @@ def main(folder):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "stability-export")
+    arguments = sys.argv[1:]
+    only = [int(value) for flag, value in zip(arguments, arguments[1:]) if flag == "--shift"]
+    folder = arguments[0] if arguments and not arguments[0].startswith("--") else "stability-export"
+    main(folder, only or None)

@@ -54,7 +54,7 @@
 //! default brake) is read once per solve, whatever its width. Per vector, a block of eight
 //! costs 18 ms against 38 ms for two (and the orthogonalisation becomes matrix–matrix), so
 //! although blocks of eight need about a third more vectors for the same disk, they halved
-//! the 17 kHz band of the default brake (417 s against 862 s). Wide disks of up to 1280
+//! the 17 kHz band of the default brake (407–424 s against 862 s). Wide disks of up to 1280
 //! vectors beat narrow ones there: factorisations and the overlaps' double work are paid
 //! fewer times, and the band's width forces disks of 1 kHz radius at the top anyway.
 
