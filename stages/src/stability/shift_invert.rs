@@ -270,7 +270,6 @@ impl<'a> ShiftedSolver<'a> {
         };
         solver.check_symmetric_part()?;
         solver.prepare_correction()?;
-
         Ok(solver)
     }
 
