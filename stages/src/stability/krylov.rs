@@ -491,10 +491,14 @@ fn solve_shift(
             let second = Mat::<c64>::from_fn(coordinates.nrows(), retry.len(), |row, j| {
                 coordinates[(row, n_converged + retry[j])]
             });
-            let second = half.expand(second.as_ref());
-            let second = Mat::<c64>::from_fn(m, retry.len(), |row, j| {
-                second[(row, j)] * scale / lambdas[retry[j]]
-            });
+            let mut second = half.expand(second.as_ref());
+            for (j, &col) in retry.iter().enumerate() {
+                let factor = scale / lambdas[col];
+                second
+                    .col_mut(j)
+                    .iter_mut()
+                    .for_each(|value| *value *= factor);
+            }
             let retry_lambdas: Vec<c64> = retry.iter().map(|&col| lambdas[col]).collect();
             let residuals = system.residuals(&retry_lambdas, second.as_ref());
             for (j, &col) in retry.iter().enumerate() {

@@ -365,12 +365,15 @@ impl SlidingSystem {
                 let width = BLOCK.min(lambdas.len() - first);
                 // Row-major: entry (dof, j) at dof · width + j.
                 let mut u = vec![c64::new(0.0, 0.0); n * width];
-                for j in 0..width {
-                    let q: Vec<c64> = Q.col(first + j).iter().copied().collect();
-                    for (dof, value) in self.expand(&q).into_iter().enumerate() {
-                        u[dof * width + j] = value;
-                    }
-                }
+                let q_norms: Vec<f64> = (0..width)
+                    .map(|j| {
+                        let q: Vec<c64> = Q.col(first + j).iter().copied().collect();
+                        for (dof, value) in self.expand(&q).into_iter().enumerate() {
+                            u[dof * width + j] = value;
+                        }
+                        norm(&q)
+                    })
+                    .collect();
                 let [Mu, Cu, Ku] =
                     [Part::M, Part::C, Part::K].map(|part| mul_rows(self.full(part), &u, width));
                 (0..width)
@@ -386,8 +389,7 @@ impl SlidingSystem {
                         let scale = lambda.norm_sqr() * self.norms[0]
                             + lambda.norm() * self.norms[1]
                             + self.norms[2];
-                        let q_norm = Q.col(first + j).iter().map(|v| v.norm_sqr()).sum::<f64>();
-                        norm(&r) / (scale * q_norm.sqrt()).max(f64::MIN_POSITIVE)
+                        norm(&r) / (scale * q_norms[j]).max(f64::MIN_POSITIVE)
                     })
                     .collect()
             })
