@@ -115,6 +115,11 @@ fn main() {
         report.conservative_count,
         report.band.factor_entries
     );
+    println!(
+        "  {} shifts, {} of them fell short at the basis limit and were kept",
+        report.band.shifts.len(),
+        report.band.fell_short
+    );
     for shift in &report.band.shifts {
         let seconds = &shift.seconds;
         println!(

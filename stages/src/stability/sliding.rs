@@ -30,7 +30,7 @@
 //!
 //! a symmetric matrix (the μ = 0 problem) plus a correction of rank ≤ number of closed pairs.
 
-use faer::{MatRef, c64};
+use faer::{Mat, MatRef, c64};
 use rayon::prelude::*;
 
 use crate::contact::{self, ContactFrames};
@@ -345,6 +345,43 @@ impl SlidingSystem {
         self.restrict(&y, true)
     }
 
+    /// [`Self::apply`] to the columns of `X`, in groups (one per thread, up to
+    /// [`GROUP_WIDTH`]): each matrix entry is read once per group, not once per column.
+    pub fn apply_block(&self, part: Part, X: MatRef<'_, c64>) -> Mat<c64> {
+        let k = X.ncols();
+        let group = k
+            .div_ceil(rayon::current_num_threads())
+            .clamp(1, GROUP_WIDTH);
+        let columns: Vec<Vec<c64>> = (0..k)
+            .step_by(group)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .flat_map_iter(|first| {
+                let width = group.min(k - first);
+                let Y = mul_rows(
+                    self.full(part),
+                    &self.expand_rows(X.subcols(first, width)),
+                    width,
+                );
+                (0..width).map(move |j| self.restrict(&column_of(&Y, width, j), true))
+            })
+            .collect();
+        Mat::from_fn(self.dim(), k, |i, j| columns[j][i])
+    }
+
+    /// `Tᴺ X` for the columns of `X`, row-major: entry (dof, j) at dof · width + j.
+    fn expand_rows(&self, X: MatRef<'_, c64>) -> Vec<c64> {
+        let width = X.ncols();
+        let mut u = vec![c64::new(0.0, 0.0); self.full_dim() * width];
+        for j in 0..width {
+            let q: Vec<c64> = X.col(j).iter().copied().collect();
+            for (dof, value) in self.expand(&q).into_iter().enumerate() {
+                u[dof * width + j] = value;
+            }
+        }
+        u
+    }
+
     /// The residual figure of an eigenpair:
     /// `‖(λ² M̃ + λ C̃ + K̃) q‖ / ((|λ|² ‖M̃‖ + |λ| ‖C̃‖ + ‖K̃‖) ‖q‖)`.
     pub fn residual(&self, lambda: c64, q: &[c64]) -> f64 {
@@ -355,25 +392,15 @@ impl SlidingSystem {
     /// matrices in blocks, each matrix entry read once per block: the products are bound by
     /// memory traffic, not arithmetic.
     pub fn residuals(&self, lambdas: &[c64], Q: MatRef<'_, c64>) -> Vec<f64> {
-        const BLOCK: usize = 16;
         let n = self.full_dim();
         let blocks: Vec<Vec<f64>> = (0..lambdas.len())
-            .step_by(BLOCK)
+            .step_by(GROUP_WIDTH)
             .collect::<Vec<_>>()
             .into_par_iter()
             .map(|first| {
-                let width = BLOCK.min(lambdas.len() - first);
-                // Row-major: entry (dof, j) at dof · width + j.
-                let mut u = vec![c64::new(0.0, 0.0); n * width];
-                let q_norms: Vec<f64> = (0..width)
-                    .map(|j| {
-                        let q: Vec<c64> = Q.col(first + j).iter().copied().collect();
-                        for (dof, value) in self.expand(&q).into_iter().enumerate() {
-                            u[dof * width + j] = value;
-                        }
-                        norm(&q)
-                    })
-                    .collect();
+                let width = GROUP_WIDTH.min(lambdas.len() - first);
+                let u = self.expand_rows(Q.subcols(first, width));
+                let q_norms: Vec<f64> = (0..width).map(|j| Q.col(first + j).norm_l2()).collect();
                 let [Mu, Cu, Ku] =
                     [Part::M, Part::C, Part::K].map(|part| mul_rows(self.full(part), &u, width));
                 (0..width)
@@ -396,6 +423,15 @@ impl SlidingSystem {
             .collect();
         blocks.concat()
     }
+}
+
+/// Most vectors put through a matrix together: wide enough that the matrix is read a few
+/// times per block, narrow enough that a group's rows stay in cache.
+const GROUP_WIDTH: usize = 16;
+
+/// Column `j` of a row-major block `width` wide.
+fn column_of(Y: &[c64], width: usize, j: usize) -> Vec<c64> {
+    Y.iter().skip(j).step_by(width).copied().collect()
 }
 
 /// `Y = A X` for a real sparse `A` and complex vectors `X` stored row-major, `width` per row.
