@@ -347,7 +347,9 @@ impl Stage for Stability {
         "stability"
     }
     fn version(&self) -> u32 {
-        3 // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks
+        // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks; 4: shifts that
+        // fall short are kept, Ritz checks placed by the radius's growth
+        4
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
