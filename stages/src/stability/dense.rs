@@ -163,15 +163,13 @@ pub fn quadratic_eigen(
 
 /// `Tᵘᵀ A Tᴺ X` for real columns X (reduced DOFs), as a dense real matrix.
 pub fn reduced_times(system: &SlidingSystem, part: Part, X: MatRef<'_, f64>) -> Mat<f64> {
-    use rayon::prelude::*;
-    let columns: Vec<Vec<c64>> = (0..X.ncols())
-        .into_par_iter()
-        .map(|col| {
-            let x: Vec<c64> = X.col(col).iter().map(|&v| c64::new(v, 0.0)).collect();
-            system.apply(part, &x)
-        })
-        .collect();
-    Mat::from_fn(system.dim(), X.ncols(), |row, col| columns[col][row].re)
+    let X = Mat::from_fn(X.nrows(), X.ncols(), |row, col| {
+        c64::new(X[(row, col)], 0.0)
+    });
+    let product = system.apply_block(part, X.as_ref());
+    Mat::from_fn(product.nrows(), product.ncols(), |row, col| {
+        product[(row, col)].re
+    })
 }
 
 /// `(M̃, C̃, K̃)` as dense matrices (small systems only).

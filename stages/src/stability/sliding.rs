@@ -338,15 +338,8 @@ impl SlidingSystem {
         z
     }
 
-    /// `Tᵘᵀ A Tᴺ q` for `A` = M, Ĉ or K.
-    pub fn apply(&self, part: Part, q: &[c64]) -> Vec<c64> {
-        let u = self.expand(q);
-        let y = mul_complex(self.full(part), &u);
-        self.restrict(&y, true)
-    }
-
-    /// [`Self::apply`] to the columns of `X`, in groups (one per thread, up to
-    /// [`GROUP_WIDTH`]): each matrix entry is read once per group, not once per column.
+    /// `Tᵘᵀ A Tᴺ X` for `A` = M, Ĉ or K and the columns of `X`, in groups (one per thread, up
+    /// to [`GROUP_WIDTH`]): each matrix entry is read once per group, not once per column.
     pub fn apply_block(&self, part: Part, X: MatRef<'_, c64>) -> Mat<c64> {
         let k = X.ncols();
         let group = k
