@@ -88,6 +88,7 @@ fn main() {
             basis: env_or("BASIS", defaults.krylov.basis),
             max_basis: env_or("MAX_BASIS", defaults.krylov.max_basis),
             per_shift: env_or("PER_SHIFT", defaults.krylov.per_shift),
+            arnoldi_tolerance: env_or("ARNOLDI_TOLERANCE", defaults.krylov.arnoldi_tolerance),
             ..defaults.krylov
         },
         ..defaults

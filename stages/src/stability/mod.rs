@@ -38,6 +38,7 @@
 pub mod dense;
 mod figure;
 pub mod krylov;
+pub mod lblt_solve;
 pub mod lumped;
 pub mod shift_invert;
 pub mod sliding;

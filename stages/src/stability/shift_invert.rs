@@ -10,7 +10,8 @@
 //! ```
 //!
 //! by a sparse LBLᵀ with Bunch–Kaufman pivoting inside supernodes (faer), on a
-//! nested-dissection ordering of the reduced node graph (both halves of a DOF kept together).
+//! nested-dissection ordering of the reduced node graph (both halves of a DOF kept together),
+//! and solved by the row-major kernels of [`super::lblt_solve`].
 //! The correction is applied by Sherman–Morrison–Woodbury:
 //!
 //! ```text
@@ -23,13 +24,13 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, IntranodeLbltRef, SymbolicCholesky, SymmetricOrdering,
-    factorize_symbolic_cholesky,
+    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, MatRef, Par, Side, c64};
+use faer::{Mat, MatRef, Par, Side, c64};
 use rayon::prelude::*;
 
+use super::lblt_solve::LbltFactor;
 use super::sliding::{Part, SlidingSystem, mul_complex, norm};
 use crate::modes::ordering;
 use crate::stage::StageError;
@@ -273,6 +274,16 @@ impl<'a> ShiftedSolver<'a> {
         Ok(solver)
     }
 
+    /// The factor of the symmetric part's embedding.
+    fn factor(&self) -> LbltFactor<'_> {
+        LbltFactor {
+            symbolic: &self.pattern.symbolic,
+            values: &self.L_values,
+            subdiag: &self.subdiag,
+            pivots: PermRef::new_checked(&self.forward, &self.inverse, 2 * self.pattern.m),
+        }
+    }
+
     /// `A⁻¹ F` for the symmetric part, columns of F complex. The triangular solves of one
     /// right-hand side barely use a second core, so the columns are shared out among threads.
     fn solve_symmetric(&self, F: MatRef<'_, c64>) -> Mat<c64> {
@@ -293,23 +304,7 @@ impl<'a> ShiftedSolver<'a> {
                     let value = F[(row / 2, first + col)];
                     if row % 2 == 0 { value.re } else { value.im }
                 });
-                let factor = IntranodeLbltRef::new(
-                    &self.pattern.symbolic,
-                    &self.L_values,
-                    &self.subdiag,
-                    PermRef::new_checked(&self.forward, &self.inverse, 2 * m),
-                );
-                let mut buffer = MemBuffer::new(
-                    self.pattern
-                        .symbolic
-                        .solve_in_place_scratch::<f64>(width, Par::Seq),
-                );
-                factor.solve_in_place_with_conj(
-                    Conj::No,
-                    R.as_mut(),
-                    Par::Seq,
-                    MemStack::new(&mut buffer),
-                );
+                self.factor().solve_in_place(R.as_mut());
                 R
             })
             .collect();
