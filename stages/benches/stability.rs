@@ -2,9 +2,10 @@
 //! ω = 4 rad/s, interference 0.1 mm): wall time, shifts, counts, worst residual and peak memory
 //! of `method: krylov`, then `real_mode_projection` and its error against it.
 //! Run with `cargo bench -p squeal-stages --bench stability`. `SQUEAL_BENCH_F_MAX_HZ`,
-//! `SQUEAL_BENCH_MAX_DIVERGENCE_RATE`, `SQUEAL_BENCH_BLOCK`, `SQUEAL_BENCH_MAX_BASIS` and
-//! `SQUEAL_BENCH_PER_SHIFT` override the settings; `SQUEAL_BENCH_PROJECTION=0` skips the
-//! projection; `SQUEAL_LOG=debug` shows each shift's convergence.
+//! `SQUEAL_BENCH_MAX_DIVERGENCE_RATE`, `SQUEAL_BENCH_BLOCK`, `SQUEAL_BENCH_MAX_BASIS`,
+//! `SQUEAL_BENCH_PER_SHIFT` and `SQUEAL_BENCH_ARNOLDI_TOLERANCE` override the settings;
+//! `SQUEAL_BENCH_PROJECTION=0` skips the projection; `SQUEAL_LOG=debug` shows each shift's
+//! convergence.
 //!
 //! With `SQUEAL_EXPORT_DIR=<dir>` the reduced matrices M̃, C̃, K̃ (Matrix Market) and the
 //! eigenvalues found (`eigenvalues.csv`) are written there for `scipy_eigs.py`, which times

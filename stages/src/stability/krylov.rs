@@ -53,11 +53,12 @@
 //! 6 kHz on the default brake), so a disk may fall short of the covered band at `max_basis`:
 //! it is kept, and a shift halfway below fills the gap, overlapping both.
 //!
-//! The solves dominate and are bound by memory traffic: the factor (26 M entries on the
-//! default brake) is read once per solve, whatever its width. Per vector, a block of eight
-//! costs 18 ms against 38 ms for two (and the orthogonalisation becomes matrix–matrix), so
-//! although blocks of eight need about a third more vectors for the same disk, they halved
-//! the 17 kHz band of the default brake (407–424 s against 862 s). Wide disks (`per_shift`
+//! The solves dominate. The factor (26 M entries on the default brake) is swept twice per
+//! solve, whatever its width, so wide blocks cost less per vector: with faer's kernels a block
+//! of eight cost 18 ms per vector against 38 ms for two (and the orthogonalisation becomes
+//! matrix–matrix), so although blocks of eight need about a third more vectors for the same
+//! disk, they halved the 17 kHz band of the default brake (407–424 s against 862 s). The
+//! row-major kernels of [`super::lblt_solve`] since cut a block of eight to 9 ms per vector. Wide disks (`per_shift`
 //! 256) beat narrow ones there: factorisations and the overlaps' double work are paid fewer
 //! times, and the band's width forces disks of 1 kHz radius at the top anyway. Beyond about
 //! 900 vectors, though, the orthogonalisation and the Ritz checks cost more per eigenvalue

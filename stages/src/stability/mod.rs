@@ -349,8 +349,9 @@ impl Stage for Stability {
     }
     fn version(&self) -> u32 {
         // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks; 4: shifts that
-        // fall short are kept, Ritz checks placed by the radius's growth
-        4
+        // fall short are kept, Ritz checks placed by the radius's growth; 5: row-major
+        // triangular solves (FMA: round-off differs)
+        5
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
