@@ -58,12 +58,16 @@
 //! of eight cost 18 ms per vector against 38 ms for two (and the orthogonalisation becomes
 //! matrix–matrix), so although blocks of eight need about a third more vectors for the same
 //! disk, they halved the 17 kHz band of the default brake (407–424 s against 862 s). The
-//! row-major kernels of [`super::lblt_solve`] since cut a block of eight to 9 ms per vector. Wide disks (`per_shift`
-//! 256) beat narrow ones there: factorisations and the overlaps' double work are paid fewer
-//! times, and the band's width forces disks of 1 kHz radius at the top anyway. Beyond about
-//! 900 vectors, though, the orthogonalisation and the Ritz checks cost more per eigenvalue
-//! than another shift would: a disk cut at 960 vectors and completed by a gap shift did the
-//! band in 372 s against 379 s for one of 1280, with 120 MB less memory.
+//! row-major kernels of [`super::lblt`] since cut a block of eight to 9 ms per vector; blocks
+//! of sixteen still lose (99 s against 90 s on the 8 kHz band). Wide disks (`per_shift` 256)
+//! beat narrow ones: factorisations and the overlaps' double work are paid fewer times, and
+//! the band's width forces disks of 1 kHz radius at the top anyway. Beyond about 900 vectors,
+//! though, the orthogonalisation and the Ritz checks cost more per eigenvalue than another
+//! shift would: a disk cut at 960 vectors and completed by a gap shift did the band in 372 s
+//! against 379 s for one of 1280, with 120 MB less memory. Cut at 800 it took 288 s against
+//! 310 s at 960 (one run each), but at 640, 486 s: 8 of 18 disks fell short of the 1 kHz
+//! radius the band needs at the top. 960 keeps that margin for wider bands (the default
+//! `max_divergence_rate` is twice the benchmark's).
 
 use std::f64::consts::PI;
 use std::time::Instant;

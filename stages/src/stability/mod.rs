@@ -38,7 +38,7 @@
 pub mod dense;
 mod figure;
 pub mod krylov;
-pub mod lblt_solve;
+mod lblt;
 pub mod lumped;
 pub mod shift_invert;
 pub mod sliding;

@@ -11,7 +11,7 @@
 //!
 //! by a sparse LBLᵀ with Bunch–Kaufman pivoting inside supernodes (faer), on a
 //! nested-dissection ordering of the reduced node graph (both halves of a DOF kept together),
-//! and solved by the row-major kernels of [`super::lblt_solve`].
+//! and solved by the row-major kernels of [`super::lblt`].
 //! The correction is applied by Sherman–Morrison–Woodbury:
 //!
 //! ```text
@@ -20,7 +20,6 @@
 //!
 //! `Y` costs one block solve with as many right-hand sides as closed pairs, per shift.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
@@ -30,7 +29,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Mat, MatRef, Par, Side, c64};
 use rayon::prelude::*;
 
-use super::lblt_solve::LbltFactor;
+use super::lblt::Lblt;
 use super::sliding::{Part, SlidingSystem, mul_complex, norm};
 use crate::modes::ordering;
 use crate::stage::StageError;
@@ -193,10 +192,7 @@ pub struct ShiftedSolver<'a> {
     pattern: &'a EmbeddedPattern,
     system: &'a SlidingSystem,
     pub sigma: c64,
-    L_values: Vec<f64>,
-    subdiag: Vec<f64>,
-    forward: Vec<usize>,
-    inverse: Vec<usize>,
+    factor: Lblt,
     /// Y = A⁻¹ U (m × slaves), Vᵀ's rows as sparse rows, and the LU of I + Vᵀ Y.
     Y: Mat<c64>,
     V_columns: Vec<Vec<(usize, c64)>>,
@@ -235,35 +231,12 @@ impl<'a> ShiftedSolver<'a> {
             SymbolicSparseColMatRef::new_checked(n2, n2, &pattern.col_ptr, None, &pattern.row_idx),
             &values,
         );
-        let symbolic = &pattern.symbolic;
-        let mut L_values = vec![0.0; symbolic.len_val()];
-        let mut subdiag = vec![0.0; n2];
-        let mut forward = vec![0usize; n2];
-        let mut inverse = vec![0usize; n2];
-        {
-            let mut buffer = MemBuffer::new(
-                symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(par, Default::default()),
-            );
-            symbolic.factorize_numeric_intranode_lblt(
-                &mut L_values,
-                &mut subdiag,
-                &mut forward,
-                &mut inverse,
-                A,
-                Side::Lower,
-                par,
-                MemStack::new(&mut buffer),
-                Default::default(),
-            );
-        }
+        let factor = Lblt::factorize(&pattern.symbolic, A, par);
         let mut solver = ShiftedSolver {
             pattern,
             system,
             sigma,
-            L_values,
-            subdiag,
-            forward,
-            inverse,
+            factor,
             Y: Mat::zeros(m, 0),
             V_columns: Vec::new(),
             capacitance: None,
@@ -272,16 +245,6 @@ impl<'a> ShiftedSolver<'a> {
         solver.check_symmetric_part()?;
         solver.prepare_correction()?;
         Ok(solver)
-    }
-
-    /// The factor of the symmetric part's embedding.
-    fn factor(&self) -> LbltFactor<'_> {
-        LbltFactor {
-            symbolic: &self.pattern.symbolic,
-            values: &self.L_values,
-            subdiag: &self.subdiag,
-            pivots: PermRef::new_checked(&self.forward, &self.inverse, 2 * self.pattern.m),
-        }
     }
 
     /// `A⁻¹ F` for the symmetric part, columns of F complex. The triangular solves of one
@@ -304,7 +267,8 @@ impl<'a> ShiftedSolver<'a> {
                     let value = F[(row / 2, first + col)];
                     if row % 2 == 0 { value.re } else { value.im }
                 });
-                self.factor().solve_in_place(R.as_mut());
+                self.factor
+                    .solve_in_place(&self.pattern.symbolic, R.as_mut());
                 R
             })
             .collect();

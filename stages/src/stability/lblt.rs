@@ -1,4 +1,5 @@
-//! Solves with faer's supernodal intranode LBLᵀ factor for a few right-hand sides at a time.
+//! The LBLᵀ factor of a symmetric indefinite matrix (faer's, Bunch–Kaufman pivoting inside
+//! supernodes) and its solves for a few right-hand sides at a time.
 //!
 //! The factor `P A Pᵀ = L B Lᵀ` (L unit lower triangular, B block diagonal with 1×1 and 2×2
 //! blocks, P the fill-reducing ordering composed with the pivoting inside supernodes) is
@@ -22,19 +23,82 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
 use faer::reborrow::ReborrowMut;
+use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::cholesky::IntranodeLbltRef;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
-use faer::{Conj, MatMut, Par};
+use faer::{Conj, MatMut, Par, Side};
 
-/// The factor of one shift, as faer's numeric LBLᵀ left it.
+/// The numeric LBLᵀ factor of a symmetric matrix, on a symbolic analysis kept by the caller.
+pub struct Lblt {
+    values: Vec<f64>,
+    subdiag: Vec<f64>,
+    /// The pivoting permutation inside supernodes: forward and inverse.
+    pivot_forward: Vec<usize>,
+    pivot_inverse: Vec<usize>,
+}
+
+impl Lblt {
+    /// Factorises `A` (lower triangle) with Bunch–Kaufman pivoting inside supernodes.
+    pub fn factorize(
+        symbolic: &SymbolicCholesky<usize>,
+        A: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Lblt {
+        let n = symbolic.nrows();
+        let mut factor = Lblt {
+            values: vec![0.0; symbolic.len_val()],
+            subdiag: vec![0.0; n],
+            pivot_forward: vec![0; n],
+            pivot_inverse: vec![0; n],
+        };
+        let mut buffer = MemBuffer::new(
+            symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(par, Default::default()),
+        );
+        symbolic.factorize_numeric_intranode_lblt(
+            &mut factor.values,
+            &mut factor.subdiag,
+            &mut factor.pivot_forward,
+            &mut factor.pivot_inverse,
+            A,
+            Side::Lower,
+            par,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        );
+        factor
+    }
+
+    /// `A X = R` for the columns of `R`, in place, with the symbolic analysis that
+    /// [`Self::factorize`] was given.
+    pub fn solve_in_place(&self, symbolic: &SymbolicCholesky<usize>, rhs: MatMut<'_, f64>) {
+        LbltFactor {
+            symbolic,
+            values: &self.values,
+            subdiag: &self.subdiag,
+            pivots: PermRef::new_checked(
+                &self.pivot_forward,
+                &self.pivot_inverse,
+                symbolic.nrows(),
+            ),
+        }
+        .solve_in_place(rhs);
+    }
+
+    /// Entries of the factor in 2×2 pivots (for tests).
+    #[cfg(test)]
+    fn two_by_two_entries(&self) -> usize {
+        self.subdiag.iter().filter(|value| **value != 0.0).count()
+    }
+}
+
+/// A view of the factor, as faer's solve takes it.
 #[derive(Clone, Copy)]
-pub struct LbltFactor<'a> {
-    pub symbolic: &'a SymbolicCholesky<usize>,
-    pub values: &'a [f64],
-    pub subdiag: &'a [f64],
-    /// The pivoting permutation (forward, inverse) inside supernodes.
-    pub pivots: PermRef<'a, usize>,
+struct LbltFactor<'a> {
+    symbolic: &'a SymbolicCholesky<usize>,
+    values: &'a [f64],
+    subdiag: &'a [f64],
+    pivots: PermRef<'a, usize>,
 }
 
 impl LbltFactor<'_> {
@@ -306,13 +370,12 @@ fn unit_upper_transpose_solve<const K: usize>(
 
 #[cfg(test)]
 mod tests {
-    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::Mat;
+    use faer::sparse::SymbolicSparseColMatRef;
     use faer::sparse::linalg::SupernodalThreshold;
     use faer::sparse::linalg::cholesky::{
         CholeskySymbolicParams, SymmetricOrdering, factorize_symbolic_cholesky,
     };
-    use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-    use faer::{Mat, Par, Side};
 
     use super::*;
     use crate::modes::lanczos::SplitMix64;
@@ -372,43 +435,20 @@ mod tests {
                 },
             )
             .unwrap();
-            let mut L_values = vec![0.0; symbolic.len_val()];
-            let mut subdiag = vec![0.0; n];
-            let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-            symbolic.factorize_numeric_intranode_lblt(
-                &mut L_values,
-                &mut subdiag,
-                &mut forward,
-                &mut inverse,
-                A,
-                Side::Lower,
-                Par::Seq,
-                MemStack::new(&mut MemBuffer::new(
-                    symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(
-                        Par::Seq,
-                        Default::default(),
-                    ),
-                )),
-                Default::default(),
-            );
-            let two_by_two = subdiag.iter().filter(|value| **value != 0.0).count();
+            let factor = Lblt::factorize(&symbolic, A, Par::Seq);
+            let two_by_two = factor.two_by_two_entries();
             let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
             // faer pivots only inside supernodes.
             assert_eq!(supernodal, two_by_two > 0, "2×2 pivots: {two_by_two}");
-            let factor = LbltFactor {
-                symbolic: &symbolic,
-                values: &L_values,
-                subdiag: &subdiag,
-                pivots: PermRef::new_checked(&forward, &inverse, n),
-            };
             let mut random = SplitMix64::new(11);
             // Widths below, at and above both kernel widths (4 and 8), and over two chunks.
             for width in [1, 3, 4, 5, 8, 11] {
                 let B = Mat::<f64>::from_fn(n, width, |_, _| random.next_signed());
                 let mut X = B.clone();
-                factor.solve_in_place(X.as_mut());
+                factor.solve_in_place(&symbolic, X.as_mut());
                 let mut reference = B.clone();
-                IntranodeLbltRef::new(&symbolic, &L_values, &subdiag, factor.pivots)
+                let pivots = PermRef::new_checked(&factor.pivot_forward, &factor.pivot_inverse, n);
+                IntranodeLbltRef::new(&symbolic, &factor.values, &factor.subdiag, pivots)
                     .solve_in_place_with_conj(
                         Conj::No,
                         reference.as_mut(),
