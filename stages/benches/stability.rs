@@ -5,7 +5,8 @@
 //! `SQUEAL_BENCH_MAX_DIVERGENCE_RATE`, `SQUEAL_BENCH_BLOCK`, `SQUEAL_BENCH_MAX_BASIS`,
 //! `SQUEAL_BENCH_PER_SHIFT` and `SQUEAL_BENCH_ARNOLDI_TOLERANCE` override the settings;
 //! `SQUEAL_BENCH_PROJECTION=0` skips the projection; `SQUEAL_LOG=debug` shows each shift's
-//! convergence.
+//! convergence. `SQUEAL_BENCH_SOLVE=1` times one block solve of the Krylov operator instead, by
+//! the row-major kernels and by faer's (`stability::lblt`).
 //!
 //! With `SQUEAL_EXPORT_DIR=<dir>` the reduced matrices M̃, C̃, K̃ (Matrix Market) and the
 //! eigenvalues found (`eigenvalues.csv`) are written there for `scipy_eigs.py`, which times
@@ -15,12 +16,18 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::time::Instant;
 
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use faer::{Mat, MatMut, Par, c64};
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::contact::lcp::LcpSettings;
+use squeal_stages::equilibrium::Equilibrium;
 use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::export::matrix_market::write_matrix_market;
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
-use squeal_stages::stability::sliding::Part;
+use squeal_stages::model::Model;
+use squeal_stages::stability::lblt::Lblt;
+use squeal_stages::stability::shift_invert::EmbeddedPattern;
+use squeal_stages::stability::sliding::{Part, SlidingSystem};
 use squeal_stages::stability::{
     KrylovOptions, Method, Settings, divergence_rate, is_unstable, nearest_relative_errors, solve,
 };
@@ -46,6 +53,49 @@ fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
         .ok()
         .and_then(|value| value.parse().ok())
         .unwrap_or(default)
+}
+
+/// One block solve of eight right-hand sides with the symmetric part's factor at 8 kHz, four
+/// per thread as the Krylov operator shares them, by the row-major kernels and by faer's.
+fn solve_kernels(model: &Model, equilibrium: &Equilibrium) {
+    let system = SlidingSystem::new(model, equilibrium, true).expect("sliding system");
+    let pattern = EmbeddedPattern::new(&system).expect("symbolic analysis");
+    let values = pattern.values_at(c64::new(0.0, 2.0 * PI * 8000.0));
+    let symbolic = pattern.symbolic();
+    let factor = Lblt::factorize(symbolic, pattern.matrix(&values), Par::rayon(0));
+    let rhs = Mat::<f64>::from_fn(2 * system.dim(), 4, |i, j| {
+        ((i * 7 + j * 13) % 17) as f64 - 8.0
+    });
+    type Solve = fn(&Lblt, &SymbolicCholesky<usize>, MatMut<'_, f64>);
+    let kernels: [(&str, Solve); 2] = [
+        ("row-major", Lblt::solve_in_place),
+        ("faer", Lblt::solve_in_place_faer),
+    ];
+    let mut solutions = Vec::new();
+    for (name, solve) in kernels {
+        let block = || {
+            let mut solution = rhs.clone();
+            solve(&factor, symbolic, solution.as_mut());
+            solution
+        };
+        let (solution, _) = rayon::join(block, block);
+        let repetitions = 10;
+        let started = Instant::now();
+        for _ in 0..repetitions {
+            rayon::join(block, block);
+        }
+        let ms = 1e3 * started.elapsed().as_secs_f64() / repetitions as f64;
+        println!(
+            "{name}: {ms:.1} ms per block of eight ({:.2} ms per right-hand side)",
+            ms / 8.0
+        );
+        solutions.push(solution);
+    }
+    let difference = (&solutions[0] - &solutions[1]).norm_max() / solutions[1].norm_max();
+    println!(
+        "{} factor entries; the two solutions differ by {difference:.1e} (relative)",
+        pattern.factor_len()
+    );
 }
 
 fn main() {
@@ -79,6 +129,10 @@ fn main() {
         equilibrium.closed.iter().filter(|closed| **closed).count(),
         equilibrium.closed.len()
     );
+    if env_or("SOLVE", 0) == 1 {
+        solve_kernels(&model, &equilibrium);
+        return;
+    }
 
     let defaults = Settings::default();
     let settings = Settings {

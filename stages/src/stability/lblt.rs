@@ -70,8 +70,46 @@ impl Lblt {
     }
 
     /// `A X = R` for the columns of `R`, in place, with the symbolic analysis that
-    /// [`Self::factorize`] was given.
-    pub fn solve_in_place(&self, symbolic: &SymbolicCholesky<usize>, rhs: MatMut<'_, f64>) {
+    /// [`Self::factorize`] was given. faer's own solve runs where the row-major kernels do not
+    /// apply: a simplicial factor (small problems) or a processor without AVX2 and FMA.
+    pub fn solve_in_place(&self, symbolic: &SymbolicCholesky<usize>, mut rhs: MatMut<'_, f64>) {
+        #[cfg(target_arch = "x86_64")]
+        if let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw()
+            && is_x86_feature_detected!("avx2")
+            && is_x86_feature_detected!("fma")
+        {
+            let factor = self.view(symbolic);
+            let width = rhs.ncols();
+            let mut first = 0;
+            while first < width {
+                let chunk = (width - first).min(8);
+                let block = rhs.rb_mut().subcols_mut(first, chunk);
+                // SAFETY: both features were detected on this processor just above.
+                unsafe {
+                    if chunk <= 4 {
+                        factor.solve_chunk_avx2::<4>(supernodal, block);
+                    } else {
+                        factor.solve_chunk_avx2::<8>(supernodal, block);
+                    }
+                }
+                first += chunk;
+            }
+            return;
+        }
+        self.solve_in_place_faer(symbolic, rhs);
+    }
+
+    /// The same solve by faer's kernels: the fallback, and the reference of the benchmark
+    /// (`SQUEAL_BENCH_SOLVE=1`).
+    pub fn solve_in_place_faer(&self, symbolic: &SymbolicCholesky<usize>, rhs: MatMut<'_, f64>) {
+        let factor = self.view(symbolic);
+        let mut buffer =
+            MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(rhs.ncols(), Par::Seq));
+        IntranodeLbltRef::new(symbolic, factor.values, factor.subdiag, factor.pivots)
+            .solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut buffer));
+    }
+
+    fn view<'a>(&'a self, symbolic: &'a SymbolicCholesky<usize>) -> LbltFactor<'a> {
         LbltFactor {
             symbolic,
             values: &self.values,
@@ -82,7 +120,6 @@ impl Lblt {
                 symbolic.nrows(),
             ),
         }
-        .solve_in_place(rhs);
     }
 
     /// Entries of the factor in 2×2 pivots (for tests).
@@ -92,7 +129,7 @@ impl Lblt {
     }
 }
 
-/// A view of the factor, as faer's solve takes it.
+/// A view of the factor, for the row-major kernels.
 #[derive(Clone, Copy)]
 struct LbltFactor<'a> {
     symbolic: &'a SymbolicCholesky<usize>,
@@ -102,39 +139,6 @@ struct LbltFactor<'a> {
 }
 
 impl LbltFactor<'_> {
-    /// `A X = R` for the columns of `R`, in place. faer's own solve runs where the kernels
-    /// below do not apply: a simplicial factor (small problems) or a processor without AVX2
-    /// and FMA.
-    pub fn solve_in_place(&self, mut rhs: MatMut<'_, f64>) {
-        #[cfg(target_arch = "x86_64")]
-        if let SymbolicCholeskyRaw::Supernodal(symbolic) = self.symbolic.raw()
-            && is_x86_feature_detected!("avx2")
-            && is_x86_feature_detected!("fma")
-        {
-            let width = rhs.ncols();
-            let mut first = 0;
-            while first < width {
-                let chunk = (width - first).min(8);
-                let block = rhs.rb_mut().subcols_mut(first, chunk);
-                // SAFETY: both features were detected on this processor just above.
-                unsafe {
-                    if chunk <= 4 {
-                        self.solve_chunk_avx2::<4>(symbolic, block);
-                    } else {
-                        self.solve_chunk_avx2::<8>(symbolic, block);
-                    }
-                }
-                first += chunk;
-            }
-            return;
-        }
-        let width = rhs.ncols();
-        let factor = IntranodeLbltRef::new(self.symbolic, self.values, self.subdiag, self.pivots);
-        let mut buffer =
-            MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(width, Par::Seq));
-        factor.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut buffer));
-    }
-
     /// [`Self::solve_chunk`] compiled for AVX2 and FMA (the kernels are inlined into it).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
@@ -447,16 +451,7 @@ mod tests {
                 let mut X = B.clone();
                 factor.solve_in_place(&symbolic, X.as_mut());
                 let mut reference = B.clone();
-                let pivots = PermRef::new_checked(&factor.pivot_forward, &factor.pivot_inverse, n);
-                IntranodeLbltRef::new(&symbolic, &factor.values, &factor.subdiag, pivots)
-                    .solve_in_place_with_conj(
-                        Conj::No,
-                        reference.as_mut(),
-                        Par::Seq,
-                        MemStack::new(&mut MemBuffer::new(
-                            symbolic.solve_in_place_scratch::<f64>(width, Par::Seq),
-                        )),
-                    );
+                factor.solve_in_place_faer(&symbolic, reference.as_mut());
                 let difference = (&X - &reference).norm_max() / reference.norm_max();
                 assert!(
                     difference <= 1e-12,

@@ -38,7 +38,7 @@
 pub mod dense;
 mod figure;
 pub mod krylov;
-mod lblt;
+pub mod lblt;
 pub mod lumped;
 pub mod shift_invert;
 pub mod sliding;

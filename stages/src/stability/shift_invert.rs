@@ -185,6 +185,40 @@ impl EmbeddedPattern {
     pub fn factor_len(&self) -> usize {
         self.symbolic.len_val()
     }
+
+    /// The symbolic analysis of the embedding, shared by every shift.
+    pub fn symbolic(&self) -> &SymbolicCholesky<usize> {
+        &self.symbolic
+    }
+
+    /// The lower triangle's values of the embedding of `A = K + σ C + σ² M`.
+    pub fn values_at(&self, sigma: c64) -> Vec<f64> {
+        let sigma2 = sigma * sigma;
+        let [M, C, K] = &self.union_values;
+        let real: Vec<f64> = (0..K.len())
+            .map(|e| K[e] + sigma.re * C[e] + sigma2.re * M[e])
+            .collect();
+        let imaginary: Vec<f64> = (0..K.len())
+            .map(|e| sigma.im * C[e] + sigma2.im * M[e])
+            .collect();
+        self.sources
+            .iter()
+            .map(|source| match *source {
+                Source::Real(e) => real[e],
+                Source::Imaginary(e) => imaginary[e],
+                Source::MinusReal(e) => -real[e],
+            })
+            .collect()
+    }
+
+    /// The embedding's lower triangle with `values` from [`Self::values_at`].
+    pub fn matrix<'a>(&'a self, values: &'a [f64]) -> SparseColMatRef<'a, usize, f64> {
+        let n2 = 2 * self.m;
+        SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(n2, n2, &self.col_ptr, None, &self.row_idx),
+            values,
+        )
+    }
 }
 
 /// `Q̃(σ)⁻¹`, ready to apply.
@@ -208,30 +242,9 @@ impl<'a> ShiftedSolver<'a> {
         par: Par,
     ) -> Result<ShiftedSolver<'a>, StageError> {
         let m = pattern.m;
-        let n2 = 2 * m;
-        // A = K + σ C + σ² M, split in real and imaginary parts.
-        let sigma2 = sigma * sigma;
-        let [M, C, K] = &pattern.union_values;
-        let real: Vec<f64> = (0..K.len())
-            .map(|e| K[e] + sigma.re * C[e] + sigma2.re * M[e])
-            .collect();
-        let imaginary: Vec<f64> = (0..K.len())
-            .map(|e| sigma.im * C[e] + sigma2.im * M[e])
-            .collect();
-        let values: Vec<f64> = pattern
-            .sources
-            .iter()
-            .map(|source| match *source {
-                Source::Real(e) => real[e],
-                Source::Imaginary(e) => imaginary[e],
-                Source::MinusReal(e) => -real[e],
-            })
-            .collect();
-        let A = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(n2, n2, &pattern.col_ptr, None, &pattern.row_idx),
-            &values,
-        );
-        let factor = Lblt::factorize(&pattern.symbolic, A, par);
+        let values = pattern.values_at(sigma);
+        let A = pattern.matrix(&values);
+        let factor = Lblt::factorize(pattern.symbolic(), A, par);
         let mut solver = ShiftedSolver {
             pattern,
             system,
