@@ -260,8 +260,8 @@ impl<'a> ShiftedSolver<'a> {
         Ok(solver)
     }
 
-    /// `A⁻¹ F` for the symmetric part, columns of F complex. The triangular solves of one
-    /// right-hand side barely use a second core, so the columns are shared out among threads.
+    /// `A⁻¹ F` for the symmetric part, columns of F complex. The factor shares its supernodal
+    /// tree among the threads; where it cannot (faer's solve), the columns are shared out.
     fn solve_symmetric(&self, F: MatRef<'_, c64>) -> Mat<c64> {
         let m = self.pattern.m;
         let k = F.ncols();
@@ -269,7 +269,11 @@ impl<'a> ShiftedSolver<'a> {
             Par::Seq => 1,
             Par::Rayon(threads) => threads.get(),
         };
-        let chunk = k.div_ceil(threads).max(1);
+        let chunk = if self.factor.splits_tree() {
+            k.max(1)
+        } else {
+            k.div_ceil(threads).max(1)
+        };
         let blocks: Vec<Mat<f64>> = (0..k)
             .step_by(chunk)
             .collect::<Vec<_>>()
