@@ -83,15 +83,11 @@ fn solve_kernels(model: &Model, equilibrium: &Equilibrium) {
         })
     };
     let row_major = || {
-        if factor.splits_tree() {
-            let mut solution = rhs.clone();
-            factor.solve_in_place(symbolic, solution.as_mut());
-            solution
-        } else {
-            by_columns(Lblt::solve_in_place)
-        }
+        let mut solution = rhs.clone();
+        factor.solve_in_place(symbolic, solution.as_mut());
+        solution
     };
-    let row_major_by_columns = || by_columns(Lblt::solve_in_place_rows);
+    let row_major_by_columns = || by_columns(Lblt::solve_in_place_one_thread);
     let faer = || by_columns(Lblt::solve_in_place_faer);
     let kernels: [(&str, &dyn Fn() -> Mat<f64>); 3] = [
         ("row-major", &row_major),

@@ -37,7 +37,8 @@ pub struct Lblt {
     /// The pivoting permutation inside supernodes: forward and inverse.
     pivot_forward: Vec<usize>,
     pivot_inverse: Vec<usize>,
-    /// The tree shared among the threads of `par`, when the row-major kernels apply.
+    /// The threads of `par`, and the tree shared among them when the row-major kernels apply.
+    threads: usize,
     split: Option<TreeSplit>,
 }
 
@@ -59,6 +60,7 @@ impl Lblt {
             subdiag: vec![0.0; n],
             pivot_forward: vec![0; n],
             pivot_inverse: vec![0; n],
+            threads,
             split: row_major(symbolic).and_then(|supernodal| TreeSplit::new(supernodal, threads)),
         };
         let mut buffer = MemBuffer::new(
@@ -78,22 +80,41 @@ impl Lblt {
         factor
     }
 
-    /// Whether a solve shares the tree among threads; if not, callers share out columns.
+    /// Whether a block solve shares the tree among threads (for reports).
     pub fn splits_tree(&self) -> bool {
         self.split.is_some()
     }
 
     /// `A X = R` for the columns of `R`, in place, with the symbolic analysis that
-    /// [`Self::factorize`] was given. faer's own solve runs where the row-major kernels do not
-    /// apply: a simplicial factor (small problems) or a processor without AVX2 and FMA.
+    /// [`Self::factorize`] was given. A Krylov block (up to eight columns) shares the tree among
+    /// the threads; wider ones share out their columns, each thread sweeping the whole factor
+    /// eight columns at a time, which reads L less often per column. faer's own solve runs
+    /// where the row-major kernels do not apply: a simplicial factor (small problems) or a
+    /// processor without AVX2 and FMA.
     pub fn solve_in_place(&self, symbolic: &SymbolicCholesky<usize>, mut rhs: MatMut<'_, f64>) {
-        if !self.solve_rows(symbolic, rhs.rb_mut(), self.split.as_ref()) {
-            self.solve_in_place_faer(symbolic, rhs);
+        let width = rhs.ncols();
+        if width <= 8
+            && let Some(split) = &self.split
+            && self.solve_rows(symbolic, rhs.rb_mut(), Some(split))
+        {
+            return;
         }
+        let chunk = width.div_ceil(self.threads).max(1);
+        let mut chunks = Vec::new();
+        let mut rest = rhs;
+        while rest.ncols() > 0 {
+            let take = chunk.min(rest.ncols());
+            let (head, tail) = rest.split_at_col_mut(take);
+            chunks.push(head);
+            rest = tail;
+        }
+        chunks
+            .into_par_iter()
+            .for_each(|block| self.solve_in_place_one_thread(symbolic, block));
     }
 
-    /// The same solve on this thread alone, the tree not shared (the benchmark's comparison).
-    pub fn solve_in_place_rows(
+    /// The same solve on the calling thread alone.
+    pub fn solve_in_place_one_thread(
         &self,
         symbolic: &SymbolicCholesky<usize>,
         mut rhs: MatMut<'_, f64>,
@@ -133,8 +154,8 @@ impl Lblt {
         false
     }
 
-    /// The same solve by faer's kernels: the fallback, and the reference of the benchmark
-    /// (`SQUEAL_BENCH_SOLVE=1`).
+    /// The same solve by faer's kernels on the calling thread: the fallback, and the reference
+    /// of the benchmark (`SQUEAL_BENCH_SOLVE=1`).
     pub fn solve_in_place_faer(&self, symbolic: &SymbolicCholesky<usize>, rhs: MatMut<'_, f64>) {
         let factor = self.view(symbolic);
         let mut buffer =

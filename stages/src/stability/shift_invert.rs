@@ -231,7 +231,6 @@ pub struct ShiftedSolver<'a> {
     Y: Mat<c64>,
     V_columns: Vec<Vec<(usize, c64)>>,
     capacitance: Option<PartialPivLu<c64>>,
-    par: Par,
 }
 
 impl<'a> ShiftedSolver<'a> {
@@ -253,45 +252,22 @@ impl<'a> ShiftedSolver<'a> {
             Y: Mat::zeros(m, 0),
             V_columns: Vec::new(),
             capacitance: None,
-            par,
         };
         solver.check_symmetric_part()?;
         solver.prepare_correction()?;
         Ok(solver)
     }
 
-    /// `A⁻¹ F` for the symmetric part, columns of F complex. The factor shares its supernodal
-    /// tree among the threads; where it cannot (faer's solve), the columns are shared out.
+    /// `A⁻¹ F` for the symmetric part, columns of F complex, through the embedding.
     fn solve_symmetric(&self, F: MatRef<'_, c64>) -> Mat<c64> {
         let m = self.pattern.m;
-        let k = F.ncols();
-        let threads = match self.par {
-            Par::Seq => 1,
-            Par::Rayon(threads) => threads.get(),
-        };
-        let chunk = if self.factor.splits_tree() {
-            k.max(1)
-        } else {
-            k.div_ceil(threads).max(1)
-        };
-        let blocks: Vec<Mat<f64>> = (0..k)
-            .step_by(chunk)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(|first| {
-                let width = chunk.min(k - first);
-                let mut R = Mat::<f64>::from_fn(2 * m, width, |row, col| {
-                    let value = F[(row / 2, first + col)];
-                    if row % 2 == 0 { value.re } else { value.im }
-                });
-                self.factor
-                    .solve_in_place(&self.pattern.symbolic, R.as_mut());
-                R
-            })
-            .collect();
-        Mat::from_fn(m, k, |row, col| {
-            let R = &blocks[col / chunk];
-            let col = col % chunk;
+        let mut R = Mat::<f64>::from_fn(2 * m, F.ncols(), |row, col| {
+            let value = F[(row / 2, col)];
+            if row % 2 == 0 { value.re } else { value.im }
+        });
+        self.factor
+            .solve_in_place(&self.pattern.symbolic, R.as_mut());
+        Mat::from_fn(m, F.ncols(), |row, col| {
             c64::new(R[(2 * row, col)], -R[(2 * row + 1, col)])
         })
     }
