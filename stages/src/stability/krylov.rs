@@ -58,7 +58,7 @@
 //! of eight cost 18 ms per vector against 38 ms for two (and the orthogonalisation becomes
 //! matrix–matrix), so although blocks of eight need about a third more vectors for the same
 //! disk, they halved the 17 kHz band of the default brake (407–424 s against 862 s). The
-//! row-major kernels of [`super::lblt`] since cut a block of eight to 9 ms per vector; blocks
+//! row-major kernels of [`super::lblt`] since cut a block of eight to 7 ms per vector; blocks
 //! of sixteen still lose (99 s against 90 s on the 8 kHz band). Wide disks (`per_shift` 256)
 //! beat narrow ones: factorisations and the overlaps' double work are paid fewer times, and
 //! the band's width forces disks of 1 kHz radius at the top anyway. Beyond about 900 vectors,

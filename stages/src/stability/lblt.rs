@@ -11,14 +11,16 @@
 //! backward  x_top −= L_botᵀ x[pattern],   x_top ← L_top⁻ᵀ x_top
 //! ```
 //!
-//! The arithmetic is the same; the kernels are not. faer runs each supernode's products
-//! through its general matrix kernels, built for wide right-hand sides. A Krylov block puts
-//! 4 to 8 through at a time (two threads, each with its share of the columns). Here the
-//! right-hand sides are stored by rows (`x[i][j]`), so each entry of L is read once per sweep
-//! and multiplies K contiguous values, four columns of L at a time, with AVX2 and FMA chosen at
-//! run time. On the default brake's factor (26 M entries), four right-hand sides on each of two
-//! threads take 70–74 ms against faer's 96–102 ms, and eight on one thread 85 ms against
-//! 119 ms. The rest of the time goes to the scattered rows of x, not to reading L.
+//! The arithmetic is the same; the kernels and the parallelism are not. faer runs each
+//! supernode's products through its general matrix kernels, built for wide right-hand sides,
+//! and a Krylov block has eight. Here the right-hand sides are stored by rows (`x[i][j]`), so
+//! each entry of L is read once per sweep and multiplies eight contiguous values, four columns
+//! of L at a time, with AVX2 and FMA chosen at run time. The threads share the supernodal tree
+//! ([`TreeSplit`]): each sweeps whole subtrees, with all eight columns, on a private copy of x,
+//! and one thread sweeps the supernodes above them. On the default brake's factor (26 M
+//! entries) a block of eight takes 57–64 ms, against 75–87 ms with four columns per thread and
+//! 109–123 ms by faer (`SQUEAL_BENCH_SOLVE=1`). L streams at 15–22 GB/s on one thread here,
+//! so reading it is not the limit: the time goes to the scattered rows of x.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
