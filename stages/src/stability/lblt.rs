@@ -239,15 +239,9 @@ impl LbltFactor<'_> {
         match split {
             None => unsafe { self.forward::<K>(symbolic, &mut x, &all) },
             Some(split) => {
-                let copies: Vec<Vec<[f64; K]>> = split
-                    .groups
-                    .par_iter()
-                    .map(|group| {
-                        let mut copy = x.clone();
-                        unsafe { self.forward::<K>(symbolic, &mut copy, group) };
-                        copy
-                    })
-                    .collect();
+                let copies = on_copies(&x, &split.groups, |copy, group| unsafe {
+                    self.forward::<K>(symbolic, copy, group)
+                });
                 // A group's rows come from its copy; the top's add every group's update.
                 for (i, row) in x.iter_mut().enumerate() {
                     match split.owner[i] {
@@ -270,15 +264,9 @@ impl LbltFactor<'_> {
             None => unsafe { self.backward::<K>(symbolic, &mut x, &all) },
             Some(split) => {
                 unsafe { self.backward::<K>(symbolic, &mut x, &split.top) };
-                let copies: Vec<Vec<[f64; K]>> = split
-                    .groups
-                    .par_iter()
-                    .map(|group| {
-                        let mut copy = x.clone();
-                        unsafe { self.backward::<K>(symbolic, &mut copy, group) };
-                        copy
-                    })
-                    .collect();
+                let copies = on_copies(&x, &split.groups, |copy, group| unsafe {
+                    self.backward::<K>(symbolic, copy, group)
+                });
                 for (i, row) in x.iter_mut().enumerate() {
                     if let Some(group) = split.owner[i] {
                         *row = copies[group][i];
@@ -476,6 +464,22 @@ impl TreeSplit {
         top.sort_unstable();
         Some(TreeSplit { top, groups, owner })
     }
+}
+
+/// Each group's `sweep` on its own copy of x, the groups in parallel.
+fn on_copies<const K: usize>(
+    x: &[[f64; K]],
+    groups: &[Vec<usize>],
+    sweep: impl Fn(&mut [[f64; K]], &[usize]) + Sync,
+) -> Vec<Vec<[f64; K]>> {
+    groups
+        .par_iter()
+        .map(|group| {
+            let mut copy = x.to_vec();
+            sweep(&mut copy, group);
+            copy
+        })
+        .collect()
 }
 
 /// Supernode `s`: first column, width, row pattern below, and its values (column-major,
