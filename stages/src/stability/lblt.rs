@@ -19,7 +19,7 @@
 //! ([`TreeSplit`]): each sweeps whole subtrees, with all eight columns, on a private copy of x,
 //! and one thread sweeps the supernodes above them. On the default brake's factor (26 M
 //! entries) a block of eight takes 57–64 ms, against 75–87 ms with four columns per thread and
-//! 109–123 ms by faer (`SQUEAL_BENCH_SOLVE=1`). L streams at 15–22 GB/s on one thread here,
+//! 97–123 ms by faer (`SQUEAL_BENCH_SOLVE=1`). L streams at 15–22 GB/s on one thread here,
 //! so reading it is not the limit: the time goes to the scattered rows of x.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
