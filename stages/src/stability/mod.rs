@@ -42,6 +42,7 @@ pub mod lblt;
 pub mod lumped;
 pub mod shift_invert;
 pub mod sliding;
+pub mod tall;
 pub mod track;
 
 #[cfg(test)]
@@ -350,8 +351,9 @@ impl Stage for Stability {
     fn version(&self) -> u32 {
         // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks; 4: shifts that
         // fall short are kept, Ritz checks placed by the radius's growth; 5: row-major
-        // triangular solves (FMA: round-off differs)
-        5
+        // triangular solves (FMA: round-off differs); 6: Gram–Schmidt projections by
+        // `tall` (round-off differs)
+        6
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"

@@ -1,0 +1,66 @@
+//! `Qᴴ W` for the Krylov basis's shape (28,224 rows: the default brake's reduced DOFs; 480
+//! and 960 columns; blocks of 8 and 16), by `stability::tall` and by faer's general product,
+//! on one thread and on all. Run with `cargo bench -p squeal-stages --bench tall`.
+
+use std::time::Instant;
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par, c64};
+use squeal_stages::stability::tall::adjoint_times;
+
+/// Median wall time of `f` over `runs` runs (s).
+fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
+    let mut times: Vec<f64> = (0..runs)
+        .map(|_| {
+            let clock = Instant::now();
+            f();
+            clock.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[runs / 2]
+}
+
+fn main() {
+    let rows = 28_224;
+    println!("Qᴴ W, {rows} rows (median of 9 runs, GFLOP/s counting 8 per complex multiply-add)");
+    for columns in [480, 960] {
+        let Q = Mat::<c64>::from_fn(rows, columns, |i, j| {
+            c64::new(
+                ((i * 7 + j * 13) % 17) as f64 - 8.0,
+                ((i + 3 * j) % 5) as f64 - 2.0,
+            )
+        });
+        for width in [8, 16] {
+            let W = Mat::<c64>::from_fn(rows, width, |i, j| {
+                c64::new(((i + 5 * j) as f64).cos(), ((3 * i + j) as f64).sin())
+            });
+            let flop = 8.0 * (rows * columns * width) as f64;
+            for (threads, par) in [("1 thread", Par::Seq), ("all threads", Par::rayon(0))] {
+                let mut reference = Mat::<c64>::zeros(columns, width);
+                let faer_seconds = median_seconds(9, || {
+                    matmul(
+                        reference.as_mut(),
+                        Accum::Replace,
+                        Q.adjoint(),
+                        W.as_ref(),
+                        c64::new(1.0, 0.0),
+                        par,
+                    )
+                });
+                let mut ours = Mat::<c64>::zeros(columns, width);
+                let ours_seconds =
+                    median_seconds(9, || ours = adjoint_times(Q.as_ref(), W.as_ref(), par));
+                let difference = (&ours - &reference).norm_max() / reference.norm_max();
+                println!(
+                    "  {columns:4} × {width:2}, {threads:11}: tall {:6.1} ms ({:4.1} GFLOP/s), faer {:6.1} ms ({:4.1} GFLOP/s): {:.2}× (relative difference {difference:.1e})",
+                    ours_seconds * 1e3,
+                    flop / ours_seconds / 1e9,
+                    faer_seconds * 1e3,
+                    flop / faer_seconds / 1e9,
+                    faer_seconds / ours_seconds
+                );
+            }
+        }
+    }
+}
