@@ -1,12 +1,13 @@
-//! `Qᴴ W` for the Krylov basis's shape (28,224 rows: the default brake's reduced DOFs; 480
-//! and 960 columns; blocks of 8 and 16), by `stability::tall` and by faer's general product,
-//! on one thread and on all. Run with `cargo bench -p squeal-stages --bench tall`.
+//! `Qᴴ W` and `X += Q C` for the Krylov basis's shape (28,224 rows: the default brake's
+//! reduced DOFs; 480 and 960 columns; blocks of 8 and 16), by `stability::tall` and by faer's
+//! general product, on one thread and on all. Run with
+//! `cargo bench -p squeal-stages --bench tall`.
 
 use std::time::Instant;
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par, c64};
-use squeal_stages::stability::tall::adjoint_times;
+use squeal_stages::stability::tall::{add_times, adjoint_times};
 
 /// Median wall time of `f` over `runs` runs (s).
 fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
@@ -23,7 +24,7 @@ fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
 
 fn main() {
     let rows = 28_224;
-    println!("Qᴴ W, {rows} rows (median of 9 runs, GFLOP/s counting 8 per complex multiply-add)");
+    println!("{rows} rows, median of 9 runs, GFLOP/s counting 8 per complex multiply-add");
     for columns in [480, 960] {
         let Q = Mat::<c64>::from_fn(rows, columns, |i, j| {
             c64::new(
@@ -51,16 +52,70 @@ fn main() {
                 let mut ours = Mat::<c64>::zeros(columns, width);
                 let ours_seconds =
                     median_seconds(9, || ours = adjoint_times(Q.as_ref(), W.as_ref(), par));
-                let difference = (&ours - &reference).norm_max() / reference.norm_max();
-                println!(
-                    "  {columns:4} × {width:2}, {threads:11}: tall {:6.1} ms ({:4.1} GFLOP/s), faer {:6.1} ms ({:4.1} GFLOP/s): {:.2}× (relative difference {difference:.1e})",
-                    ours_seconds * 1e3,
-                    flop / ours_seconds / 1e9,
-                    faer_seconds * 1e3,
-                    flop / faer_seconds / 1e9,
-                    faer_seconds / ours_seconds
+                report(
+                    "Qᴴ W  ",
+                    columns,
+                    width,
+                    threads,
+                    flop,
+                    ours_seconds,
+                    faer_seconds,
+                    &ours,
+                    &reference,
+                );
+                let C = Mat::<c64>::from_fn(columns, width, |i, j| {
+                    c64::new(((2 * i + j) as f64).sin(), ((i + 7 * j) as f64).cos())
+                });
+                let mut reference = Mat::<c64>::zeros(rows, width);
+                let faer_seconds = median_seconds(9, || {
+                    matmul(
+                        reference.as_mut(),
+                        Accum::Add,
+                        Q.as_ref(),
+                        C.as_ref(),
+                        c64::new(1.0, 0.0),
+                        par,
+                    )
+                });
+                let mut ours = Mat::<c64>::zeros(rows, width);
+                let ours_seconds =
+                    median_seconds(9, || add_times(ours.as_mut(), Q.as_ref(), C.as_ref(), par));
+                report(
+                    "X += Q C",
+                    columns,
+                    width,
+                    threads,
+                    flop,
+                    ours_seconds,
+                    faer_seconds,
+                    &ours,
+                    &reference,
                 );
             }
         }
     }
+}
+
+/// One line of the table: times, rates, the ratio, and how far the results differ.
+#[allow(clippy::too_many_arguments)]
+fn report(
+    product: &str,
+    columns: usize,
+    width: usize,
+    threads: &str,
+    flop: f64,
+    ours_seconds: f64,
+    faer_seconds: f64,
+    ours: &Mat<c64>,
+    reference: &Mat<c64>,
+) {
+    let difference = (ours - reference).norm_max() / reference.norm_max();
+    println!(
+        "  {product} {columns:4} × {width:2}, {threads:11}: tall {:6.1} ms ({:4.1} GFLOP/s), faer {:6.1} ms ({:4.1} GFLOP/s): {:.2}× (relative difference {difference:.1e})",
+        ours_seconds * 1e3,
+        flop / ours_seconds / 1e9,
+        faer_seconds * 1e3,
+        flop / faer_seconds / 1e9,
+        faer_seconds / ours_seconds
+    );
 }

@@ -72,13 +72,11 @@
 use std::f64::consts::PI;
 use std::time::Instant;
 
-use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatRef, Par, c64};
-use rayon::prelude::*;
+use faer::{Mat, MatRef, Par, c64};
 
 use super::shift_invert::{EmbeddedPattern, ShiftedSolver};
 use super::sliding::{Part, SlidingSystem};
-use super::tall::{add_adjoint_times, adjoint_times};
+use super::tall::{add_times, adjoint_times};
 use crate::modes::lanczos::SplitMix64;
 use crate::stage::StageError;
 
@@ -205,7 +203,7 @@ impl HalfBasis {
     fn extend(&mut self, mut Z: Mat<c64>) -> Mat<c64> {
         let b = Z.ncols();
         let original: Vec<f64> = (0..b).map(|j| column_norm(Z.as_ref(), j)).collect();
-        let projection = project_out_twice(self.Q.subcols(0, self.rank), &mut Z);
+        let projection = project_out(self.Q.subcols(0, self.rank), &mut Z, true);
         let first_new = self.rank;
         let mut coefficients = Mat::<c64>::zeros(first_new + b, b);
         coefficients
@@ -214,7 +212,7 @@ impl HalfBasis {
         for j in 0..b {
             let mut column = Z.subcols(j, 1).to_owned();
             let added = self.rank - first_new;
-            let within = project_out(self.Q.subcols(first_new, added), &mut column);
+            let within = project_out(self.Q.subcols(first_new, added), &mut column, false);
             for i in 0..added {
                 coefficients[(first_new + i, j)] = within[(i, 0)];
             }
@@ -237,15 +235,22 @@ impl HalfBasis {
 
     /// `Q[:, ..rank] C`, for coordinates `C` over the first `rank` columns.
     fn expand(&self, C: MatRef<'_, c64>) -> Mat<c64> {
-        self.Q.subcols(0, C.nrows()) * C
+        let mut X = Mat::<c64>::zeros(self.Q.nrows(), C.ncols());
+        add_times(X.as_mut(), self.Q.subcols(0, C.nrows()), C, Par::rayon(0));
+        X
     }
 }
 
 /// Removes from `W` its components along the orthonormal columns of `V`; returns the
 /// coefficients. A second pass follows unless no column lost more than 1 − 1/√2 of its norm
 /// in the first (Daniel–Gragg–Kaufman–Stewart): after a large cancellation one pass is not
-/// enough in floating point.
-fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
+/// enough in floating point. With `always_twice` both passes run: against the first-half
+/// basis, `z₁` lies mostly in the span of `Q`, which the Krylov space has converged towards,
+/// so the test would always ask for the second. The products go through [`super::tall`]
+/// (1.1–1.7× faer's on these shapes, `cargo bench -p squeal-stages --bench tall`); running
+/// the first update and the second projection in one sweep over `V`'s rows saved at most 3 %
+/// more, so they stay apart.
+fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>, always_twice: bool) -> Mat<c64> {
     let mut coefficients = Mat::<c64>::zeros(V.ncols(), W.ncols());
     if V.ncols() == 0 {
         return coefficients;
@@ -255,12 +260,13 @@ fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
             .map(|col| column_norm(W.as_ref(), col))
             .collect()
     };
-    let before = norms(W);
+    let before = if always_twice { Vec::new() } else { norms(W) };
     for pass_index in 0..2 {
         let pass = adjoint_times(V, W.as_ref(), Par::rayon(0));
-        *W -= V * &pass;
+        add_times(W.as_mut(), V, (-&pass).as_ref(), Par::rayon(0));
         coefficients += &pass;
         if pass_index == 0
+            && !always_twice
             && norms(W)
                 .iter()
                 .zip(&before)
@@ -270,55 +276,6 @@ fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
         }
     }
     coefficients
-}
-
-/// Classical Gram–Schmidt twice against the tall orthonormal `V` (the first-half basis):
-/// `z₁` lies mostly in the span of `Q`, which the Krylov space has converged towards, so the
-/// first pass always loses most of the norm and [`project_out`]'s test would always ask for
-/// the second. Both always run, and the first update and the second projection share one
-/// sweep over `V`'s rows: each thread takes row chunks small enough to stay in cache
-/// (`W_c −= V_c C₁`, then `V_cᴴ W_c`), so `V` is read three times instead of four; that cut
-/// the pair's time by 28 % at 28 k rows and 8 columns, against 640 or 1280 columns of `V`. The
-/// projections `Vᴴ W` go through [`super::tall`], 1.3–1.6× faer's product on these shapes.
-fn project_out_twice(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
-    let (rows, rank, b) = (V.nrows(), V.ncols(), W.ncols());
-    if rank == 0 {
-        return Mat::zeros(0, b);
-    }
-    let first = adjoint_times(V, W.as_ref(), Par::rayon(0));
-    // About 1 MiB of V per chunk.
-    let chunk_rows = ((1 << 20) / (16 * rank)).clamp(32, 256);
-    let mut chunks = Vec::with_capacity(rows.div_ceil(chunk_rows));
-    let mut rest = W.as_mut();
-    let mut start = 0;
-    while start < rows {
-        let (head, tail) = rest.split_at_row_mut(chunk_rows.min(rows - start));
-        chunks.push((start, head));
-        rest = tail;
-        start += chunk_rows;
-    }
-    let one = c64::new(1.0, 0.0);
-    let second = chunks
-        .into_par_iter()
-        .fold(
-            || Mat::<c64>::zeros(rank, b),
-            |mut partial, (start, mut W_chunk)| {
-                let V_chunk = V.subrows(start, W_chunk.nrows());
-                matmul(
-                    W_chunk.as_mut(),
-                    Accum::Add,
-                    V_chunk,
-                    first.as_ref(),
-                    -one,
-                    Par::Seq,
-                );
-                add_adjoint_times(partial.as_mut(), V_chunk, W_chunk.as_ref());
-                partial
-            },
-        )
-        .reduce(|| Mat::<c64>::zeros(rank, b), |a, c| a + c);
-    *W -= V * &second;
-    first + second
 }
 
 fn column_norm(W: MatRef<'_, c64>, col: usize) -> f64 {
@@ -333,13 +290,13 @@ fn orthonormalise(
     W: &mut Mat<c64>,
     random: &mut SplitMix64,
 ) -> (Mat<c64>, Mat<c64>) {
-    let H = project_out(V, W);
+    let H = project_out(V, W, false);
     let b = W.ncols();
     let mut R = Mat::<c64>::zeros(b, b);
     for j in 0..b {
         let before = column_norm(W.as_ref(), j);
         let mut column = W.subcols(j, 1).to_owned();
-        let coefficients = project_out(W.subcols(0, j), &mut column);
+        let coefficients = project_out(W.subcols(0, j), &mut column, false);
         for i in 0..j {
             R[(i, j)] = coefficients[(i, 0)];
         }
@@ -348,8 +305,8 @@ fn orthonormalise(
             R[(j, j)] = c64::new(norm, 0.0);
         } else {
             column = random_block(W.nrows(), 1, random);
-            project_out(V, &mut column);
-            project_out(W.subcols(0, j), &mut column);
+            project_out(V, &mut column, false);
+            project_out(W.subcols(0, j), &mut column, false);
         }
         let norm = column_norm(column.as_ref(), 0);
         for row in 0..W.nrows() {
@@ -869,7 +826,7 @@ mod tests {
         let W =
             Q * &mixture + random_block(rows, b, &mut random) * faer::Scale(c64::new(1e-6, 0.0));
         let mut remainder = W.clone();
-        let coefficients = project_out_twice(Q, &mut remainder);
+        let coefficients = project_out(Q, &mut remainder, true);
         let leak = (Q.adjoint() * &remainder).norm_max() / remainder.norm_max();
         assert!(
             leak < 1e-13,

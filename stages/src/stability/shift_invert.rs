@@ -31,6 +31,7 @@ use rayon::prelude::*;
 
 use super::lblt::Lblt;
 use super::sliding::{Part, SlidingSystem, mul_complex, norm};
+use super::tall::add_times;
 use crate::modes::ordering;
 use crate::stage::StageError;
 
@@ -376,7 +377,7 @@ impl<'a> ShiftedSolver<'a> {
                     .sum()
             });
             let c = capacitance.solve(&VtX);
-            X -= &self.Y * &c;
+            add_times(X.as_mut(), self.Y.as_ref(), (-&c).as_ref(), Par::rayon(0));
         }
         X
     }
