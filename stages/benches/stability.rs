@@ -60,14 +60,6 @@ fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
 /// columns, four per thread).
 fn solve_kernels(model: &Model, equilibrium: &Equilibrium) {
     let system = SlidingSystem::new(model, equilibrium, true).expect("sliding system");
-    {
-        let X = Mat::<c64>::from_fn(system.dim(), 8, |i, j| c64::new(((i * 7 + j) as f64).sin(), (i as f64).cos()));
-        for part in [Part::M, Part::C, Part::K] {
-            let started = Instant::now();
-            for _ in 0..20 { std::hint::black_box(system.apply_block(part, X.as_ref())); }
-            println!("TEMP apply_block {part:?}: {:.2} ms per block of 8, nnz {}", started.elapsed().as_secs_f64() * 1e3 / 20.0, system.full(part).values.len());
-        }
-    }
     let pattern = EmbeddedPattern::new(&system).expect("symbolic analysis");
     let values = pattern.values_at(c64::new(0.0, 2.0 * PI * 8000.0));
     let symbolic = pattern.symbolic();

@@ -3,6 +3,8 @@
 //! general product, on one thread and on all. Run with
 //! `cargo bench -p squeal-stages --bench tall`.
 
+#![allow(non_snake_case)] // matrices are named as in the equations
+
 use std::time::Instant;
 
 use faer::linalg::matmul::matmul;

@@ -19,9 +19,9 @@
 //!   per column, a column apart, which the processor does not prefetch: the first pass over
 //!   a block prefetches the rows two steps ahead.
 //!
-//! On 28 k rows they reach 13–16 GFLOP/s per thread on this processor (whose peak is 16 per
-//! core): 1.25–1.7× faer on `Qᴴ W`, 1.1–1.5× on `Q C` (`cargo bench -p squeal-stages --bench
-//! tall`). AVX2 and FMA are chosen at run time; elsewhere, for views whose rows are not
+//! On 28 k rows they reach 13–18 GFLOP/s per thread on this processor: 1.15–1.7× faer on
+//! `Qᴴ W`, 1.1–1.5× on `Q C` (`cargo bench -p squeal-stages --bench tall`; the ratio is
+//! largest for blocks of eight against many columns, the Krylov step's shape). AVX2 and FMA are chosen at run time; elsewhere, for views whose rows are not
 //! contiguous, and for `C` wider than 32 columns, faer's product is used.
 
 use faer::linalg::matmul::matmul;
@@ -53,15 +53,19 @@ pub fn adjoint_times(Q: MatRef<'_, c64>, W: MatRef<'_, c64>, par: Par) -> Mat<c6
         .reduce(|| Mat::<c64>::zeros(depth, width), |a, b| a + b)
 }
 
-/// Contiguous row ranges, whole chunks each, one per thread of `par`.
+/// Contiguous row ranges, one per thread of `par`: whole chunks each, or an even split of
+/// fewer rows (the Arnoldi coordinates, a few thousand), down to 64 rows a thread.
 fn parts(rows: usize, width: usize, par: Par) -> Vec<(usize, usize)> {
     let threads = match par {
         Par::Seq => 1,
         Par::Rayon(threads) => threads.get(),
     };
     let chunk = chunk_rows(width);
-    let chunks = rows.div_ceil(chunk).max(1);
-    let per_part = chunks.div_ceil(threads.min(chunks)) * chunk;
+    let per_part = if rows >= threads * chunk {
+        rows.div_ceil(chunk).div_ceil(threads) * chunk
+    } else {
+        rows.div_ceil(threads).max(64)
+    };
     (0..rows)
         .step_by(per_part.max(1))
         .map(|start| (start, per_part.min(rows - start)))
@@ -219,10 +223,8 @@ mod avx {
         let pairs = rows / 2;
         for p in 0..pairs {
             let i = 2 * p;
-            let mut qv = [_mm256_setzero_pd(); K];
-            for a in 0..K {
-                qv[a] = unsafe { _mm256_loadu_pd(at(q, qs, i, k + a)) };
-            }
+            let qv: [__m256d; K] =
+                std::array::from_fn(|a| unsafe { _mm256_loadu_pd(at(q, qs, i, k + a)) });
             for b in 0..J {
                 let wv = unsafe { _mm256_loadu_pd(at(w, ws, i, j + b)) };
                 let swapped = _mm256_permute_pd::<0b0101>(wv);
