@@ -8,21 +8,22 @@
 //!
 //! A general matrix product packs `Q` into panels before multiplying; with so few columns on
 //! the other side, that copy of `Q` costs about as much as the arithmetic, and faer reaches
-//! 10–14 GFLOP/s per thread on these shapes. These kernels read `Q` in place, once, each
+//! 9–16 GFLOP/s per thread on these shapes. These kernels read `Q` in place, once, each
 //! complex product split into two real FMAs (`q · re c` and `q · im c`, or the `re·re, im·im`
 //! and `re·im, im·re` lanes), combined once per tile rather than per product:
 //!
 //! - `Qᴴ W`: rows in chunks whose part of `W` stays in the second-level cache; within a
 //!   chunk two columns of `Q` meet two of `W` at a time, summed down the rows.
 //! - `Q C`: for 128 rows and a block of 128 columns of `Q`, four rows and two columns of `C`
-//!   at a time are summed across the block in registers. Each row of `Q` is one cache line
-//!   per column, a column apart, which the processor does not prefetch: the first pass over
-//!   a block prefetches the rows two steps ahead.
+//!   at a time are summed across the block in registers. Four rows of `Q` are one cache line
+//!   per column, the lines a column apart, which the processor does not prefetch: the first
+//!   pass over a block prefetches the rows two steps ahead.
 //!
 //! On 28 k rows they reach 13–18 GFLOP/s per thread on this processor: 1.15–1.7× faer on
 //! `Qᴴ W`, 1.1–1.5× on `Q C` (`cargo bench -p squeal-stages --bench tall`; the ratio is
-//! largest for blocks of eight against many columns, the Krylov step's shape). AVX2 and FMA are chosen at run time; elsewhere, for views whose rows are not
-//! contiguous, and for `C` wider than 32 columns, faer's product is used.
+//! largest for blocks of eight against many columns, the Krylov step's shape). AVX2 and FMA
+//! are chosen at run time; elsewhere, for views whose rows are not contiguous, and for `C`
+//! wider than 32 columns, faer's product is used.
 
 use faer::linalg::matmul::matmul;
 use faer::reborrow::{Reborrow, ReborrowMut};
