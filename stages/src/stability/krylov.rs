@@ -53,24 +53,24 @@
 //! 6 kHz on the default brake), so a disk may fall short of the covered band at `max_basis`:
 //! it is kept, and a shift halfway below fills the gap, overlapping both.
 //!
-//! The solves dominated at first. The factor (26 M entries on the default brake) is swept
-//! twice per solve, whatever its width, so wide blocks cost less per vector: with faer's
-//! kernels a block of eight cost 18 ms per vector against 38 ms for two (and the
-//! orthogonalisation becomes matrix–matrix), so although blocks of eight need about a third more vectors for the same
-//! disk, they halved the 17 kHz band of the default brake (407–424 s against 862 s). The
+//! The solves dominated at first. The factor (26 M entries on the default brake) is swept twice
+//! per solve, whatever its width, so wide blocks cost less per vector: with faer's kernels a
+//! block of eight cost 18 ms per vector against 38 ms for two (and the orthogonalisation
+//! becomes matrix–matrix), so although blocks of eight need about a third more vectors for the
+//! same disk, they halved the 17 kHz band of the default brake (407–424 s against 862 s). The
 //! row-major kernels of [`super::lblt`] since cut a block of eight to 7 ms per vector; blocks
 //! of sixteen still lose (99 s against 90 s on the 8 kHz band). Per vector of that band
 //! (1,720), an operator step now takes 7.6 ms to solve, 5.3 ms to rebuild the block from `Q`,
 //! 2.6 ms for the contact correction and 2.4 ms for the M̃ and C̃ products; the products with
-//! `Q` (rebuilding, Gram–Schmidt, correction) go through the kernels of [`super::tall`]. Wide disks (`per_shift` 256)
-//! beat narrow ones: factorisations and the overlaps' double work are paid fewer times, and
-//! the band's width forces disks of 1 kHz radius at the top anyway. Beyond about 900 vectors,
-//! though, the orthogonalisation and the Ritz checks cost more per eigenvalue than another
-//! shift would: a disk cut at 960 vectors and completed by a gap shift did the band in 372 s
-//! against 379 s for one of 1280, with 120 MB less memory. Cut at 800 it took 288 s against
-//! 310 s at 960 (one run each), but at 640, 486 s: 8 of 18 disks fell short of the 1 kHz
-//! radius the band needs at the top. 960 keeps that margin for wider bands (the default
-//! `max_divergence_rate` is twice the benchmark's).
+//! `Q` (rebuilding, Gram–Schmidt, correction) go through the kernels of [`super::tall`]. Wide
+//! disks (`per_shift` 256) beat narrow ones: factorisations and the overlaps' double work are
+//! paid fewer times, and the band's width forces disks of 1 kHz radius at the top anyway.
+//! Beyond about 900 vectors, though, the orthogonalisation and the Ritz checks cost more per
+//! eigenvalue than another shift would: a disk cut at 960 vectors and completed by a gap shift
+//! did the band in 372 s against 379 s for one of 1280, with 120 MB less memory. Cut at 800 it
+//! took 288 s against 310 s at 960 (one run each), but at 640, 486 s: 8 of 18 disks fell short
+//! of the 1 kHz radius the band needs at the top. 960 keeps that margin for wider bands (the
+//! default `max_divergence_rate` is twice the benchmark's).
 
 use std::f64::consts::PI;
 use std::time::Instant;

@@ -351,8 +351,8 @@ impl Stage for Stability {
     fn version(&self) -> u32 {
         // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks; 4: shifts that
         // fall short are kept, Ritz checks placed by the radius's growth; 5: row-major
-        // triangular solves (FMA: round-off differs); 6: Gram–Schmidt projections by
-        // `tall` (round-off differs)
+        // triangular solves (FMA: round-off differs); 6: products with the Krylov basis by
+        // `tall`, M̃ and C̃ gathered by rows (round-off differs)
         6
     }
     fn doc(&self) -> &'static str {

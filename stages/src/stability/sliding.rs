@@ -312,30 +312,16 @@ impl SlidingSystem {
 
     /// `u = Tᴺ q`: the full displacement of a reduced vector.
     pub fn expand(&self, q: &[c64]) -> Vec<c64> {
-        let mut u = vec![c64::new(0.0, 0.0); self.full_dim()];
-        for (reduced, &dof) in self.master_dofs.iter().enumerate() {
-            u[dof] = q[reduced];
-        }
-        for slave in &self.slaves {
-            u[slave.dof] = slave
-                .trial
-                .iter()
-                .map(|&(reduced, coefficient)| q[reduced] * coefficient)
-                .sum();
-        }
-        u
+        self.expand_rows(MatRef::from_column_major_slice(q, q.len(), 1))
     }
 
     /// `Tᵘᵀ y` (test) or `Tᴺᵀ y` of a full vector.
     pub fn restrict(&self, y: &[c64], test: bool) -> Vec<c64> {
-        let mut z: Vec<c64> = self.master_dofs.iter().map(|&dof| y[dof]).collect();
-        for slave in &self.slaves {
-            let relation = if test { &slave.test } else { &slave.trial };
-            for &(reduced, coefficient) in relation {
-                z[reduced] += y[slave.dof] * coefficient;
-            }
-        }
-        z
+        self.restrict_rows(y, 1, test)
+            .col(0)
+            .iter()
+            .copied()
+            .collect()
     }
 
     /// `Tᵘᵀ A Tᴺ X` for `A` = M, Ĉ or K and the columns of `X`.
@@ -364,7 +350,7 @@ impl SlidingSystem {
                 .enumerate()
                 .for_each(|(chunk, rows)| gather_rows(&sources, width, chunk * GATHER_ROWS, rows));
         }
-        self.restrict_rows(&Y, width)
+        self.restrict_rows(&Y, width, true)
     }
 
     /// `Tᴺ X` for the columns of `X`, row-major: entry (dof, j) at dof · width + j.
@@ -386,13 +372,14 @@ impl SlidingSystem {
         u
     }
 
-    /// `Tᵘᵀ Y` for a row-major block `Y` over the full DOFs.
-    fn restrict_rows(&self, Y: &[c64], width: usize) -> Mat<c64> {
+    /// `Tᵘᵀ Y` (test) or `Tᴺᵀ Y` for a row-major block `Y` over the full DOFs.
+    fn restrict_rows(&self, Y: &[c64], width: usize, test: bool) -> Mat<c64> {
         let mut Z = Mat::<c64>::from_fn(self.dim(), width, |reduced, j| {
             Y[self.master_dofs[reduced] * width + j]
         });
         for slave in &self.slaves {
-            for &(reduced, coefficient) in &slave.test {
+            let relation = if test { &slave.test } else { &slave.trial };
+            for &(reduced, coefficient) in relation {
                 for j in 0..width {
                     Z[(reduced, j)] += Y[slave.dof * width + j] * coefficient;
                 }
