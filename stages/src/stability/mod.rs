@@ -352,8 +352,9 @@ impl Stage for Stability {
         // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks; 4: shifts that
         // fall short are kept, Ritz checks placed by the radius's growth; 5: row-major
         // triangular solves (FMA: round-off differs); 6: products with the Krylov basis by
-        // `tall`, M̃ and C̃ gathered by rows (round-off differs)
-        6
+        // `tall`, M̃ and C̃ gathered by rows (round-off differs); 7: eigenvectors formed only
+        // for the band's eigenvalues (round-off may differ)
+        7
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
