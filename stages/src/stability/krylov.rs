@@ -53,7 +53,12 @@
 //! is placed from the density the previous one met in its upper half, aiming at `per_shift`
 //! eigenvalues. Density can grow faster than that estimate allows for (fourfold from 2.6 to
 //! 6 kHz on the default brake), so a disk may fall short of the covered band at `max_basis`:
-//! it is kept, and a shift halfway below fills the gap, overlapping both.
+//! it is kept, and a shift halfway below fills the gap, overlapping both. Where the band's
+//! wedge `|Re λ| ≤ (d_max/2) Im λ` is nearly as wide as the disks the basis allows, no shift
+//! can cover more than a sliver, and the search stops with an error naming both settings. The
+//! default brake reaches that point near 12 kHz at the default d_max of 0.2, with disks of
+//! 960 vectors and 1.2 kHz radius; before, it went on with shifts that each covered about 1 %
+//! of the band, and then retried ever closer ones without saying so.
 //!
 //! The solves dominated at first. The factor (26 M entries on the default brake) is swept twice
 //! per solve, whatever its width, so wide blocks cost less per vector: with faer's kernels a
@@ -91,6 +96,10 @@ use crate::stage::StageError;
 /// Block steps before a shift's Ritz values are first examined (module doc, "Why none is
 /// missed").
 const MIN_BLOCK_STEPS: usize = 6;
+/// A disk that falls short with a radius below this multiple of the band's half-width at the
+/// height covered so far ends the search with an error (`solve_band`): a shift there could
+/// cover only a sliver of the band.
+const WEDGE_MARGIN: f64 = 1.05;
 /// A Ritz vector's first half is its eigenvector when its residual is below this (round-off is
 /// about 1e-15); otherwise the second half is tried too.
 const ROUND_OFF_RESIDUAL: f64 = 1e-12;
@@ -666,9 +675,22 @@ pub fn solve_band(
             low <= covered_to
         };
         if !reaches {
-            // The basis limit left the disk too small. Keep it, and fill the gap below it with
-            // a shift halfway; if that one falls short too (or this is the first shift), start
-            // over closer.
+            // The basis limit left the disk too small. Where the band's wedge is about as wide
+            // as the disk, no shift can help: every disk must hold the wedge's cross-section
+            // at the height covered so far, and barely wider ones would crawl up the band.
+            let wedge = half_rate * covered_to;
+            if result.radius < WEDGE_MARGIN * wedge {
+                return Err(StageError::new(format!(
+                    "at {:.0} Hz the band (|divergence rate| ≤ {max_divergence_rate}) reaches ±{:.0} Hz off the frequency axis, and a shift at {:.0} Hz resolves a disk of only {:.0} Hz radius with {} vectors (max_basis), too small to cover more than a sliver of it: lower max_divergence_rate or raise max_basis",
+                    covered_to / (2.0 * PI),
+                    wedge / (2.0 * PI),
+                    omega / (2.0 * PI),
+                    result.radius / (2.0 * PI),
+                    result.basis
+                )));
+            }
+            // Otherwise keep it, and fill the gap below it with a shift halfway; if that one
+            // falls short too (or this is the first shift), start over closer.
             if step < 1e-4 * omega_max {
                 return Err(StageError::new(format!(
                     "the shift at {:.1} Hz trusts only a radius of {:.1} Hz with {} vectors: raise max_basis",
@@ -689,6 +711,13 @@ pub fn solve_band(
             } else {
                 step = 0.5 * (omega - covered_to);
                 pending = None;
+                tracing::info!(
+                    "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); starting over closer, at {:.0} Hz",
+                    omega / (2.0 * PI),
+                    result.basis,
+                    result.radius / (2.0 * PI),
+                    (covered_to + step).min(omega_max) / (2.0 * PI)
+                );
             }
             continue;
         }

@@ -312,6 +312,40 @@ fn krylov_finds_every_eigenvalue_of_the_dense_solve_on_a_coarse_brake() {
 }
 
 #[test]
+fn a_band_wider_than_the_disks_of_the_basis_is_refused_with_what_to_change() {
+    // Divergence rates up to ±100 %: the band's wedge |Re λ| ≤ Im λ / 2 outgrows the disks
+    // of 160 vectors within a few shifts. The search must stop there and say what to change,
+    // not retry ever closer shifts.
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let equilibrium = equilibrium_of(&model, 0.6);
+    let settings = Settings {
+        f_max_hz: 12_000.0,
+        max_divergence_rate: 1.0,
+        dense_limit: 0,
+        krylov: KrylovOptions {
+            per_shift: 24,
+            max_basis: 160,
+            ..KrylovOptions::default()
+        },
+        ..Settings::default()
+    };
+    let error = match solve(&model, &equilibrium, &settings) {
+        Ok(solution) => panic!(
+            "solved a band wider than its disks: {:?}",
+            solution.report.band.shifts
+        ),
+        Err(error) => error.to_string(),
+    };
+    eprintln!("{error}");
+    assert!(
+        error.contains("off the frequency axis")
+            && error.contains("lower max_divergence_rate or raise max_basis"),
+        "{error}"
+    );
+}
+
+#[test]
 fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes() {
     let mesh = small_brake();
     let undamped = [
