@@ -373,7 +373,7 @@ impl Stage for Stability {
                 "max_divergence_rate",
                 defaults.max_divergence_rate,
                 "",
-                "modes with |2 Re/Im| beyond this are not sought",
+                "modes with |2 Re/Im| beyond this are not sought (a wider band needs wider disks, so a larger max_basis, at high frequency)",
             )
             .at_least(0.0),
             ParamSpec::bool(
@@ -390,7 +390,7 @@ impl Stage for Stability {
             ParamSpec::int(
                 "max_basis",
                 defaults.krylov.max_basis as i64,
-                "krylov: largest Arnoldi basis per shift",
+                "krylov: largest Arnoldi basis per shift (memory and time grow with it)",
             )
             .at_least(8.0),
             ParamSpec::choice(
