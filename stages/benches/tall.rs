@@ -8,7 +8,7 @@
 use std::time::Instant;
 
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, Par, c64};
+use faer::{Accum, Mat, MatMut, Par, c64};
 use squeal_stages::stability::tall::{add_times, adjoint_times};
 
 /// Median wall time of `f` over `runs` runs (s).
@@ -40,78 +40,61 @@ fn main() {
             });
             let flop = 8.0 * (rows * columns * width) as f64;
             for (threads, par) in [("1 thread", Par::Seq), ("all threads", Par::rayon(0))] {
-                let mut reference = Mat::<c64>::zeros(columns, width);
-                let faer_seconds = median_seconds(9, || {
-                    matmul(
-                        reference.as_mut(),
-                        Accum::Replace,
-                        Q.adjoint(),
-                        W.as_ref(),
-                        c64::new(1.0, 0.0),
-                        par,
-                    )
-                });
-                let mut ours = Mat::<c64>::zeros(columns, width);
-                let ours_seconds =
-                    median_seconds(9, || ours = adjoint_times(Q.as_ref(), W.as_ref(), par));
-                report(
+                compare(
                     "Qᴴ W  ",
-                    columns,
-                    width,
-                    threads,
-                    flop,
-                    ours_seconds,
-                    faer_seconds,
-                    &ours,
-                    &reference,
+                    (columns, width, threads, flop),
+                    (columns, width),
+                    |out| {
+                        matmul(
+                            out,
+                            Accum::Replace,
+                            Q.adjoint(),
+                            W.as_ref(),
+                            c64::new(1.0, 0.0),
+                            par,
+                        )
+                    },
+                    |mut out| out.copy_from(adjoint_times(Q.as_ref(), W.as_ref(), par)),
                 );
                 let C = Mat::<c64>::from_fn(columns, width, |i, j| {
                     c64::new(((2 * i + j) as f64).sin(), ((i + 7 * j) as f64).cos())
                 });
-                let mut reference = Mat::<c64>::zeros(rows, width);
-                let faer_seconds = median_seconds(9, || {
-                    matmul(
-                        reference.as_mut(),
-                        Accum::Add,
-                        Q.as_ref(),
-                        C.as_ref(),
-                        c64::new(1.0, 0.0),
-                        par,
-                    )
-                });
-                let mut ours = Mat::<c64>::zeros(rows, width);
-                let ours_seconds =
-                    median_seconds(9, || add_times(ours.as_mut(), Q.as_ref(), C.as_ref(), par));
-                report(
+                compare(
                     "X += Q C",
-                    columns,
-                    width,
-                    threads,
-                    flop,
-                    ours_seconds,
-                    faer_seconds,
-                    &ours,
-                    &reference,
+                    (columns, width, threads, flop),
+                    (rows, width),
+                    |out| {
+                        matmul(
+                            out,
+                            Accum::Add,
+                            Q.as_ref(),
+                            C.as_ref(),
+                            c64::new(1.0, 0.0),
+                            par,
+                        )
+                    },
+                    |out| add_times(out, Q.as_ref(), C.as_ref(), par),
                 );
             }
         }
     }
 }
 
-/// One line of the table: times, rates, the ratio, and how far the results differ.
-#[allow(clippy::too_many_arguments)]
-fn report(
+/// Times faer's product and ours, each writing into a zeroed matrix of `shape`, and prints one
+/// line of the table: times, rates, the ratio, and how far the results differ. The case is
+/// named by the basis's columns, the block's width, the threads and the flop count.
+fn compare(
     product: &str,
-    columns: usize,
-    width: usize,
-    threads: &str,
-    flop: f64,
-    ours_seconds: f64,
-    faer_seconds: f64,
-    ours: &Mat<c64>,
-    reference: &Mat<c64>,
+    (columns, width, threads, flop): (usize, usize, &str, f64),
+    shape: (usize, usize),
+    mut faer_product: impl FnMut(MatMut<'_, c64>),
+    mut our_product: impl FnMut(MatMut<'_, c64>),
 ) {
-    let difference = (ours - reference).norm_max() / reference.norm_max();
+    let mut reference = Mat::<c64>::zeros(shape.0, shape.1);
+    let faer_seconds = median_seconds(9, || faer_product(reference.as_mut()));
+    let mut ours = Mat::<c64>::zeros(shape.0, shape.1);
+    let ours_seconds = median_seconds(9, || our_product(ours.as_mut()));
+    let difference = (&ours - &reference).norm_max() / reference.norm_max();
     println!(
         "  {product} {columns:4} × {width:2}, {threads:11}: tall {:6.1} ms ({:4.1} GFLOP/s), faer {:6.1} ms ({:4.1} GFLOP/s): {:.2}× (relative difference {difference:.1e})",
         ours_seconds * 1e3,
