@@ -81,8 +81,8 @@
 //! where the gap shift grew and the shifts above 6 kHz fell elsewhere (5,808 vectors against
 //! 6,008, the same cost per vector): a gain of placement rather than of the cut. At 640 it
 //! took 486 s: 8 of 18 disks fell short of the 1 kHz radius the band needs at the top. 960
-//! keeps a margin for wider bands (twice the default `max_divergence_rate` makes the wedge
-//! 1.7 kHz wide at 17 kHz).
+//! keeps a margin for somewhat wider bands than the default; twice its `max_divergence_rate`
+//! (a wedge 1.7 kHz wide at 17 kHz) needs more, as above.
 
 use std::f64::consts::PI;
 use std::time::Instant;
