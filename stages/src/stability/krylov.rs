@@ -100,7 +100,8 @@
 use std::f64::consts::PI;
 use std::time::Instant;
 
-use faer::{Mat, MatMut, MatRef, Par, c64};
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
 
 use super::shift_invert::{EmbeddedPattern, ShiftedSolver};
 use super::sliding::{Part, SlidingSystem};
@@ -254,13 +255,37 @@ impl HalfBasis {
     /// `T[..r, ..r] C` for coordinates `C` over the first `r` columns of `Q`.
     fn stored_coordinates(&self, C: MatRef<'_, c64>) -> Mat<c64> {
         let r = C.nrows();
-        self.T.submatrix(0, 0, r, r) * C
+        let mut product = Mat::<c64>::zeros(r, C.ncols());
+        triangular::matmul(
+            product.as_mut(),
+            BlockStructure::Rectangular,
+            Accum::Replace,
+            self.T.submatrix(0, 0, r, r),
+            BlockStructure::UnitTriangularUpper,
+            C,
+            BlockStructure::Rectangular,
+            c64::new(1.0, 0.0),
+            Par::rayon(0),
+        );
+        product
     }
 
     /// `Qᴴ W` over the first `r` columns of `Q`.
     fn adjoint_times(&self, r: usize, W: MatRef<'_, c64>) -> Mat<c64> {
         let raw = adjoint_times(self.S.subcols(0, r), W, Par::rayon(0));
-        self.T.submatrix(0, 0, r, r).adjoint() * raw
+        let mut product = Mat::<c64>::zeros(r, W.ncols());
+        triangular::matmul(
+            product.as_mut(),
+            BlockStructure::Rectangular,
+            Accum::Replace,
+            self.T.submatrix(0, 0, r, r).adjoint(),
+            BlockStructure::UnitTriangularLower,
+            raw.as_ref(),
+            BlockStructure::Rectangular,
+            c64::new(1.0, 0.0),
+            Par::rayon(0),
+        );
+        product
     }
 
     /// `X += Q C` for coordinates `C` over the first `C.nrows()` columns of `Q`.
