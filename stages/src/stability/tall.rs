@@ -13,17 +13,22 @@
 //! and `re·im, im·re` lanes), combined once per tile rather than per product:
 //!
 //! - `Qᴴ W`: rows in chunks whose part of `W` stays in the second-level cache; within a
-//!   chunk two columns of `Q` meet two of `W` at a time, summed down the rows.
+//!   chunk two columns of `Q` (four with AVX-512) meet two of `W` at a time, summed down the
+//!   rows.
 //! - `Q C`: for 128 rows and a block of 128 columns of `Q`, four rows and two columns of `C`
-//!   at a time are summed across the block in registers. Four rows of `Q` are one cache line
-//!   per column, the lines a column apart, which the processor does not prefetch: the first
-//!   pass over a block prefetches the rows two steps ahead.
+//!   (four with AVX-512) at a time are summed across the block in registers. Four rows of `Q`
+//!   are one cache line per column, the lines a column apart, which the processor does not
+//!   prefetch: the first pass over a block prefetches the rows two steps ahead.
 //!
-//! On 28 k rows they reach 13–18 GFLOP/s per thread on this processor: 1.15–1.7× faer on
-//! `Qᴴ W`, 1.1–1.5× on `Q C` (`cargo bench -p squeal-stages --bench tall`; the ratio is
-//! largest for blocks of eight against many columns, the Krylov step's shape). AVX2 and FMA
-//! are chosen at run time; elsewhere, for views whose rows are not contiguous, and for `C`
-//! wider than 32 columns, faer's product is used.
+//! The wider tiles need 16 accumulators, which only the 32 vector registers of AVX-512 hold
+//! (the vectors stay 256 bits wide); they read each operand from the second-level cache half
+//! as often, which is what bounds the narrow tiles. On an AMD EPYC (Zen 4, 2 cores), for 28 k
+//! rows, 960 columns and blocks of eight on both threads: `Qᴴ W` 28 ms with the wide tiles,
+//! 32 ms with the narrow ones, 34 ms by faer; `Q C` 24, 33 and 29 ms (`cargo bench -p
+//! squeal-stages --bench tall`). On an earlier processor without AVX-512 the narrow tiles
+//! reached 13–18 GFLOP/s per thread, 1.15–1.7× faer on `Qᴴ W` and 1.1–1.5× on `Q C`. AVX2 and
+//! FMA, and AVX-512, are chosen at run time; elsewhere, for views whose rows are not
+//! contiguous, and for `C` wider than 32 columns, faer's product is used.
 
 use faer::linalg::matmul::matmul;
 use faer::reborrow::{Reborrow, ReborrowMut};
@@ -85,6 +90,13 @@ fn kernels_apply(strides: [(isize, isize); 3]) -> bool {
     false
 }
 
+/// Whether the processor has AVX-512 (F and VL): its 32 vector registers hold the wider
+/// tiles.
+#[cfg(target_arch = "x86_64")]
+fn wide_tiles() -> bool {
+    is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl")
+}
+
 fn strides(A: MatRef<'_, c64>) -> (isize, isize) {
     (A.row_stride(), A.col_stride())
 }
@@ -101,12 +113,20 @@ fn add_adjoint_times(mut H: MatMut<'_, c64>, Q: MatRef<'_, c64>, W: MatRef<'_, c
         return;
     }
     #[cfg(target_arch = "x86_64")]
+    let wide = wide_tiles();
+    #[cfg(target_arch = "x86_64")]
     for start in (0..rows).step_by(chunk_rows(width)) {
         let len = chunk_rows(width).min(rows - start);
         let (q, w) = (Q.subrows(start, len), W.subrows(start, len));
         // SAFETY: AVX2 and FMA were detected; every view has unit row stride and the indices
         // stay within their shapes.
-        unsafe { avx::add_adjoint_times(H.rb_mut(), q, w) };
+        unsafe {
+            if wide {
+                avx::add_adjoint_times_wide(H.rb_mut(), q, w)
+            } else {
+                avx::add_adjoint_times(H.rb_mut(), q, w)
+            }
+        };
     }
 }
 
@@ -143,10 +163,19 @@ fn add_times_one_thread(mut X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_
         return;
     }
     #[cfg(target_arch = "x86_64")]
+    let wide = wide_tiles();
+    #[cfg(target_arch = "x86_64")]
     for start in (0..rows).step_by(TIMES_CHUNK_ROWS) {
         let len = TIMES_CHUNK_ROWS.min(rows - start);
         // SAFETY: as in `add_adjoint_times`.
-        unsafe { avx::add_times(X.rb_mut().subrows_mut(start, len), Q.subrows(start, len), C) };
+        let (x, q) = (X.rb_mut().subrows_mut(start, len), Q.subrows(start, len));
+        unsafe {
+            if wide {
+                avx::add_times_wide(x, q, C)
+            } else {
+                avx::add_times(x, q, C)
+            }
+        };
     }
 }
 
@@ -178,7 +207,26 @@ mod avx {
     /// # Safety
     /// AVX2 and FMA; unit row strides, non-negative column strides, matching shapes.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn add_adjoint_times(
+    pub unsafe fn add_adjoint_times(H: MatMut<'_, c64>, Q: MatRef<'_, c64>, W: MatRef<'_, c64>) {
+        unsafe { adjoint_times_tiled::<2>(H, Q, W) }
+    }
+
+    /// The same, four columns of Q against two of W at a time: the 16 accumulators and the
+    /// operands need the 32 vector registers of AVX-512 (on 256-bit vectors).
+    ///
+    /// # Safety
+    /// AVX-512F and VL, AVX2 and FMA; as [`add_adjoint_times`].
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    pub unsafe fn add_adjoint_times_wide(
+        H: MatMut<'_, c64>,
+        Q: MatRef<'_, c64>,
+        W: MatRef<'_, c64>,
+    ) {
+        unsafe { adjoint_times_tiled::<4>(H, Q, W) }
+    }
+
+    #[inline(always)]
+    unsafe fn adjoint_times_tiled<const TILE: usize>(
         mut H: MatMut<'_, c64>,
         Q: MatRef<'_, c64>,
         W: MatRef<'_, c64>,
@@ -186,11 +234,15 @@ mod avx {
         let (depth, width) = (Q.ncols(), W.ncols());
         let mut k = 0;
         while k < depth {
-            let kt = (depth - k).min(2);
+            let kt = (depth - k).min(TILE);
             let mut j = 0;
             while j < width {
                 let jt = (width - j).min(2);
                 let sums = match (kt, jt) {
+                    (4, 2) => unsafe { adjoint_tile::<4, 2>(Q, W, k, j) },
+                    (4, _) => unsafe { adjoint_tile::<4, 1>(Q, W, k, j) },
+                    (3, 2) => unsafe { adjoint_tile::<3, 2>(Q, W, k, j) },
+                    (3, _) => unsafe { adjoint_tile::<3, 1>(Q, W, k, j) },
                     (2, 2) => unsafe { adjoint_tile::<2, 2>(Q, W, k, j) },
                     (2, _) => unsafe { adjoint_tile::<2, 1>(Q, W, k, j) },
                     (_, 2) => unsafe { adjoint_tile::<1, 2>(Q, W, k, j) },
@@ -208,57 +260,60 @@ mod avx {
     }
 
     /// `Σ_i conj(Q[i, k + a]) W[i, j + b]` for a < K, b < J.
-    #[target_feature(enable = "avx2,fma")]
+    #[inline(always)]
     unsafe fn adjoint_tile<const K: usize, const J: usize>(
         Q: MatRef<'_, c64>,
         W: MatRef<'_, c64>,
         k: usize,
         j: usize,
-    ) -> [[c64; 2]; 2] {
-        let rows = Q.nrows();
-        let (q, qs) = (Q.as_ptr(), Q.col_stride());
-        let (w, ws) = (W.as_ptr(), W.col_stride());
-        // same[a][b] gathers (re q · re w, im q · im w), cross[a][b] (re q · im w, im q · re w).
-        let mut same = [[_mm256_setzero_pd(); J]; K];
-        let mut cross = [[_mm256_setzero_pd(); J]; K];
-        let pairs = rows / 2;
-        for p in 0..pairs {
-            let i = 2 * p;
-            let qv: [__m256d; K] =
-                std::array::from_fn(|a| unsafe { _mm256_loadu_pd(at(q, qs, i, k + a)) });
-            for b in 0..J {
-                let wv = unsafe { _mm256_loadu_pd(at(w, ws, i, j + b)) };
-                let swapped = _mm256_permute_pd::<0b0101>(wv);
-                for a in 0..K {
-                    same[a][b] = _mm256_fmadd_pd(qv[a], wv, same[a][b]);
-                    cross[a][b] = _mm256_fmadd_pd(qv[a], swapped, cross[a][b]);
+    ) -> [[c64; 2]; 4] {
+        // SAFETY: the callers enable AVX2 and FMA; indices as in `add_adjoint_times`.
+        unsafe {
+            let rows = Q.nrows();
+            let (q, qs) = (Q.as_ptr(), Q.col_stride());
+            let (w, ws) = (W.as_ptr(), W.col_stride());
+            // same[a][b] gathers (re q · re w, im q · im w), cross[a][b] (re q · im w, im q · re w).
+            let mut same = [[_mm256_setzero_pd(); J]; K];
+            let mut cross = [[_mm256_setzero_pd(); J]; K];
+            let pairs = rows / 2;
+            for p in 0..pairs {
+                let i = 2 * p;
+                let qv: [__m256d; K] =
+                    std::array::from_fn(|a| _mm256_loadu_pd(at(q, qs, i, k + a)));
+                for b in 0..J {
+                    let wv = _mm256_loadu_pd(at(w, ws, i, j + b));
+                    let swapped = _mm256_permute_pd::<0b0101>(wv);
+                    for a in 0..K {
+                        same[a][b] = _mm256_fmadd_pd(qv[a], wv, same[a][b]);
+                        cross[a][b] = _mm256_fmadd_pd(qv[a], swapped, cross[a][b]);
+                    }
                 }
             }
-        }
-        let mut sums = [[c64::new(0.0, 0.0); 2]; 2];
-        // re = Σ same lanes; im = Σ (re q · im w − im q · re w) = cross lanes 0 − 1 + 2 − 3.
-        let sign = _mm256_setr_pd(1.0, -1.0, 1.0, -1.0);
-        for a in 0..K {
-            for b in 0..J {
-                let paired = _mm256_hadd_pd(same[a][b], _mm256_mul_pd(cross[a][b], sign));
-                let folded = _mm_add_pd(
-                    _mm256_castpd256_pd128(paired),
-                    _mm256_extractf128_pd::<1>(paired),
-                );
-                let mut out = [0.0f64; 2];
-                unsafe { _mm_storeu_pd(out.as_mut_ptr(), folded) };
-                sums[a][b] = c64::new(out[0], out[1]);
-            }
-        }
-        if rows % 2 == 1 {
-            let i = rows - 1;
+            let mut sums = [[c64::new(0.0, 0.0); 2]; 4];
+            // re = Σ same lanes; im = Σ (re q · im w − im q · re w) = cross lanes 0 − 1 + 2 − 3.
+            let sign = _mm256_setr_pd(1.0, -1.0, 1.0, -1.0);
             for a in 0..K {
                 for b in 0..J {
-                    sums[a][b] += Q[(i, k + a)].conj() * W[(i, j + b)];
+                    let paired = _mm256_hadd_pd(same[a][b], _mm256_mul_pd(cross[a][b], sign));
+                    let folded = _mm_add_pd(
+                        _mm256_castpd256_pd128(paired),
+                        _mm256_extractf128_pd::<1>(paired),
+                    );
+                    let mut out = [0.0f64; 2];
+                    _mm_storeu_pd(out.as_mut_ptr(), folded);
+                    sums[a][b] = c64::new(out[0], out[1]);
                 }
             }
+            if rows % 2 == 1 {
+                let i = rows - 1;
+                for a in 0..K {
+                    for b in 0..J {
+                        sums[a][b] += Q[(i, k + a)].conj() * W[(i, j + b)];
+                    }
+                }
+            }
+            sums
         }
-        sums
     }
     /// Columns of Q per k-block of `Q C`.
     const K_BLOCK: usize = 128;
@@ -269,20 +324,43 @@ mod avx {
     /// # Safety
     /// As [`add_adjoint_times`].
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn add_times(mut X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>) {
+    pub unsafe fn add_times(X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>) {
+        unsafe { times_tiled::<2>(X, Q, C) }
+    }
+
+    /// The same, four columns of C at a time (16 accumulators: the registers of AVX-512),
+    /// which halves the passes over each k-block of Q.
+    ///
+    /// # Safety
+    /// As [`add_adjoint_times_wide`].
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    pub unsafe fn add_times_wide(X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>) {
+        unsafe { times_tiled::<4>(X, Q, C) }
+    }
+
+    #[inline(always)]
+    unsafe fn times_tiled<const TILE: usize>(
+        mut X: MatMut<'_, c64>,
+        Q: MatRef<'_, c64>,
+        C: MatRef<'_, c64>,
+    ) {
         let (depth, width) = (Q.ncols(), C.ncols());
         for k in (0..depth).step_by(K_BLOCK) {
             let block = K_BLOCK.min(depth - k);
             let mut j = 0;
             while j < width {
                 let first_pass = j == 0;
-                if width - j >= 2 {
-                    unsafe { times_tile::<2>(X.rb_mut(), Q, C, k, block, j, first_pass) };
-                    j += 2;
-                } else {
-                    unsafe { times_tile::<1>(X.rb_mut(), Q, C, k, block, j, first_pass) };
-                    j += 1;
-                }
+                let jt = (width - j).min(TILE);
+                let (X, j0) = (X.rb_mut(), j);
+                unsafe {
+                    match jt {
+                        4 => times_tile::<4>(X, Q, C, k, block, j0, first_pass),
+                        3 => times_tile::<3>(X, Q, C, k, block, j0, first_pass),
+                        2 => times_tile::<2>(X, Q, C, k, block, j0, first_pass),
+                        _ => times_tile::<1>(X, Q, C, k, block, j0, first_pass),
+                    }
+                };
+                j += jt;
             }
         }
     }
@@ -290,7 +368,7 @@ mod avx {
     /// `X[:, j..j + J] += Q[:, k..k + block] C[k..k + block, j..j + J]`. The first pass over
     /// a k-block prefetches the rows four ahead, which the processor would not (one line per
     /// column, a hundred columns apart).
-    #[target_feature(enable = "avx2,fma")]
+    #[inline(always)]
     unsafe fn times_tile<const J: usize>(
         mut X: MatMut<'_, c64>,
         Q: MatRef<'_, c64>,
@@ -300,51 +378,54 @@ mod avx {
         j: usize,
         prefetch: bool,
     ) {
-        let rows = X.nrows();
-        let (q, qs) = (Q.as_ptr(), Q.col_stride());
-        let (c, cs) = (C.as_ptr(), C.col_stride());
-        let (x, xs) = (X.as_ptr_mut(), X.col_stride());
-        let quads = rows / 4;
-        for t in 0..quads {
-            let i = 4 * t;
-            // real = q · re c, imag = q · im c, for rows i, i + 1 and i + 2, i + 3.
-            let mut real = [[_mm256_setzero_pd(); J]; 2];
-            let mut imag = [[_mm256_setzero_pd(); J]; 2];
-            for a in k..k + block {
-                if prefetch {
-                    _mm_prefetch::<_MM_HINT_T0>(at(q, qs, i + 8, a) as *const i8);
-                }
-                let low = unsafe { _mm256_loadu_pd(at(q, qs, i, a)) };
-                let high = unsafe { _mm256_loadu_pd(at(q, qs, i + 2, a)) };
-                for b in 0..J {
-                    let entry = at(c, cs, a, j + b);
-                    let re = unsafe { _mm256_broadcast_sd(&*entry) };
-                    let im = unsafe { _mm256_broadcast_sd(&*entry.add(1)) };
-                    real[0][b] = _mm256_fmadd_pd(low, re, real[0][b]);
-                    imag[0][b] = _mm256_fmadd_pd(low, im, imag[0][b]);
-                    real[1][b] = _mm256_fmadd_pd(high, re, real[1][b]);
-                    imag[1][b] = _mm256_fmadd_pd(high, im, imag[1][b]);
-                }
-            }
-            // q c = real + (−im, re) of imag.
-            for half in 0..2 {
-                for b in 0..J {
-                    let target = at(x, xs, i + 2 * half, j + b) as *mut f64;
-                    let product =
-                        _mm256_addsub_pd(real[half][b], _mm256_permute_pd::<0b0101>(imag[half][b]));
-                    unsafe {
-                        _mm256_storeu_pd(target, _mm256_add_pd(_mm256_loadu_pd(target), product))
-                    };
-                }
-            }
-        }
-        for i in 4 * quads..rows {
-            for b in 0..J {
-                let mut sum = c64::new(0.0, 0.0);
+        // SAFETY: the callers enable AVX2 and FMA; indices as in `add_times`.
+        unsafe {
+            let rows = X.nrows();
+            let (q, qs) = (Q.as_ptr(), Q.col_stride());
+            let (c, cs) = (C.as_ptr(), C.col_stride());
+            let (x, xs) = (X.as_ptr_mut(), X.col_stride());
+            let quads = rows / 4;
+            for t in 0..quads {
+                let i = 4 * t;
+                // real = q · re c, imag = q · im c, for rows i, i + 1 and i + 2, i + 3.
+                let mut real = [[_mm256_setzero_pd(); J]; 2];
+                let mut imag = [[_mm256_setzero_pd(); J]; 2];
                 for a in k..k + block {
-                    sum += Q[(i, a)] * C[(a, j + b)];
+                    if prefetch {
+                        _mm_prefetch::<_MM_HINT_T0>(at(q, qs, i + 8, a) as *const i8);
+                    }
+                    let low = _mm256_loadu_pd(at(q, qs, i, a));
+                    let high = _mm256_loadu_pd(at(q, qs, i + 2, a));
+                    for b in 0..J {
+                        let entry = at(c, cs, a, j + b);
+                        let re = _mm256_broadcast_sd(&*entry);
+                        let im = _mm256_broadcast_sd(&*entry.add(1));
+                        real[0][b] = _mm256_fmadd_pd(low, re, real[0][b]);
+                        imag[0][b] = _mm256_fmadd_pd(low, im, imag[0][b]);
+                        real[1][b] = _mm256_fmadd_pd(high, re, real[1][b]);
+                        imag[1][b] = _mm256_fmadd_pd(high, im, imag[1][b]);
+                    }
                 }
-                X[(i, j + b)] += sum;
+                // q c = real + (−im, re) of imag.
+                for half in 0..2 {
+                    for b in 0..J {
+                        let target = at(x, xs, i + 2 * half, j + b) as *mut f64;
+                        let product = _mm256_addsub_pd(
+                            real[half][b],
+                            _mm256_permute_pd::<0b0101>(imag[half][b]),
+                        );
+                        _mm256_storeu_pd(target, _mm256_add_pd(_mm256_loadu_pd(target), product));
+                    }
+                }
+            }
+            for i in 4 * quads..rows {
+                for b in 0..J {
+                    let mut sum = c64::new(0.0, 0.0);
+                    for a in k..k + block {
+                        sum += Q[(i, a)] * C[(a, j + b)];
+                    }
+                    X[(i, j + b)] += sum;
+                }
             }
         }
     }
@@ -405,6 +486,52 @@ mod tests {
                             "W + Q C, {rows} × {depth} against {width}, {par:?}"
                         );
                     }
+                }
+            }
+        }
+    }
+
+    /// Both tile sizes, whichever the processor would pick: the narrow tiles (AVX2) and, where
+    /// the processor has AVX-512, the wide ones, on one chunk against faer's product.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn both_tile_sizes_equal_faers_product() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            return;
+        }
+        let mut rng = SplitMix64::new(13);
+        let rows = 301;
+        for &depth in &[1usize, 2, 3, 4, 5, 7, 130] {
+            for &width in &[1usize, 2, 3, 4, 5, 8] {
+                let Q = random(rows, depth, &mut rng);
+                let W = random(rows, width, &mut rng);
+                let C = random(depth, width, &mut rng);
+                let adjoint = Q.adjoint() * &W;
+                let updated = &W + &Q * &C;
+                for wide in [false, true] {
+                    if wide && !wide_tiles() {
+                        continue;
+                    }
+                    let mut H = Mat::<c64>::zeros(depth, width);
+                    let mut X = W.clone();
+                    // SAFETY: the features were detected; the operands are whole matrices.
+                    unsafe {
+                        if wide {
+                            avx::add_adjoint_times_wide(H.as_mut(), Q.as_ref(), W.as_ref());
+                            avx::add_times_wide(X.as_mut(), Q.as_ref(), C.as_ref());
+                        } else {
+                            avx::add_adjoint_times(H.as_mut(), Q.as_ref(), W.as_ref());
+                            avx::add_times(X.as_mut(), Q.as_ref(), C.as_ref());
+                        }
+                    }
+                    let errors = [
+                        largest_difference(H.as_ref(), adjoint.as_ref()),
+                        largest_difference(X.as_ref(), updated.as_ref()),
+                    ];
+                    assert!(
+                        errors.iter().all(|error| *error < 1e-11),
+                        "{depth} × {width}, wide {wide}: errors {errors:?}"
+                    );
                 }
             }
         }
