@@ -19,9 +19,9 @@
 //! ```
 //!
 //! `Y` costs one block solve with as many right-hand sides as closed pairs, per shift: on the
-//! default brake (288 pairs) about 2 s, against 1.5 s for the factorisation itself; faer's
-//! kernels, built for wide right-hand sides, took as long as the row-major ones. The split is
-//! logged at debug level.
+//! default brake (288 pairs) 1.1–1.2 s, against 1.0–1.1 s for the factorisation itself (2
+//! cores); faer's kernels, built for wide right-hand sides, took as long as the row-major ones.
+//! The split is logged at debug level.
 
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::perm::PermRef;
