@@ -104,7 +104,7 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
 
 use super::shift_invert::{EmbeddedPattern, ShiftedSolver};
-use super::sliding::{Part, SlidingSystem};
+use super::sliding::SlidingSystem;
 use super::tall::{add_times, adjoint_times};
 use crate::modes::lanczos::SplitMix64;
 use crate::stage::StageError;
@@ -216,9 +216,7 @@ impl Operator<'_> {
         let shifted = Mat::from_fn(X1.nrows(), X1.ncols(), |i, j| {
             X2[(i, j)] * scale + sigma * X1[(i, j)]
         });
-        let rhs = self
-            .system
-            .apply_sum(&[(Part::M, shifted.as_ref()), (Part::C, X1)]);
+        let rhs = self.system.apply_mass_damping(shifted.as_ref(), X1);
         -self.solver.solve(rhs.as_ref())
     }
 }

@@ -69,6 +69,8 @@ pub struct SlidingSystem {
     /// `‖·‖₁` of `M_sym`, `C_sym`, `K_sym`, the scales of the residual.
     pub norms: [f64; 3],
     pub mu: f64,
+    /// `M` and `Ĉ` by rows on one pattern, for the shift-invert operator.
+    mass_damping: PairedRows,
 }
 
 /// Which of the three matrices.
@@ -201,6 +203,13 @@ impl SlidingSystem {
             model.C.clone()
         };
 
+        if n > u32::MAX as usize {
+            return Err(StageError::new(format!(
+                "{n} DOFs: the sliding problem indexes at most {} DOFs",
+                u32::MAX
+            )));
+        }
+        let mass_damping = PairedRows::new(&model.M, &C);
         let mut system = SlidingSystem {
             M: model.M.clone(),
             C,
@@ -214,6 +223,7 @@ impl SlidingSystem {
             dof_of_node: Vec::new(),
             norms: [0.0; 3],
             mu,
+            mass_damping,
         };
         system.M_sym = system.congruence(&system.M);
         system.C_sym = system.congruence(&system.C);
@@ -312,7 +322,7 @@ impl SlidingSystem {
 
     /// `u = Tᴺ q`: the full displacement of a reduced vector.
     pub fn expand(&self, q: &[c64]) -> Vec<c64> {
-        self.expand_rows(MatRef::from_column_major_slice(q, q.len(), 1))
+        self.expand_rows(&[MatRef::from_column_major_slice(q, q.len(), 1)])
     }
 
     /// `Tᵘᵀ y` (test) or `Tᴺᵀ y` of a full vector.
@@ -326,46 +336,54 @@ impl SlidingSystem {
 
     /// `Tᵘᵀ A Tᴺ X` for `A` = M, Ĉ or K and the columns of `X`.
     pub fn apply_block(&self, part: Part, X: MatRef<'_, c64>) -> Mat<c64> {
-        self.apply_sum(&[(part, X)])
-    }
-
-    /// `Σ Tᵘᵀ A Tᴺ X` over the terms `(A, X)` (blocks of the same width), into one block:
-    /// the columns of each `Tᴺ X` stored by rows, and the rows of the sum shared among the
-    /// threads, each row gathered from the rows its entries point to ([`gather_rows`]).
-    pub fn apply_sum(&self, terms: &[(Part, MatRef<'_, c64>)]) -> Mat<c64> {
-        let n = self.full_dim();
-        let width = terms.first().map_or(0, |(_, X)| X.ncols());
-        let expanded: Vec<(&CscMatrix, Vec<c64>)> = terms
-            .iter()
-            .map(|&(part, X)| {
-                assert_eq!(X.ncols(), width, "terms of one width");
-                (self.full(part), self.expand_rows(X))
-            })
-            .collect();
-        let sources: Vec<(&CscMatrix, &[c64])> =
-            expanded.iter().map(|(A, U)| (*A, U.as_slice())).collect();
-        let mut Y = vec![c64::new(0.0, 0.0); n * width];
+        let width = X.ncols();
+        let source = self.expand_rows(&[X]);
+        let mut Y = vec![c64::new(0.0, 0.0); self.full_dim() * width];
         if width > 0 {
+            let A = self.full(part);
             Y.par_chunks_mut(GATHER_ROWS * width)
                 .enumerate()
-                .for_each(|(chunk, rows)| gather_rows(&sources, width, chunk * GATHER_ROWS, rows));
+                .for_each(|(chunk, rows)| {
+                    gather_rows(A, &source, width, chunk * GATHER_ROWS, rows)
+                });
         }
         self.restrict_rows(&Y, width, true)
     }
 
-    /// `Tᴺ X` for the columns of `X`, row-major: entry (dof, j) at dof · width + j.
-    fn expand_rows(&self, X: MatRef<'_, c64>) -> Vec<c64> {
+    /// `Tᵘᵀ (M Tᴺ X + Ĉ Tᴺ Y)` for blocks `X`, `Y` of one width: the shift-invert operator's
+    /// product, by [`PairedRows`].
+    pub fn apply_mass_damping(&self, X: MatRef<'_, c64>, Y: MatRef<'_, c64>) -> Mat<c64> {
         let width = X.ncols();
+        assert_eq!(Y.ncols(), width, "blocks of one width");
+        let source = self.expand_rows(&[X, Y]);
+        let Z = self.mass_damping.apply(&source, width);
+        self.restrict_rows(&Z, width, true)
+    }
+
+    /// `Tᴺ X` for the blocks `X` side by side, row-major: entry (dof, j) of the blocks'
+    /// columns in turn at `dof · width + j`, `width` their total.
+    fn expand_rows(&self, blocks: &[MatRef<'_, c64>]) -> Vec<c64> {
+        let width: usize = blocks.iter().map(|X| X.ncols()).sum();
         let mut u = vec![c64::new(0.0, 0.0); self.full_dim() * width];
         for (reduced, &dof) in self.master_dofs.iter().enumerate() {
-            for j in 0..width {
-                u[dof * width + j] = X[(reduced, j)];
+            let row = &mut u[dof * width..(dof + 1) * width];
+            let mut j = 0;
+            for X in blocks {
+                for col in 0..X.ncols() {
+                    row[j] = X[(reduced, col)];
+                    j += 1;
+                }
             }
         }
         for slave in &self.slaves {
             for &(reduced, coefficient) in &slave.trial {
-                for j in 0..width {
-                    u[slave.dof * width + j] += X[(reduced, j)] * coefficient;
+                let row = &mut u[slave.dof * width..(slave.dof + 1) * width];
+                let mut j = 0;
+                for X in blocks {
+                    for col in 0..X.ncols() {
+                        row[j] += X[(reduced, col)] * coefficient;
+                        j += 1;
+                    }
                 }
             }
         }
@@ -405,7 +423,7 @@ impl SlidingSystem {
             .into_par_iter()
             .map(|first| {
                 let width = GROUP_WIDTH.min(lambdas.len() - first);
-                let u = self.expand_rows(Q.subcols(first, width));
+                let u = self.expand_rows(&[Q.subcols(first, width)]);
                 let q_norms: Vec<f64> = (0..width).map(|j| Q.col(first + j).norm_l2()).collect();
                 let [Mu, Cu, Ku] =
                     [Part::M, Part::C, Part::K].map(|part| mul_rows(self.full(part), &u, width));
@@ -435,33 +453,165 @@ impl SlidingSystem {
 /// times per block, narrow enough that a group's rows stay in cache.
 const GROUP_WIDTH: usize = 16;
 
-/// Rows of a product per task in [`SlidingSystem::apply_sum`].
+/// Rows of a product per task.
 const GATHER_ROWS: usize = 1024;
 
 /// `Y = A X` for a real sparse `A` and complex vectors `X` stored row-major, `width` per row.
 fn mul_rows(A: &CscMatrix, X: &[c64], width: usize) -> Vec<c64> {
     let mut Y = vec![c64::new(0.0, 0.0); A.n_rows * width];
-    gather_rows(&[(A, X)], width, 0, &mut Y);
+    gather_rows(A, X, width, 0, &mut Y);
     Y
 }
 
-/// Rows `first..` (as many as `Y` holds, row-major, `width` per row) of `Σ A U` over the
-/// terms: row r of A is column r, since M, Ĉ and K are symmetric, so each row of the result
-/// is a sum of rows of U read where its entries point. Gathering reads scattered rows but
-/// writes each result row once, and the rows can be shared among threads; scattering column
-/// by column reads and writes scattered rows of the result. On the default brake a block of
-/// eight took 10–12 ms per matrix gathered by rows on two threads, 14 ms scattered (four
-/// columns per thread), and M̃ and C̃ together 20 ms instead of 28 (the 8 kHz band's
-/// products: 4.1 s instead of 6.0).
-fn gather_rows(terms: &[(&CscMatrix, &[c64])], width: usize, first: usize, Y: &mut [c64]) {
+/// Two symmetric matrices `A`, `B` (M and Ĉ) by rows on the union of their patterns, so that
+/// `A X + B Y` reads the pattern once. Consecutive rows with the same pattern (a node's three
+/// DOFs) form a group that stores its column indices (`u32`) once and, per entry, both values
+/// of each of its rows: each row of `X` and `Y` the group points to is read once for all of
+/// its rows. On the default brake a block of eight took 7.7 ms, against 9.4 ms ungrouped and
+/// 12.6 ms for the two products taken apart by [`gather_rows`] (two threads,
+/// `SQUEAL_BENCH_SOLVE=1`).
+struct PairedRows {
+    /// Group g: rows `row_start[g]..row_start[g + 1]`, pattern `cols[col_start[g]..col_start[g
+    /// + 1]]`, values from `value_start[g]`, entry by entry, row by row within each entry.
+    row_start: Vec<usize>,
+    col_start: Vec<usize>,
+    value_start: Vec<usize>,
+    cols: Vec<u32>,
+    values: Vec<[f64; 2]>,
+    /// Consecutive groups of about [`GATHER_ROWS`] rows, one task each.
+    tasks: Vec<std::ops::Range<usize>>,
+}
+
+/// Most rows in a group of [`PairedRows`].
+const GROUP_ROWS: usize = 8;
+
+impl PairedRows {
+    /// `A` and `B` square, symmetric (row r is column r), of the same size, with fewer than
+    /// 2³² rows.
+    fn new(A: &CscMatrix, B: &CscMatrix) -> PairedRows {
+        let n = A.n_cols;
+        assert_eq!(
+            (B.n_rows, B.n_cols, A.n_rows),
+            (n, n, n),
+            "square, of one size"
+        );
+        // Each row on the union pattern, sorted by column.
+        let mut row_ptr = vec![0];
+        let mut entries: Vec<(u32, [f64; 2])> = Vec::new();
+        // Where column c was stored in the row being built (stale below the row's start).
+        let mut slot = vec![usize::MAX; n];
+        for r in 0..n {
+            let start = entries.len();
+            for (which, matrix) in [A, B].into_iter().enumerate() {
+                for entry in matrix.col_ptr[r]..matrix.col_ptr[r + 1] {
+                    let c = matrix.row_idx[entry];
+                    if slot[c] == usize::MAX || slot[c] < start {
+                        slot[c] = entries.len();
+                        entries.push((c as u32, [0.0; 2]));
+                    }
+                    entries[slot[c]].1[which] += matrix.values[entry];
+                }
+            }
+            entries[start..].sort_unstable_by_key(|&(c, _)| c);
+            row_ptr.push(entries.len());
+        }
+        let row = |r: usize| &entries[row_ptr[r]..row_ptr[r + 1]];
+        let same_pattern =
+            |r: usize, s: usize| row(r).iter().map(|e| e.0).eq(row(s).iter().map(|e| e.0));
+        let mut pairs = PairedRows {
+            row_start: vec![0],
+            col_start: vec![0],
+            value_start: vec![0],
+            cols: Vec::new(),
+            values: Vec::new(),
+            tasks: Vec::new(),
+        };
+        let mut r = 0;
+        while r < n {
+            let mut end = r + 1;
+            while end < n && end - r < GROUP_ROWS && same_pattern(r, end) {
+                end += 1;
+            }
+            pairs.cols.extend(row(r).iter().map(|e| e.0));
+            for e in 0..row(r).len() {
+                pairs.values.extend((r..end).map(|s| row(s)[e].1));
+            }
+            pairs.row_start.push(end);
+            pairs.col_start.push(pairs.cols.len());
+            pairs.value_start.push(pairs.values.len());
+            r = end;
+        }
+        let groups = pairs.row_start.len() - 1;
+        let mut first = 0;
+        for g in 0..groups {
+            if pairs.row_start[g + 1] - pairs.row_start[first] >= GATHER_ROWS || g + 1 == groups {
+                pairs.tasks.push(first..g + 1);
+                first = g + 1;
+            }
+        }
+        pairs
+    }
+
+    /// `A X + B Y` for `source` holding the rows of `X` and `Y` side by side (`2 · width` per
+    /// row), row-major, the tasks shared among the threads.
+    fn apply(&self, source: &[c64], width: usize) -> Vec<c64> {
+        let n = self.row_start.last().copied().unwrap_or(0);
+        let mut Z = vec![c64::new(0.0, 0.0); n * width];
+        let mut parts = Vec::with_capacity(self.tasks.len());
+        let mut rest = Z.as_mut_slice();
+        for task in &self.tasks {
+            let rows = self.row_start[task.end] - self.row_start[task.start];
+            let (part, tail) = rest.split_at_mut(rows * width);
+            parts.push((task.clone(), part));
+            rest = tail;
+        }
+        parts
+            .into_par_iter()
+            .for_each(|(groups, out)| self.gather(source, width, groups, out));
+        Z
+    }
+
+    /// The rows of `groups` into `out` (their rows, row-major).
+    fn gather(
+        &self,
+        source: &[c64],
+        width: usize,
+        groups: std::ops::Range<usize>,
+        out: &mut [c64],
+    ) {
+        let first_row = self.row_start[groups.start];
+        for g in groups {
+            let rows = self.row_start[g + 1] - self.row_start[g];
+            let at = (self.row_start[g] - first_row) * width;
+            let out = &mut out[at..at + rows * width];
+            let values = &self.values[self.value_start[g]..self.value_start[g + 1]];
+            let cols = &self.cols[self.col_start[g]..self.col_start[g + 1]];
+            for (&col, values) in cols.iter().zip(values.chunks_exact(rows)) {
+                let start = 2 * width * col as usize;
+                let (x, y) = source[start..start + 2 * width].split_at(width);
+                for (row, &[a, b]) in out.chunks_exact_mut(width).zip(values) {
+                    for ((z, x), y) in row.iter_mut().zip(x).zip(y) {
+                        *z += x * a + y * b;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Rows `first..` (as many as `Y` holds, row-major, `width` per row) of `A U`: row r of A is
+/// column r, since M, Ĉ and K are symmetric, so each row of the result is a sum of rows of U
+/// read where its entries point. Gathering reads scattered rows but writes each result row
+/// once, and the rows can be shared among threads; scattering column by column reads and
+/// writes scattered rows of the result. On the default brake a block of eight took 10–12 ms
+/// gathered by rows on two threads, 14 ms scattered (four columns per thread).
+fn gather_rows(A: &CscMatrix, U: &[c64], width: usize, first: usize, Y: &mut [c64]) {
     for (offset, row) in Y.chunks_exact_mut(width).enumerate() {
         let r = first + offset;
-        for (A, U) in terms {
-            for entry in A.col_ptr[r]..A.col_ptr[r + 1] {
-                let (source, a) = (A.row_idx[entry], A.values[entry]);
-                for (y, u) in row.iter_mut().zip(&U[source * width..(source + 1) * width]) {
-                    *y += u * a;
-                }
+        for entry in A.col_ptr[r]..A.col_ptr[r + 1] {
+            let (source, a) = (A.row_idx[entry], A.values[entry]);
+            for (y, u) in row.iter_mut().zip(&U[source * width..(source + 1) * width]) {
+                *y += u * a;
             }
         }
     }

@@ -15,6 +15,7 @@ use crate::equilibrium::{self, Load, Solver};
 use crate::mesh::brake::{BrakeGeometry, brake};
 use crate::mesh::{ContactPair, Mesh};
 use crate::model::CscMatrix;
+use crate::stability::sliding::Part;
 use crate::stage::{Input, Value};
 
 /// A brake small enough for a dense reference solve of its linearised problem.
@@ -220,6 +221,32 @@ fn compare(found: &[c64], reference: &[c64]) -> f64 {
         worst = worst.max(distance);
     }
     worst
+}
+
+#[test]
+fn the_operators_paired_product_equals_the_two_products_of_m_and_c() {
+    // With friction damping, Ĉ has entries (pad–disc couplings) outside M's pattern.
+    let (model, _) = test_model(&small_brake(), "hub, pad_backs", &[]);
+    let equilibrium = equilibrium_of(&model, 0.6);
+    let system = SlidingSystem::new(&model, &equilibrium, true).unwrap();
+    let m = system.dim();
+    for width in [1, 3, 8] {
+        let block = |seed: usize| {
+            faer::Mat::<c64>::from_fn(m, width, |i, j| {
+                let t = (i * 7 + j * 13 + seed) as f64;
+                c64::new(t.sin(), (0.3 * t).cos())
+            })
+        };
+        let (X, Y) = (block(1), block(2));
+        let paired = system.apply_mass_damping(X.as_ref(), Y.as_ref());
+        let separate =
+            system.apply_block(Part::M, X.as_ref()) + system.apply_block(Part::C, Y.as_ref());
+        let error = (&paired - &separate).norm_max() / separate.norm_max();
+        assert!(
+            error < 1e-14,
+            "width {width}: relative difference {error:.1e}"
+        );
+    }
 }
 
 #[test]
