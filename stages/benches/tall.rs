@@ -1,6 +1,7 @@
 //! `Qᴴ W` and `X += Q C` for the Krylov basis's shape (28,224 rows: the default brake's
 //! reduced DOFs; 480 and 960 columns; blocks of 8 and 16), by `stability::tall` and by faer's
-//! general product, on one thread and on all. Run with
+//! general product, on one thread and on all; and a Gram–Schmidt update with the next projection,
+//! apart and fused. Run with
 //! `cargo bench -p squeal-stages --bench tall`.
 
 #![allow(non_snake_case)] // matrices are named as in the equations
@@ -8,8 +9,8 @@
 use std::time::Instant;
 
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatMut, Par, c64};
-use squeal_stages::stability::tall::{add_times, adjoint_times};
+use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
+use squeal_stages::stability::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
 
 /// Median wall time of `f` over `runs` runs (s).
 fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
@@ -75,6 +76,9 @@ fn main() {
                     },
                     |out| add_times(out, Q.as_ref(), C.as_ref(), par),
                 );
+                if threads == "all threads" {
+                    fused(Q.as_ref(), W.as_ref(), C.as_ref(), (columns, width, par));
+                }
             }
         }
     }
@@ -102,5 +106,26 @@ fn compare(
         faer_seconds * 1e3,
         flop / faer_seconds / 1e9,
         faer_seconds / ours_seconds
+    );
+}
+
+/// `W −= Q C` then `Qᴴ W`: the two products one after the other, and fused in one sweep over
+/// `Q` (`subtract_then_adjoint_times`).
+fn fused(Q: MatRef<'_, c64>, W: MatRef<'_, c64>, C: MatRef<'_, c64>, shape: (usize, usize, Par)) {
+    let (columns, width, par) = shape;
+    let apart = median_seconds(9, || {
+        let mut z = W.to_owned();
+        add_times(z.as_mut(), Q, (-C).as_ref(), par);
+        adjoint_times(Q, z.as_ref(), par);
+    });
+    let together = median_seconds(9, || {
+        let mut z = W.to_owned();
+        subtract_then_adjoint_times(z.as_mut(), Q, C, par);
+    });
+    println!(
+        "  W −= Q C, then Qᴴ W {columns:4} × {width:2}, all threads: apart {:6.1} ms, fused {:6.1} ms: {:.2}×",
+        apart * 1e3,
+        together * 1e3,
+        apart / together
     );
 }

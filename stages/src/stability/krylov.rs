@@ -105,7 +105,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
 
 use super::shift_invert::{EmbeddedPattern, ShiftedSolver};
 use super::sliding::SlidingSystem;
-use super::tall::{add_times, adjoint_times};
+use super::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
 use crate::modes::lanczos::SplitMix64;
 use crate::stage::StageError;
 
@@ -270,8 +270,25 @@ impl HalfBasis {
 
     /// `Qᴴ W` over the first `r` columns of `Q`.
     fn adjoint_times(&self, r: usize, W: MatRef<'_, c64>) -> Mat<c64> {
-        let raw = adjoint_times(self.S.subcols(0, r), W, Par::rayon(0));
-        let mut product = Mat::<c64>::zeros(r, W.ncols());
+        self.from_stored_adjoint(adjoint_times(self.S.subcols(0, r), W, Par::rayon(0)))
+    }
+
+    /// `Z −= Q C`, then `Qᴴ Z` of the result, in one sweep over `S` ([`subtract_then_adjoint_times`]).
+    fn subtract_then_adjoint_times(&self, Z: MatMut<'_, c64>, C: MatRef<'_, c64>) -> Mat<c64> {
+        let stored = self.stored_coordinates(C);
+        let raw = subtract_then_adjoint_times(
+            Z,
+            self.S.subcols(0, C.nrows()),
+            stored.as_ref(),
+            Par::rayon(0),
+        );
+        self.from_stored_adjoint(raw)
+    }
+
+    /// `Qᴴ W = Tᴴ Sᴴ W` from `raw = Sᴴ W` (over the first `raw.nrows()` columns).
+    fn from_stored_adjoint(&self, raw: Mat<c64>) -> Mat<c64> {
+        let r = raw.nrows();
+        let mut product = Mat::<c64>::zeros(r, raw.ncols());
         triangular::matmul(
             product.as_mut(),
             BlockStructure::Rectangular,
@@ -316,8 +333,7 @@ impl HalfBasis {
         let mut pending = Mat::<c64>::zeros(old, b);
         if old > 0 {
             let first = self.adjoint_times(old, Z.as_ref());
-            self.add_times(Z.as_mut(), (-&first).as_ref());
-            pending = self.adjoint_times(old, Z.as_ref());
+            pending = self.subtract_then_adjoint_times(Z.as_mut(), first.as_ref());
             coefficients
                 .submatrix_mut(0, 0, old, b)
                 .copy_from(&first + &pending);
