@@ -270,7 +270,7 @@ impl HalfBasis {
 
     /// `Qᴴ W` over the first `r` columns of `Q`.
     fn adjoint_times(&self, r: usize, W: MatRef<'_, c64>) -> Mat<c64> {
-        self.from_stored_adjoint(adjoint_times(self.S.subcols(0, r), W, Par::rayon(0)))
+        self.adjoint_of_stored(adjoint_times(self.S.subcols(0, r), W, Par::rayon(0)))
     }
 
     /// `Z −= Q C`, then `Qᴴ Z` of the result, in one sweep over `S` ([`subtract_then_adjoint_times`]).
@@ -282,11 +282,11 @@ impl HalfBasis {
             stored.as_ref(),
             Par::rayon(0),
         );
-        self.from_stored_adjoint(raw)
+        self.adjoint_of_stored(raw)
     }
 
     /// `Qᴴ W = Tᴴ Sᴴ W` from `raw = Sᴴ W` (over the first `raw.nrows()` columns).
-    fn from_stored_adjoint(&self, raw: Mat<c64>) -> Mat<c64> {
+    fn adjoint_of_stored(&self, raw: Mat<c64>) -> Mat<c64> {
         let r = raw.nrows();
         let mut product = Mat::<c64>::zeros(r, raw.ncols());
         triangular::matmul(
