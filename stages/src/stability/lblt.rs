@@ -42,6 +42,8 @@ pub struct Lblt {
     /// The threads of `par`, and the tree shared among them when the row-major kernels apply.
     threads: usize,
     split: Option<TreeSplit>,
+    /// The supernodal elimination tree, for the forward sweep of sparse right-hand sides.
+    tree: Option<SupernodeTree>,
 }
 
 impl Lblt {
@@ -63,8 +65,12 @@ impl Lblt {
             pivot_forward: vec![0; n],
             pivot_inverse: vec![0; n],
             threads,
-            split: row_major(symbolic).and_then(|supernodal| TreeSplit::new(supernodal, threads)),
+            split: None,
+            tree: row_major(symbolic).map(SupernodeTree::new),
         };
+        if let (Some(supernodal), Some(tree)) = (row_major(symbolic), &factor.tree) {
+            factor.split = TreeSplit::new(supernodal, tree, threads);
+        }
         let mut buffer = MemBuffer::new(
             symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(par, Default::default()),
         );
@@ -180,6 +186,7 @@ impl Lblt {
                 &self.pivot_inverse,
                 symbolic.nrows(),
             ),
+            tree: self.tree.as_ref(),
         }
     }
 
@@ -209,6 +216,7 @@ struct LbltFactor<'a> {
     values: &'a [f64],
     subdiag: &'a [f64],
     pivots: PermRef<'a, usize>,
+    tree: Option<&'a SupernodeTree>,
 }
 
 impl LbltFactor<'_> {
@@ -241,7 +249,11 @@ impl LbltFactor<'_> {
         let all: Vec<usize> = (0..symbolic.n_supernodes()).collect();
         // SAFETY (every call below): the caller checked AVX2 and FMA.
         match split {
-            None => unsafe { self.forward::<K>(symbolic, &mut x, &all) },
+            None => {
+                // A sparse block (the contact correction's columns) sweeps only its reach.
+                let reach = self.tree.and_then(|tree| tree.reach(&x));
+                unsafe { self.forward::<K>(symbolic, &mut x, reach.as_deref().unwrap_or(&all)) }
+            }
             Some(split) => {
                 let copies = on_copies(&x, &split.groups, |copy, group| unsafe {
                     self.forward::<K>(symbolic, copy, group)
@@ -376,6 +388,56 @@ impl LbltFactor<'_> {
     }
 }
 
+/// The supernodal elimination tree: a supernode's parent holds the first row below its
+/// diagonal block, and parents come after their children.
+struct SupernodeTree {
+    /// Per row (of the factor's order): its supernode.
+    supernode_of: Vec<usize>,
+    parent: Vec<Option<usize>>,
+}
+
+impl SupernodeTree {
+    fn new(symbolic: &SymbolicSupernodalCholesky<usize>) -> SupernodeTree {
+        let count = symbolic.n_supernodes();
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        let mut supernode_of = vec![0; symbolic.nrows()];
+        for s in 0..count {
+            supernode_of[begin[s]..end[s]].fill(s);
+        }
+        let parent = (0..count)
+            .map(|s| {
+                let pattern = symbolic.supernode(s).pattern();
+                pattern.iter().min().map(|&row| supernode_of[row])
+            })
+            .collect();
+        SupernodeTree {
+            supernode_of,
+            parent,
+        }
+    }
+
+    /// The supernodes a forward sweep must visit for right-hand sides whose nonzero rows are
+    /// those of `x` (the reach: the paths from their supernodes to the roots), increasing; the
+    /// others see only zeros. `None` when the reach holds most of the tree.
+    fn reach<const K: usize>(&self, x: &[[f64; K]]) -> Option<Vec<usize>> {
+        let count = self.parent.len();
+        let mut marked = vec![false; count];
+        let mut reached = 0;
+        for (row, values) in x.iter().enumerate() {
+            if values.iter().all(|&value| value == 0.0) {
+                continue;
+            }
+            let mut node = Some(self.supernode_of[row]);
+            while let Some(s) = node.filter(|&s| !marked[s]) {
+                marked[s] = true;
+                reached += 1;
+                node = self.parent[s];
+            }
+        }
+        (reached < count * 3 / 4).then(|| (0..count).filter(|&s| marked[s]).collect())
+    }
+}
+
 /// The supernodal elimination tree cut for `parts` threads: whole subtrees in groups of about
 /// equal work, and the supernodes above them (the top), which one thread sweeps. A subtree
 /// updates only its own rows and the top's, so groups run on private copies of x.
@@ -392,28 +454,24 @@ impl TreeSplit {
     /// Cuts the tree below its heaviest nodes until the groups (longest-processing-time
     /// assignment of the subtrees) are within 5 % of even; `None` if the top would hold more
     /// than a third of the work, or for fewer than two parts.
-    fn new(symbolic: &SymbolicSupernodalCholesky<usize>, parts: usize) -> Option<TreeSplit> {
+    fn new(
+        symbolic: &SymbolicSupernodalCholesky<usize>,
+        tree: &SupernodeTree,
+        parts: usize,
+    ) -> Option<TreeSplit> {
         let count = symbolic.n_supernodes();
         if parts < 2 || count < 2 {
             return None;
         }
         let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
-        let mut supernode_of = vec![0; symbolic.nrows()];
-        for s in 0..count {
-            supernode_of[begin[s]..end[s]].fill(s);
-        }
-        // A supernode's parent holds the first row below its diagonal block; parents come
-        // after their children.
         let mut children = vec![Vec::new(); count];
         let mut roots = Vec::new();
         let mut work = vec![0.0; count];
         for s in 0..count {
-            let pattern = symbolic.supernode(s).pattern();
             let size = end[s] - begin[s];
-            work[s] += ((size + pattern.len()) * size) as f64;
-            match pattern.iter().min() {
-                Some(&row) => {
-                    let parent = supernode_of[row];
+            work[s] += ((size + symbolic.supernode(s).pattern().len()) * size) as f64;
+            match tree.parent[s] {
+                Some(parent) => {
                     work[parent] += work[s];
                     children[parent].push(s);
                 }
@@ -712,11 +770,27 @@ mod tests {
                     factor.splits_tree(),
                     supernodal && threads > 1 && row_major(&symbolic).is_some()
                 );
+                if let Some(tree) = &factor.tree {
+                    // One nonzero row reaches the path from its supernode to a root.
+                    let mut x = vec![[0.0; 1]; n];
+                    x[n / 2][0] = 1.0;
+                    let reach = tree.reach(&x).expect("a path, not most of the tree");
+                    assert!(reach.windows(2).all(|pair| pair[0] < pair[1]));
+                    assert_eq!(reach[0], tree.supernode_of[n / 2]);
+                    assert!(tree.parent[*reach.last().unwrap()].is_none());
+                }
                 let mut random = SplitMix64::new(11);
                 // Widths below, at and above the kernel widths (4, 8 and 16), and over two
                 // chunks.
-                for width in [1, 3, 4, 5, 8, 11, 16, 37] {
-                    let B = Mat::<f64>::from_fn(n, width, |_, _| random.next_signed());
+                // Sparse columns too (three nonzeros each, as the contact correction's), whose
+                // forward sweep visits only their reach.
+                let cases = [1, 3, 4, 5, 8, 11, 16, 37].map(|width| (width, false));
+                let sparse_cases = [(1, true), (4, true), (16, true), (37, true)];
+                for (width, sparse) in cases.into_iter().chain(sparse_cases) {
+                    let B = Mat::<f64>::from_fn(n, width, |row, col| {
+                        let kept = !sparse || (row * 7 + col * 131) % n < 3;
+                        if kept { random.next_signed() } else { 0.0 }
+                    });
                     let mut X = B.clone();
                     factor.solve_in_place(&symbolic, X.as_mut());
                     let mut reference = B.clone();
@@ -724,7 +798,7 @@ mod tests {
                     let difference = (&X - &reference).norm_max() / reference.norm_max();
                     assert!(
                         difference <= 1e-12,
-                        "width {width}: {difference:e} from faer"
+                        "width {width} (sparse: {sparse}): {difference:e} from faer"
                     );
                     // A X − B, with A applied from its lower triangle.
                     let mut residual = -B.clone();
@@ -743,7 +817,7 @@ mod tests {
                         residual.norm_max() / (norm_inf * X.norm_max() + B.norm_max());
                     assert!(
                         backward_error <= 1e-12,
-                        "width {width}: backward error {backward_error:e}"
+                        "width {width} (sparse: {sparse}): backward error {backward_error:e}"
                     );
                 }
                 eprintln!(
