@@ -97,12 +97,7 @@ fn solve_kernels(model: &Model, equilibrium: &Equilibrium) {
     let mut solutions = Vec::new();
     for (name, block) in kernels {
         solutions.push(block());
-        let repetitions = 10;
-        let started = Instant::now();
-        for _ in 0..repetitions {
-            block();
-        }
-        let ms = 1e3 * started.elapsed().as_secs_f64() / repetitions as f64;
+        let ms = milliseconds_per_run(10, block);
         println!(
             "{name}: {ms:.1} ms per block of eight ({:.2} ms per right-hand side)",
             ms / 8.0
@@ -135,16 +130,20 @@ fn products(system: &SlidingSystem) {
     let mut results = Vec::new();
     for (name, product) in products {
         results.push(product());
-        let repetitions = 20;
-        let started = Instant::now();
-        for _ in 0..repetitions {
-            product();
-        }
-        let ms = 1e3 * started.elapsed().as_secs_f64() / repetitions as f64;
+        let ms = milliseconds_per_run(20, product);
         println!("{name}: {ms:.1} ms per block of eight");
     }
     let difference = (&results[0] - &results[1]).norm_max() / results[1].norm_max();
     println!("the two products differ by {difference:.1e} (relative)");
+}
+
+/// Mean wall time of `run` over `repetitions` runs (ms).
+fn milliseconds_per_run<T>(repetitions: usize, run: &dyn Fn() -> T) -> f64 {
+    let started = Instant::now();
+    for _ in 0..repetitions {
+        run();
+    }
+    1e3 * started.elapsed().as_secs_f64() / repetitions as f64
 }
 
 type Solve = fn(&Lblt, &SymbolicCholesky<usize>, MatMut<'_, f64>);
