@@ -468,7 +468,7 @@ fn mul_rows(A: &CscMatrix, X: &[c64], width: usize) -> Vec<c64> {
 /// DOFs) form a group that stores its column indices (`u32`) once and, per entry, both values
 /// of each of its rows: each row of `X` and `Y` the group points to is read once for all of
 /// its rows. On the default brake a block of eight took 7.7 ms, against 9.4 ms ungrouped and
-/// 12.6 ms for the two products taken apart by [`gather_rows`] (two threads,
+/// 12.6–14.3 ms for the two products taken apart by [`gather_rows`] (two threads,
 /// `SQUEAL_BENCH_SOLVE=1`).
 struct PairedRows {
     /// Group g: rows `row_start[g]..row_start[g + 1]`, pattern `cols[col_start[g]..col_start[g
