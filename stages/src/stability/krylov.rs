@@ -88,8 +88,10 @@
 //! (1,720), an operator step now takes 7.6 ms to solve, 5.3 ms to rebuild the block from `Q`,
 //! 2.6 ms for the contact correction and 2.4 ms for the M̃ and C̃ products; the products with
 //! `Q` (rebuilding, Gram–Schmidt, correction) go through the kernels of [`super::tall`]. Wide
-//! disks (`per_shift` 256) beat narrow ones: factorisations and the overlaps' double work are
-//! paid fewer times, and the band's width forces disks of 1 kHz radius at the top anyway.
+//! disks beat narrow ones: factorisations and the overlaps' double work are paid fewer times,
+//! and the band's width forces disks of 1 kHz radius at the top anyway. With the present
+//! kernels, `per_shift` 320 did the default brake's 17 kHz band in 112.6 and 113.7 s (8
+//! shifts, 5,648 vectors), 256 in 114.7 and 115.5 s (9, 6,008), 192 in 119.0 s (9, 6,264).
 //! Beyond about 900 vectors, though, the orthogonalisation and the Ritz checks cost more per
 //! eigenvalue than another shift would: a disk cut at 960 vectors and completed by a gap shift
 //! did the band in 372 s against 379 s for one of 1280, with 120 MB less memory. Cut at 800 it
@@ -147,7 +149,7 @@ impl Default for KrylovOptions {
             block_size: 8,
             basis: 32,
             max_basis: 960,
-            per_shift: 256,
+            per_shift: 320,
             arnoldi_tolerance: 1e-10,
             residual_tolerance: 1e-8,
             par: Par::rayon(0),
