@@ -278,7 +278,8 @@ impl HalfBasis {
         self.adjoint_of_stored(adjoint_times(self.S.subcols(0, r), W, Par::rayon(0)))
     }
 
-    /// `Z −= Q C`, then `Qᴴ Z` of the result, in one sweep over `S` ([`subtract_then_adjoint_times`]).
+    /// `Z −= Q C`, then `Qᴴ Z` of the result, in one sweep over `S`
+    /// ([`subtract_then_adjoint_times`]).
     fn subtract_then_adjoint_times(&self, Z: MatMut<'_, c64>, C: MatRef<'_, c64>) -> Mat<c64> {
         let stored = self.stored_coordinates(C);
         let raw = subtract_then_adjoint_times(

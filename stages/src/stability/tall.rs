@@ -78,6 +78,18 @@ fn parts(rows: usize, width: usize, par: Par) -> Vec<(usize, usize)> {
         .collect()
 }
 
+/// `X` cut into the row ranges of [`parts`], each with its first row.
+fn row_pieces(X: MatMut<'_, c64>, width: usize, par: Par) -> Vec<(usize, MatMut<'_, c64>)> {
+    let mut pieces = Vec::new();
+    let mut rest = X;
+    for (start, len) in parts(rest.nrows(), width, par) {
+        let (head, tail) = rest.split_at_row_mut(len);
+        pieces.push((start, head));
+        rest = tail;
+    }
+    pieces
+}
+
 /// Whether the kernels apply on this processor to operands with these (row, column) strides:
 /// unit row strides and non-negative column strides, as `Mat` and its column views have.
 fn kernels_apply(strides: [(isize, isize); 3]) -> bool {
@@ -138,17 +150,12 @@ pub fn add_times(X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>, par
         matmul(X, Accum::Add, Q, C, c64::new(1.0, 0.0), par);
         return;
     }
-    let mut pieces = Vec::new();
-    let mut rest = X;
-    for (start, len) in parts(Q.nrows(), C.ncols(), par) {
-        let (head, tail) = rest.split_at_row_mut(len);
-        pieces.push((start, head));
-        rest = tail;
-    }
-    pieces.into_par_iter().for_each(|(start, piece)| {
-        let len = piece.nrows();
-        add_times_one_thread(piece, Q.subrows(start, len), C)
-    });
+    row_pieces(X, C.ncols(), par)
+        .into_par_iter()
+        .for_each(|(start, piece)| {
+            let len = piece.nrows();
+            add_times_one_thread(piece, Q.subrows(start, len), C)
+        });
 }
 
 /// `Z −= Q C`, then `Qᴴ Z` of the result: a Gram–Schmidt update and the next pass's
@@ -167,14 +174,7 @@ pub fn subtract_then_adjoint_times(
     let (rows, depth, width) = (Q.nrows(), Q.ncols(), Z.ncols());
     assert_eq!((Z.nrows(), C.nrows(), C.ncols()), (rows, depth, width));
     let negated = -C;
-    let mut pieces = Vec::new();
-    let mut rest = Z;
-    for (start, len) in parts(rows, width, par) {
-        let (head, tail) = rest.split_at_row_mut(len);
-        pieces.push((start, head));
-        rest = tail;
-    }
-    pieces
+    row_pieces(Z, width, par)
         .into_par_iter()
         .map(|(start, mut piece)| {
             let mut partial = Mat::<c64>::zeros(depth, width);
