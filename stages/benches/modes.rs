@@ -18,11 +18,11 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
+use squeal_linalg::eigensolver::{Band, SolveOptions, solve};
+use squeal_linalg::ldlt::{FillOrdering, ShiftedPencil};
+use squeal_stages::artifact::{CscMatrix, Model};
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::mesh::structured;
-use squeal_stages::model::{CscMatrix, Model};
-use squeal_stages::modes::eigensolver::{Band, SolveOptions, solve};
-use squeal_stages::modes::factor::{FillOrdering, ShiftedPencil};
 use squeal_stages::{Params, Stage};
 
 /// A disc 0.15–0.32 m in radius, 45 mm thick, clamped at the hub (the inner cylinder).

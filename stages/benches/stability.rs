@@ -18,14 +18,14 @@ use std::time::Instant;
 
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{Mat, MatMut, Par, c64};
+use squeal_linalg::lblt::Lblt;
+use squeal_linalg::matrix_market::write_matrix_market;
+use squeal_stages::artifact::Equilibrium;
+use squeal_stages::artifact::Model;
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::contact::lcp::LcpSettings;
-use squeal_stages::equilibrium::Equilibrium;
 use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
-use squeal_stages::export::matrix_market::write_matrix_market;
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
-use squeal_stages::model::Model;
-use squeal_stages::stability::lblt::Lblt;
 use squeal_stages::stability::shift_invert::EmbeddedPattern;
 use squeal_stages::stability::sliding::{Part, SlidingSystem};
 use squeal_stages::stability::{

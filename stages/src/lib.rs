@@ -16,14 +16,17 @@ pub mod assemble;
 pub mod contact;
 pub mod equilibrium;
 pub mod export;
+pub mod fem;
 pub mod mesh;
-pub mod model;
+
 pub mod modes;
+pub mod plot;
 pub mod signal;
 pub mod stability;
 pub mod stage;
 pub mod table;
 pub mod testing;
+pub mod vtu;
 
 use std::sync::Arc;
 

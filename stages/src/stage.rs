@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::sync::Arc;
 
-use crate::artifact::{Artifact, ArtifactType};
+use crate::artifact::{Artifact, ArtifactType, ArtifactValue};
 
 /// A parameter value after validation and unit conversion.
 #[derive(Debug, Clone, PartialEq)]
@@ -276,10 +276,20 @@ impl Inputs {
         }
     }
 
+    /// The value of a one-artifact input, typed: `inputs.get::<Model>("model")`.
+    pub fn get<T: ArtifactValue>(&self, port: &str) -> Result<&T, StageError> {
+        let artifact = self.one(port)?;
+        T::from_artifact(artifact).ok_or_else(|| {
+            StageError::new(format!(
+                "input `{port}` is {}, expected {}",
+                artifact.artifact_type(),
+                T::TYPE
+            ))
+        })
+    }
+
     pub fn table(&self, port: &str) -> Result<&crate::Table, StageError> {
-        self.one(port)?
-            .as_table()
-            .ok_or_else(|| StageError::new(format!("input `{port}` is not a table")))
+        self.get(port)
     }
 }
 
@@ -292,6 +302,12 @@ pub type Outputs = BTreeMap<String, Artifact>;
 #[error("{message}")]
 pub struct StageError {
     pub message: String,
+}
+
+impl From<squeal_linalg::Error> for StageError {
+    fn from(err: squeal_linalg::Error) -> Self {
+        StageError::new(err.to_string())
+    }
 }
 
 impl StageError {

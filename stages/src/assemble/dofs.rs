@@ -4,7 +4,7 @@
 //! numbered node by node (node-major), so that a node's free DOFs are consecutive and the
 //! sparse matrices have one dense 3×3 block per pair of neighbouring nodes.
 
-use crate::mesh::Mesh;
+use crate::artifact::mesh::Mesh;
 use crate::stage::StageError;
 
 /// The node sets named in a comma-separated list (`"hub, pad_backs"`); empty names are skipped.

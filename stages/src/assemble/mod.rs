@@ -15,8 +15,6 @@
 //! summed in a fixed order ([`sparse`]): the matrices are bit-identical from run to run.
 
 pub mod dofs;
-pub mod hex8;
-pub mod material;
 pub mod sparse;
 
 #[cfg(test)]
@@ -24,14 +22,14 @@ pub(crate) mod tests;
 
 use rayon::prelude::*;
 
+use crate::artifact::Model;
+use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::mesh::Mesh;
-use crate::model::Model;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
-use hex8::{Degenerate, ElementMatrices};
-use material::{MATERIAL_PARTS, Material};
+use crate::fem::hex8::{self, Degenerate, ElementMatrices};
+use crate::fem::material::{MATERIAL_PARTS, Material};
 
 /// How many offending elements an error message names.
 const ELEMENTS_NAMED_IN_ERRORS: usize = 5;
@@ -53,8 +51,9 @@ impl Stage for Assemble {
     }
 
     fn params(&self) -> Vec<ParamSpec> {
-        let mut params = material::material_params("disc", [2.02e11, 0.29, 7850.0, 3.75, 5e-8]);
-        params.extend(material::material_params(
+        let mut params =
+            crate::fem::material::material_params("disc", [2.02e11, 0.29, 7850.0, 3.75, 5e-8]);
+        params.extend(crate::fem::material::material_params(
             "pad",
             [3e8, 0.3, 5102.0, 54.375, 72.5e-8],
         ));
@@ -82,15 +81,7 @@ impl Stage for Assemble {
     }
 
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let mesh = match inputs.one("mesh")? {
-            Artifact::Mesh(mesh) => mesh.as_ref(),
-            other => {
-                return Err(StageError::new(format!(
-                    "input `mesh` is a {}, not a mesh",
-                    other.artifact_type()
-                )));
-            }
-        };
+        let mesh: &Mesh = inputs.get("mesh")?;
         let clamped = dofs::parse_set_names(params.str("clamped"));
         let (model, summary) = assemble_model(mesh, params, &clamped)?;
         Ok(Outputs::from([

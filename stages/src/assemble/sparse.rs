@@ -10,9 +10,9 @@
 
 use rayon::prelude::*;
 
-use super::hex8::{ElementMatrices, packed_index};
-use crate::mesh::Mesh;
-use crate::model::CscMatrix;
+use crate::artifact::CscMatrix;
+use crate::artifact::mesh::Mesh;
+use crate::fem::hex8::{ElementMatrices, packed_index};
 
 /// The assembled matrices over the free DOFs.
 pub struct Assembled {

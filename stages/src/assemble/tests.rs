@@ -8,11 +8,12 @@ use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
 use super::Assemble;
-use super::hex8;
-use super::material::Material;
 use crate::artifact::Artifact;
-use crate::mesh::{Mesh, structured};
-use crate::model::{CscMatrix, Model};
+use crate::artifact::Mesh;
+use crate::artifact::{CscMatrix, Model};
+use crate::fem::hex8;
+use crate::fem::material::Material;
+use crate::mesh::structured;
 use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
 use crate::table::{ColumnData, Table};
 

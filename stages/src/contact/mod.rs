@@ -12,18 +12,9 @@
 
 pub mod lcp;
 
-use crate::mesh::{Mesh, cross, dot};
-use crate::model::Model;
-
-/// The local frame and sliding speed of every contact pair.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ContactFrames {
-    pub n: Vec<[f64; 3]>,
-    pub t: Vec<[f64; 3]>,
-    pub b: Vec<[f64; 3]>,
-    /// |v_g| (m/s) at each pair.
-    pub sliding_speed: Vec<f64>,
-}
+use crate::artifact::ContactFrames;
+use crate::artifact::Model;
+use crate::artifact::mesh::{Mesh, cross, dot};
 
 /// Frames for a disc spinning at `omega` (rad/s) about the z axis through the origin.
 pub fn frames(mesh: &Mesh, omega: f64) -> Result<ContactFrames, String> {

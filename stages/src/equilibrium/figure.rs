@@ -5,8 +5,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::artifact::Figure;
-use crate::mesh::Mesh;
-use crate::signal::figure::{self, DrawResult, Drawing, drawing_error};
+use crate::artifact::mesh::Mesh;
+use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::StageError;
 
 struct PressureMap<'a> {
@@ -45,7 +45,7 @@ impl Drawing for PressureMap<'_> {
             .zip([("upper pad face", true), ("lower pad face", false)])
         {
             let mut chart = ChartBuilder::on(panel)
-                .caption(label, (figure::FONT, 20))
+                .caption(label, (plot::FONT, 20))
                 .margin(12)
                 .x_label_area_size(45)
                 .y_label_area_size(70)
@@ -56,8 +56,8 @@ impl Drawing for PressureMap<'_> {
                 .disable_mesh()
                 .x_desc("angle (degrees)")
                 .y_desc("radius (m)")
-                .label_style((figure::FONT, 14))
-                .axis_desc_style((figure::FONT, 15))
+                .label_style((plot::FONT, 14))
+                .axis_desc_style((plot::FONT, 15))
                 .draw()
                 .map_err(drawing_error)?;
             let markers = self
@@ -70,7 +70,7 @@ impl Drawing for PressureMap<'_> {
                 .map(|((_, &(angle, radius)), &pressure)| {
                     let level = if peak > 0.0 { pressure / peak } else { 0.0 };
                     let color = if pressure > 0.0 {
-                        figure::viridis(level)
+                        plot::viridis(level)
                     } else {
                         RGBColor(200, 200, 200)
                     };
@@ -91,8 +91,8 @@ impl Drawing for PressureMap<'_> {
             .disable_x_axis()
             .y_desc("pressure (Pa)")
             .y_label_formatter(&|value| format!("{value:.2e}"))
-            .label_style((figure::FONT, 13))
-            .axis_desc_style((figure::FONT, 14))
+            .label_style((plot::FONT, 13))
+            .axis_desc_style((plot::FONT, 14))
             .draw()
             .map_err(drawing_error)?;
         let steps = 64;
@@ -100,7 +100,7 @@ impl Drawing for PressureMap<'_> {
             let (low, high) = (step as f64 / steps as f64, (step + 1) as f64 / steps as f64);
             Rectangle::new(
                 [(0.0, low * peak), (1.0, high * peak)],
-                figure::viridis(low).filled(),
+                plot::viridis(low).filled(),
             )
         }))
         .map_err(drawing_error)?;
@@ -110,5 +110,5 @@ impl Drawing for PressureMap<'_> {
 
 /// The pressure figure of a set of contact pairs.
 pub fn pressure_figure(mesh: &Mesh, pressure: &[f64]) -> Result<Figure, StageError> {
-    figure::render(&PressureMap { mesh, pressure }, figure::DEFAULT_SIZE)
+    plot::render(&PressureMap { mesh, pressure }, plot::DEFAULT_SIZE)
 }

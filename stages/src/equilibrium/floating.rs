@@ -22,8 +22,8 @@ use std::collections::BTreeMap;
 
 use faer::Mat;
 
-use crate::mesh::{Mesh, cross, dot, sub};
-use crate::model::Model;
+use crate::artifact::Model;
+use crate::artifact::mesh::{Mesh, cross, dot, sub};
 use crate::stage::StageError;
 
 /// The six faces of a hexahedron, each as a cycle of local nodes (see [`crate::mesh`]).

@@ -63,35 +63,17 @@ mod figure;
 pub mod floating;
 
 use faer::{Mat, Par};
-use serde::{Deserialize, Serialize};
 
-use crate::artifact::{Artifact, ArtifactType};
+use crate::artifact::{Artifact, ArtifactType, Equilibrium};
+use crate::artifact::{CscMatrix, Model};
+use crate::contact;
 use crate::contact::lcp::{self, Balance, LcpSettings, LcpSolution};
-use crate::contact::{self, ContactFrames};
-use crate::model::{CscMatrix, Model};
-use crate::modes::factor::ShiftedPencil;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
+use squeal_linalg::ldlt::ShiftedPencil;
 
 /// The node set the pressure acts on.
 pub const PRESSURE_SET: &str = "pad_backs";
-
-/// The sliding equilibrium, as the stability analysis needs it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Equilibrium {
-    /// Displacement over the model's free DOFs (m): rigid pad approach excluded under an
-    /// interference, included (the floating pads' rigid motions) under a pressure.
-    pub u: Vec<f64>,
-    /// Normal reaction per pair (N, ≥ 0); r_t = μ r_n on closed pairs, r_b = 0.
-    pub r_n: Vec<f64>,
-    /// Normal gap per pair (m).
-    pub gap: Vec<f64>,
-    /// Effective contact zone: pairs in contact.
-    pub closed: Vec<bool>,
-    pub frames: ContactFrames,
-    pub mu: f64,
-    pub omega: f64,
-}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Solver {
@@ -236,10 +218,9 @@ pub fn solve(
     let factor = pencil
         .factor(0.0, Par::rayon(0))
         .map_err(|err| match &floating {
-            None => err,
+            None => StageError::from(err),
             Some(floating) => StageError::new(format!(
-                "K with the floating bodies pinned cannot be factorised ({}); floating: {}",
-                err.message,
+                "K with the floating bodies pinned cannot be factorised ({err}); floating: {}",
                 body_list(&floating.bodies)
             )),
         })?;
@@ -460,19 +441,16 @@ pub fn back_reactions(
             continue;
         }
         let material =
-            crate::assemble::material::Material::from_params(params, &mesh.parts[*part as usize])?;
+            crate::fem::material::Material::from_params(params, &mesh.parts[*part as usize])?;
         let coords = hex.map(|node| mesh.nodes[node as usize]);
-        let element = crate::assemble::hex8::element_matrices(
-            &coords,
-            &material.elasticity(),
-            material.density,
-        )
-        .map_err(|degenerate| {
-            StageError::new(format!(
-                "degenerate element: det J = {:e}",
-                degenerate.det_j
-            ))
-        })?;
+        let element =
+            crate::fem::hex8::element_matrices(&coords, &material.elasticity(), material.density)
+                .map_err(|degenerate| {
+                StageError::new(format!(
+                    "degenerate element: det J = {:e}",
+                    degenerate.det_j
+                ))
+            })?;
         let displacement = |dof: usize| {
             model.dof_of_node[hex[dof / 3] as usize][dof % 3].map_or(0.0, |free| u[free as usize])
         };
@@ -484,8 +462,7 @@ pub fn back_reactions(
             // reaction R on the structure.
             let internal: f64 = (0..24)
                 .map(|col| {
-                    element.stiffness[crate::assemble::hex8::packed_index(row, col)]
-                        * displacement(col)
+                    element.stiffness[crate::fem::hex8::packed_index(row, col)] * displacement(col)
                 })
                 .sum();
             total[row % 3] += internal;
@@ -602,9 +579,7 @@ impl Stage for SlidingEquilibrium {
         ]
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let Artifact::Model(model) = inputs.one("model")? else {
-            return Err(StageError::new("input `model` is not a model"));
-        };
+        let model: &Model = inputs.get("model")?;
         let solver = match params.str("solver") {
             "fixed_point" => Solver::FixedPoint,
             _ => Solver::SemismoothNewton,
@@ -635,10 +610,7 @@ impl Stage for SlidingEquilibrium {
             .map(|(r, pair)| r / pair.area)
             .collect();
         let pressure = figure::pressure_figure(&model.mesh, &pressure)?;
-        let vtu = crate::export::document(
-            "vtu",
-            crate::export::vtu::equilibrium_vtu(model, &equilibrium)?,
-        );
+        let vtu = Artifact::document("vtu", crate::vtu::equilibrium_vtu(model, &equilibrium)?);
         Ok(Outputs::from([
             (
                 "equilibrium".to_string(),
@@ -707,7 +679,7 @@ pub fn contact_table(model: &Model, equilibrium: &Equilibrium) -> Table {
 }
 
 /// Total normal reaction on the upper (normal +z) or lower pad faces.
-pub fn side_force(mesh: &crate::mesh::Mesh, r_n: &[f64], upper: bool) -> f64 {
+pub fn side_force(mesh: &crate::artifact::mesh::Mesh, r_n: &[f64], upper: bool) -> f64 {
     mesh.contact_pairs
         .iter()
         .zip(r_n)
@@ -717,7 +689,11 @@ pub fn side_force(mesh: &crate::mesh::Mesh, r_n: &[f64], upper: bool) -> f64 {
 }
 
 /// The figures that say whether the solve is to be trusted, and the resultant forces.
-fn summary_table(equilibrium: &Equilibrium, report: &Report, mesh: &crate::mesh::Mesh) -> Table {
+fn summary_table(
+    equilibrium: &Equilibrium,
+    report: &Report,
+    mesh: &crate::artifact::mesh::Mesh,
+) -> Table {
     let total: f64 = equilibrium.r_n.iter().sum();
     let (load, mut quantities) = match (report.load, report.applied) {
         (Load::Pressure(pressure), Some(applied)) => (
@@ -782,10 +758,10 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
+    use crate::artifact::mesh::{ContactPair, Mesh};
     use crate::assemble::assemble_model;
     use crate::mesh::brake::{BrakeGeometry, brake};
     use crate::mesh::structured::block;
-    use crate::mesh::{ContactPair, Mesh};
     use crate::stage::Value;
 
     fn coarse_brake() -> Mesh {
@@ -1126,7 +1102,7 @@ mod tests {
             let force: [f64; 3] = std::array::from_fn(|axis| {
                 dofs[axis].map_or(0.0, |dof| Ku[dof as usize] - load.forces[dof as usize])
             });
-            let along = |direction: [f64; 3]| crate::mesh::dot(force, direction);
+            let along = |direction: [f64; 3]| crate::artifact::mesh::dot(force, direction);
             let r_n = equilibrium.r_n[pair_idx];
             assert!((along(equilibrium.frames.n[pair_idx]) - r_n).abs() <= 1e-9 * largest);
             let coulomb = (along(equilibrium.frames.t[pair_idx]) - mu * r_n).abs() / largest;
@@ -1161,7 +1137,8 @@ mod tests {
         let model = model(&mesh, "hub, pad_backs:xy", &[]);
         let (equilibrium, _) = pressed(&model, 0.0, Solver::SemismoothNewton, &settings());
         let largest = equilibrium.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
-        let position = |pair: &crate::mesh::ContactPair| mesh.nodes[pair.disc_node as usize];
+        let position =
+            |pair: &crate::artifact::mesh::ContactPair| mesh.nodes[pair.disc_node as usize];
         let mut worst = 0.0f64;
         for (upper_idx, upper) in mesh.contact_pairs.iter().enumerate() {
             if upper.normal[2] < 0.0 {

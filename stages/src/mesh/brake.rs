@@ -17,8 +17,8 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use super::structured::annulus;
-use super::{ContactPair, Mesh};
 use crate::artifact::{Artifact, ArtifactType};
+use crate::artifact::{ContactPair, Mesh};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 

@@ -45,9 +45,9 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 
-use super::{ContactPair, Mesh, cross, dot, norm, sub};
+use crate::artifact::mesh::{ContactPair, Mesh, cross, dot, norm, sub};
 use crate::artifact::{Artifact, ArtifactType};
-use crate::assemble::hex8::{NODE_REFERENCE, det_j_at};
+use crate::fem::hex8::{NODE_REFERENCE, det_j_at};
 use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
 
 /// Gmsh element type of the 8-node hexahedron.

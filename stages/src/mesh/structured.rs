@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::Mesh;
+use crate::artifact::Mesh;
 
 /// A block [0, lx] × [0, ly] × [0, lz] with nx × ny × nz hexahedra, all in part `part`.
 /// Node sets: `x0`, `x1`, `y0`, `y1`, `z0`, `z1` (the six faces).

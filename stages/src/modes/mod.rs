@@ -18,25 +18,17 @@
 //! translations `r_d` (d = x, y, z) and the effective masses `Γ_d²` (kg): the share of the
 //! (free) mass each mode moves along each axis.
 
-pub mod dense;
-pub mod eigensolver;
-pub mod factor;
-pub mod lanczos;
-pub mod ordering;
-pub mod parallel;
-pub mod sparse_ops;
-
 #[cfg(test)]
 mod tests;
 
 use faer::Mat;
 
 use crate::artifact::{Artifact, ArtifactType};
-use crate::model::{Model, RealModes};
+use crate::artifact::{Model, RealModes};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
-use eigensolver::{Band, Eigensolution, SolveOptions};
+use squeal_linalg::eigensolver::{self, Band, Eigensolution, SolveOptions};
 
 /// `modes`: model → real modes, a table per mode and the wide table of mode shapes.
 pub struct Modes;
@@ -108,15 +100,7 @@ impl Stage for Modes {
     }
 
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let model = match inputs.one("model")? {
-            Artifact::Model(model) => model.as_ref(),
-            other => {
-                return Err(StageError::new(format!(
-                    "input `model` is a {}, not a model",
-                    other.artifact_type()
-                )));
-            }
-        };
+        let model: &Model = inputs.get("model")?;
         let band = band_from_params(params)?;
         let solution = eigensolver::solve(
             &model.K,
@@ -221,7 +205,7 @@ fn modes_table(model: &Model, solution: &Eigensolution) -> Table {
             0.0
         }
     });
-    let M_translations = sparse_ops::symmetric_mul(&model.M, translations.as_ref());
+    let M_translations = squeal_linalg::csc::symmetric_mul(&model.M, translations.as_ref());
     let participation: Vec<[f64; 3]> = (0..n_modes)
         .map(|mode| {
             std::array::from_fn(|direction| {
@@ -267,8 +251,7 @@ pub fn shape_column_name(mode: usize) -> String {
 
 /// One row per node and direction (clamped DOFs included, with zeros), one column per mode.
 fn shapes_table(model: &Model, shapes: &Mat<f64>) -> Table {
-    nodal_table(
-        model,
+    model.nodal_table(
         (0..shapes.ncols())
             .map(|mode| {
                 (
@@ -278,45 +261,4 @@ fn shapes_table(model: &Model, shapes: &Mat<f64>) -> Table {
             })
             .collect(),
     )
-}
-
-/// A wide table of fields over the free DOFs: columns `node`, `dir`, `dof` (−1 where clamped),
-/// then one f64 column per field; one row per node and direction, zeros on clamped DOFs.
-pub fn nodal_table(model: &Model, fields: Vec<(String, Vec<f64>)>) -> Table {
-    let mut nodes = Vec::new();
-    let mut directions = Vec::new();
-    let mut dofs: Vec<Option<usize>> = Vec::new();
-    if model.dof_of_node.is_empty() {
-        // A model without a node map: one row per DOF.
-        for dof in 0..model.n_dofs() {
-            nodes.push(-1i64);
-            directions.push(String::new());
-            dofs.push(Some(dof));
-        }
-    } else {
-        for (node, node_dofs) in model.dof_of_node.iter().enumerate() {
-            for (direction, dof) in node_dofs.iter().enumerate() {
-                nodes.push(node as i64);
-                directions.push(["x", "y", "z"][direction].to_string());
-                dofs.push(dof.map(|dof| dof as usize));
-            }
-        }
-    }
-    let mut table = Table::new()
-        .with("node", nodes)
-        .with("dir", directions)
-        .with(
-            "dof",
-            dofs.iter()
-                .map(|dof| dof.map_or(-1, |dof| dof as i64))
-                .collect::<Vec<i64>>(),
-        );
-    for (name, field) in fields {
-        let values: Vec<f64> = dofs
-            .iter()
-            .map(|dof| dof.and_then(|dof| field.get(dof)).copied().unwrap_or(0.0))
-            .collect();
-        table = table.with(name, values);
-    }
-    table
 }

@@ -8,14 +8,15 @@ use std::sync::Arc;
 
 use faer::Par;
 
-use super::eigensolver::{self, Band, Eigensolution, RESIDUAL_TOLERANCE, SolveOptions};
-use super::{Modes, dense};
+use super::Modes;
 use crate::artifact::Artifact;
+use crate::artifact::Model;
 use crate::assemble::tests::{assemble, params_of, to_dense};
 use crate::mesh::structured;
-use crate::model::Model;
 use crate::stage::{Input, Inputs, Stage, StageError, Value};
 use crate::table::ColumnData;
+use squeal_linalg::dense;
+use squeal_linalg::eigensolver::{self, Band, Eigensolution, RESIDUAL_TOLERANCE, SolveOptions};
 
 const STEEL_E: f64 = 2.02e11;
 const STEEL_RHO: f64 = 7850.0;
@@ -40,6 +41,7 @@ fn solve_band(model: &Model, band: Band) -> Result<Eigensolution, StageError> {
         band,
         SolveOptions::default(),
     )
+    .map_err(StageError::from)
 }
 
 fn frequencies_hz(solution: &Eigensolution) -> Vec<f64> {
@@ -187,7 +189,12 @@ fn cantilever_frequency_converges_at_second_order() {
 
 /// Number of nodal diameters of a plate mode: the dominant Fourier harmonic of the
 /// out-of-plane displacement around the outer rim (top face).
-fn nodal_diameters(model: &Model, mesh: &crate::mesh::Mesh, shape: &[f64], max_n: usize) -> usize {
+fn nodal_diameters(
+    model: &Model,
+    mesh: &crate::artifact::mesh::Mesh,
+    shape: &[f64],
+    max_n: usize,
+) -> usize {
     let rim: Vec<u32> = mesh.node_sets["outer"]
         .iter()
         .copied()

@@ -6,7 +6,6 @@
 //! produces one from a simulation. Every stage here checks the sampling itself and names the
 //! row that breaks it.
 
-pub mod figure;
 pub mod read;
 pub mod spectrum;
 pub mod svd_projection;

@@ -33,9 +33,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use realfft::RealFftPlanner;
 
-use super::figure::{self, DrawResult, Drawing, drawing_error};
 use super::uniform_series;
 use crate::artifact::{Artifact, ArtifactType};
+use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
@@ -282,7 +282,7 @@ impl Stage for Spectrum {
             spectrum: &spectrum,
             peaks: &peaks,
         };
-        let figure = figure::render(&plot, figure::DEFAULT_SIZE)?;
+        let figure = plot::render(&plot, plot::DEFAULT_SIZE)?;
         let peaks_table = Table::new()
             .with(
                 "freq_hz",
@@ -348,10 +348,10 @@ impl Drawing for SpectrumPlot<'_> {
                 format!(
                     "Power spectrum of {} (last {} s, {} window)",
                     self.column,
-                    figure::tick_label(self.window_s),
+                    plot::tick_label(self.window_s),
                     self.window_name
                 ),
-                (figure::FONT, 22),
+                (plot::FONT, 22),
             )
             .margin(15)
             .x_label_area_size(45)
@@ -362,20 +362,20 @@ impl Drawing for SpectrumPlot<'_> {
             .configure_mesh()
             .x_desc("frequency (Hz)")
             .y_desc("power")
-            .x_label_formatter(&|f| figure::tick_label(*f))
+            .x_label_formatter(&|f| plot::tick_label(*f))
             .y_label_formatter(&|p| format!("{p:.0e}"))
-            .label_style((figure::FONT, 15))
-            .axis_desc_style((figure::FONT, 16))
+            .label_style((plot::FONT, 15))
+            .axis_desc_style((plot::FONT, 16))
             .light_line_style(WHITE)
             .draw()
             .map_err(drawing_error)?;
         chart
             .draw_series(LineSeries::new(
                 curve,
-                figure::series_color(0).stroke_width(1),
+                plot::series_color(0).stroke_width(1),
             ))
             .map_err(drawing_error)?;
-        let marker = figure::series_color(1);
+        let marker = plot::series_color(1);
         chart
             .draw_series(self.peaks.iter().map(|&k| {
                 Circle::new(
@@ -388,9 +388,9 @@ impl Drawing for SpectrumPlot<'_> {
         chart
             .draw_series(self.peaks.iter().take(5).map(|&k| {
                 Text::new(
-                    format!("{} Hz", figure::tick_label(freqs_hz[k])),
+                    format!("{} Hz", plot::tick_label(freqs_hz[k])),
                     (freqs_hz[k], power[k].max(floor) * 2.0),
-                    (figure::FONT, 14).into_font().color(&marker),
+                    (plot::FONT, 14).into_font().color(&marker),
                 )
             }))
             .map_err(drawing_error)?;

@@ -49,8 +49,8 @@ use faer::Mat;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::figure::{self, DrawResult, Drawing, drawing_error};
 use crate::artifact::{Artifact, ArtifactType};
+use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::{ColumnData, Table};
 
@@ -601,7 +601,7 @@ impl Stage for SvdProjection {
             energy_fraction: &energy_fraction,
         };
         let height = (180 * n_shapes as u32 + 80).clamp(300, 1400);
-        let figure = figure::render(&plot, (figure::DEFAULT_SIZE.0, height))?;
+        let figure = plot::render(&plot, (plot::DEFAULT_SIZE.0, height))?;
         Ok(BTreeMap::from([
             ("principal".to_string(), Artifact::Table(principal)),
             ("projection".to_string(), Artifact::Table(projection)),
@@ -624,7 +624,7 @@ impl Drawing for ProjectionPlot<'_> {
         let root = root
             .titled(
                 "Projection of the principal shapes on the complex modes",
-                (figure::FONT, 22),
+                (plot::FONT, 22),
             )
             .map_err(drawing_error)?;
         let panels = root.split_evenly((n_shapes, 1));
@@ -653,14 +653,14 @@ impl Drawing for ProjectionPlot<'_> {
                     shape_idx + 1,
                     100.0 * self.energy_fraction[shape_idx]
                 ))
-                .x_label_formatter(&|f| figure::tick_label(*f))
-                .label_style((figure::FONT, 13))
-                .axis_desc_style((figure::FONT, 14));
+                .x_label_formatter(&|f| plot::tick_label(*f))
+                .label_style((plot::FONT, 13))
+                .axis_desc_style((plot::FONT, 14));
             if is_last {
                 mesh.x_desc("mode frequency (Hz)");
             }
             mesh.draw().map_err(drawing_error)?;
-            let color = figure::series_color(shape_idx);
+            let color = plot::series_color(shape_idx);
             chart
                 .draw_series(self.freqs_hz.iter().enumerate().map(|(mode_idx, &freq)| {
                     Rectangle::new(

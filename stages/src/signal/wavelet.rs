@@ -87,9 +87,9 @@ use realfft::{RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftDirection as Direction, FftPlanner};
 
-use super::figure::{self, DrawResult, Drawing, drawing_error};
 use super::{UniformSeries, log_spaced, uniform_series};
 use crate::artifact::{Artifact, ArtifactType};
+use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
@@ -900,7 +900,7 @@ impl Stage for Wavelet {
             t_last: series.t_last(),
             range_db: params.float("map_range_db"),
         };
-        let figure = figure::render(&map, figure::DEFAULT_SIZE)?;
+        let figure = plot::render(&map, plot::DEFAULT_SIZE)?;
         let table = power_table(&times, &grid.freqs_hz, &scales, power, &series);
         Ok(Outputs::from([
             ("power".to_string(), Artifact::Table(table)),
@@ -1112,7 +1112,7 @@ impl Drawing for PowerMap<'_> {
         let mut chart = ChartBuilder::on(&main)
             .caption(
                 format!("Morlet wavelet power of {} (k₀ = {})", self.column, self.k0),
-                (figure::FONT, 22),
+                (plot::FONT, 22),
             )
             .margin(12)
             .x_label_area_size(45)
@@ -1130,10 +1130,10 @@ impl Drawing for PowerMap<'_> {
             .disable_mesh()
             .x_desc("time (s)")
             .y_desc("frequency (Hz)")
-            .x_label_formatter(&|t| figure::tick_label(*t))
-            .y_label_formatter(&|f| figure::tick_label(*f))
-            .label_style((figure::FONT, 15))
-            .axis_desc_style((figure::FONT, 16))
+            .x_label_formatter(&|t| plot::tick_label(*t))
+            .y_label_formatter(&|f| plot::tick_label(*f))
+            .label_style((plot::FONT, 15))
+            .axis_desc_style((plot::FONT, 16))
             .draw()
             .map_err(drawing_error)?;
 
@@ -1148,7 +1148,7 @@ impl Drawing for PowerMap<'_> {
                 if run_ends {
                     let t0 = time_low(column_groups[run_start].0);
                     let t1 = time_high(column_groups[column_idx - 1].1 - 1);
-                    let color = figure::viridis(run_level / (MAP_LEVELS - 1.0));
+                    let color = plot::viridis(run_level / (MAP_LEVELS - 1.0));
                     rectangles.push(Rectangle::new([(t0, f0), (t1, f1)], color.filled()));
                     run_start = column_idx;
                 }
@@ -1188,15 +1188,15 @@ impl Drawing for PowerMap<'_> {
             .disable_mesh()
             .disable_x_axis()
             .y_desc("dB")
-            .label_style((figure::FONT, 14))
-            .axis_desc_style((figure::FONT, 15))
+            .label_style((plot::FONT, 14))
+            .axis_desc_style((plot::FONT, 15))
             .draw()
             .map_err(drawing_error)?;
         let n_steps = MAP_LEVELS as usize;
         bar.draw_series((0..n_steps).map(|step| {
             let low = -self.range_db + self.range_db * step as f64 / n_steps as f64;
             let high = -self.range_db + self.range_db * (step + 1) as f64 / n_steps as f64;
-            let color = figure::viridis(step as f64 / (n_steps - 1) as f64);
+            let color = plot::viridis(step as f64 / (n_steps - 1) as f64);
             Rectangle::new([(0.0, low), (1.0, high)], color.filled())
         }))
         .map_err(drawing_error)?;

@@ -8,7 +8,7 @@ use plotters::prelude::*;
 
 use super::{EigenPair, divergence_rate, is_unstable};
 use crate::artifact::Figure;
-use crate::signal::figure::{self, DrawResult, Drawing, drawing_error};
+use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::StageError;
 
 const UNSTABLE: RGBColor = RGBColor(214, 39, 40);
@@ -43,7 +43,7 @@ impl Drawing for Diagram<'_> {
         let x_range = span(self.points.iter().map(|point| point.0), true);
         let y_range = span(self.points.iter().map(|point| point.1), true);
         let mut chart = ChartBuilder::on(root)
-            .caption(self.title, (figure::FONT, 22))
+            .caption(self.title, (plot::FONT, 22))
             .margin(16)
             .x_label_area_size(50)
             .y_label_area_size(75)
@@ -53,9 +53,9 @@ impl Drawing for Diagram<'_> {
             .configure_mesh()
             .x_desc("frequency (Hz)")
             .y_desc("divergence rate 2 Re/Im (%)")
-            .x_label_formatter(&|value| figure::tick_label(*value))
-            .label_style((figure::FONT, 15))
-            .axis_desc_style((figure::FONT, 16))
+            .x_label_formatter(&|value| plot::tick_label(*value))
+            .label_style((plot::FONT, 15))
+            .axis_desc_style((plot::FONT, 16))
             .draw()
             .map_err(drawing_error)?;
         chart
@@ -88,7 +88,7 @@ impl Drawing for Diagram<'_> {
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
-            .label_font((figure::FONT, 15))
+            .label_font((plot::FONT, 15))
             .position(SeriesLabelPosition::UpperLeft)
             .draw()
             .map_err(drawing_error)?;
@@ -113,12 +113,12 @@ pub fn stability_diagram(pairs: &[EigenPair], mu: f64) -> Result<Figure, StageEr
         "Stability diagram, mu = {mu}: {} modes, {unstable} unstable",
         points.len()
     );
-    figure::render(
+    plot::render(
         &Diagram {
             points,
             title: &title,
         },
-        figure::DEFAULT_SIZE,
+        plot::DEFAULT_SIZE,
     )
 }
 
@@ -154,15 +154,15 @@ impl Drawing for Coalescence<'_> {
                 } else {
                     "divergence rate (%)"
                 })
-                .y_label_formatter(&|value| figure::tick_label(*value))
-                .label_style((figure::FONT, 14))
-                .axis_desc_style((figure::FONT, 15))
+                .y_label_formatter(&|value| plot::tick_label(*value))
+                .label_style((plot::FONT, 14))
+                .axis_desc_style((plot::FONT, 15))
                 .draw()
                 .map_err(drawing_error)?;
             for (branch_idx, branch) in self.branches.iter().enumerate() {
                 let ever_unstable = branch.iter().any(|point| point.3);
                 let color = if ever_unstable {
-                    figure::series_color(branch_idx)
+                    plot::series_color(branch_idx)
                 } else {
                     RGBColor(170, 170, 170)
                 };
@@ -188,5 +188,5 @@ impl Drawing for Coalescence<'_> {
 /// Frequency and divergence rate against the sweep axis, one line per tracked mode (modes
 /// that become unstable in colour, red dots where unstable).
 pub fn coalescence_figure(branches: &[Branch], axis: &str) -> Result<Figure, StageError> {
-    figure::render(&Coalescence { branches, axis }, (1000, 900))
+    plot::render(&Coalescence { branches, axis }, (1000, 900))
 }

@@ -36,7 +36,7 @@
 //! `m r b`); the orthogonalisation of the default brake's 17 kHz band took 35.8 s instead of
 //! 45.7 s, the band 152.4 s instead of 160.7 s (runs one after the other). What remains is one
 //! sweep for `P₁`, and one that updates `Z` and projects it again strip by strip while each
-//! strip of `S` is in cache ([`super::tall::subtract_then_adjoint_times`]): 25.3 s against
+//! strip of `S` is in cache ([`squeal_linalg::tall::subtract_then_adjoint_times`]): 25.3 s against
 //! 30.1 s, the band 131.8 s against 137.2 s.
 //!
 //! # Why none is missed
@@ -83,11 +83,11 @@
 //! block of eight cost 18 ms per vector against 38 ms for two (and the orthogonalisation
 //! becomes matrix–matrix), so although blocks of eight need about a third more vectors for the
 //! same disk, they halved the 17 kHz band of the default brake (407–424 s against 862 s). The
-//! row-major kernels of [`super::lblt`] since cut a block of eight to 7 ms per vector; blocks
+//! row-major kernels of [`squeal_linalg::lblt`] since cut a block of eight to 7 ms per vector; blocks
 //! of sixteen still lose (99 s against 90 s on the 8 kHz band). Per vector of that band
 //! (1,720), an operator step now takes 7.6 ms to solve, 5.3 ms to rebuild the block from `Q`,
 //! 2.6 ms for the contact correction and 2.4 ms for the M̃ and C̃ products; the products with
-//! `Q` (rebuilding, Gram–Schmidt, correction) go through the kernels of [`super::tall`]. Wide
+//! `Q` (rebuilding, Gram–Schmidt, correction) go through the kernels of [`squeal_linalg::tall`]. Wide
 //! disks beat narrow ones: factorisations and the overlaps' double work are paid fewer times,
 //! and the band's width forces disks of 1 kHz radius at the top anyway. With the present
 //! kernels, `per_shift` 320 did the default brake's 17 kHz band in 112.6 and 113.7 s (8
@@ -110,9 +110,9 @@ use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
 
 use super::shift_invert::{EmbeddedPattern, ShiftedSolver};
 use super::sliding::SlidingSystem;
-use super::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
-use crate::modes::lanczos::SplitMix64;
 use crate::stage::StageError;
+use squeal_linalg::rng::SplitMix64;
+use squeal_linalg::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
 
 /// Block steps before a shift's Ritz values are first examined (module doc, "Why none is
 /// missed").
@@ -403,7 +403,7 @@ impl HalfBasis {
 /// coefficients. A second pass follows unless no column lost more than 1 − 1/√2 of its norm
 /// in the first (Daniel–Gragg–Kaufman–Stewart): after a large cancellation one pass is not
 /// enough in floating point. (Against the first-half basis the second pass always runs, its
-/// update folded into `T`: [`HalfBasis::extend`].) The products go through [`super::tall`].
+/// update folded into `T`: [`HalfBasis::extend`].) The products go through [`squeal_linalg::tall`].
 fn project_out(V: MatRef<'_, c64>, W: &mut Mat<c64>) -> Mat<c64> {
     let mut coefficients = Mat::<c64>::zeros(V.ncols(), W.ncols());
     if V.ncols() == 0 {

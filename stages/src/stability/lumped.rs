@@ -12,10 +12,10 @@ use faer::{Mat, c64};
 
 use super::figure::stability_diagram;
 use super::{EigenPair, eigenvalue_table};
+use crate::artifact::CscMatrix;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::export::matrix_market::read_matrix_market;
-use crate::model::CscMatrix;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use squeal_linalg::matrix_market::read_matrix_market;
 
 /// Largest model the dense solve accepts.
 pub const MAX_DOFS: usize = 2000;

@@ -38,11 +38,9 @@
 pub mod dense;
 mod figure;
 pub mod krylov;
-pub mod lblt;
 pub mod lumped;
 pub mod shift_invert;
 pub mod sliding;
-pub mod tall;
 pub mod track;
 
 #[cfg(test)]
@@ -52,13 +50,13 @@ use std::f64::consts::PI;
 
 use faer::{Mat, Par, c64};
 
+use crate::artifact::Equilibrium;
+use crate::artifact::Model;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::equilibrium::Equilibrium;
-use crate::model::Model;
-use crate::modes::eigensolver::{self, Band, SolveOptions};
-use crate::modes::factor::ShiftedPencil;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
+use squeal_linalg::eigensolver::{self, Band, SolveOptions};
+use squeal_linalg::ldlt::ShiftedPencil;
 
 pub use krylov::{EigenPair, KrylovOptions};
 use sliding::{Part, SlidingSystem, mul_complex};
@@ -445,12 +443,8 @@ impl Stage for Stability {
         ]
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let Artifact::Model(model) = inputs.one("model")? else {
-            return Err(StageError::new("input `model` is not a model"));
-        };
-        let Artifact::Equilibrium(equilibrium) = inputs.one("equilibrium")? else {
-            return Err(StageError::new("input `equilibrium` is not an equilibrium"));
-        };
+        let model: &Model = inputs.get("model")?;
+        let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         let method = match params.str("method") {
             "real_mode_projection" => Method::RealModeProjection {
                 n_real_modes: params.int("n_real_modes") as usize,
@@ -493,8 +487,8 @@ impl Stage for Stability {
                 fields.push((format!("{}_im", mode_name(mode)), imaginary));
             }
         }
-        let shapes_table = crate::modes::nodal_table(model, fields);
-        let vtu = crate::export::vtu::complex_modes_vtu(model, &unstable_fields)?;
+        let shapes_table = model.nodal_table(fields);
+        let vtu = crate::vtu::complex_modes_vtu(model, &unstable_fields)?;
         let diagram = figure::stability_diagram(&solution.pairs, equilibrium.mu)?;
         Ok(Outputs::from([
             (
@@ -507,10 +501,7 @@ impl Stage for Stability {
                 Artifact::Table(summary_table(&solution, &settings)),
             ),
             ("diagram".to_string(), Artifact::Figure(diagram)),
-            (
-                "unstable_vtu".to_string(),
-                crate::export::document("vtu", vtu),
-            ),
+            ("unstable_vtu".to_string(), Artifact::document("vtu", vtu)),
         ]))
     }
 }

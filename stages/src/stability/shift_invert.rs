@@ -11,7 +11,7 @@
 //!
 //! by a sparse LBLᵀ with Bunch–Kaufman pivoting inside supernodes (faer), on a
 //! nested-dissection ordering of the reduced node graph (both halves of a DOF kept together),
-//! and solved by the row-major kernels of [`super::lblt`].
+//! and solved by the row-major kernels of [`squeal_linalg::lblt`].
 //! The correction is applied by Sherman–Morrison–Woodbury:
 //!
 //! ```text
@@ -20,7 +20,7 @@
 //!
 //! `Y` costs one block solve with as many right-hand sides as closed pairs, per shift. `U`'s
 //! columns have a few nonzeros each, so their forward sweep visits only the supernodes on the
-//! paths from those rows to the root ([`super::lblt`]: 20–26 of 3,183 for sixteen columns on
+//! paths from those rows to the root ([`squeal_linalg::lblt`]: 20–26 of 3,183 for sixteen columns on
 //! the default brake): with 288 pairs, 0.63–0.65 s against 1.1–1.2 s for full sweeps, and
 //! 1.0–1.3 s for the factorisation itself (2 cores); faer's kernels, built for wide
 //! right-hand sides, took as long as the row-major ones. The split is logged at debug level.
@@ -34,11 +34,11 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Mat, MatRef, Par, Side, c64};
 use rayon::prelude::*;
 
-use super::lblt::Lblt;
 use super::sliding::{Part, SlidingSystem, mul_complex, norm};
-use super::tall::add_times;
-use crate::modes::ordering;
 use crate::stage::StageError;
+use squeal_linalg::lblt::Lblt;
+use squeal_linalg::ordering;
+use squeal_linalg::tall::add_times;
 
 /// Largest backward error of the check solve of a factorisation.
 const SOLVE_CHECK_TOLERANCE: f64 = 1e-11;

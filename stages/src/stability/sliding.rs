@@ -33,9 +33,10 @@
 use faer::{Mat, MatRef, c64};
 use rayon::prelude::*;
 
-use crate::contact::{self, ContactFrames};
-use crate::equilibrium::Equilibrium;
-use crate::model::{CscMatrix, Model};
+use crate::artifact::ContactFrames;
+use crate::artifact::Equilibrium;
+use crate::artifact::{CscMatrix, Model};
+use crate::contact;
 use crate::stage::StageError;
 
 /// One eliminated DOF: its full index and its value in terms of the masters.

@@ -9,12 +9,12 @@ use std::sync::Arc;
 use faer::c64;
 
 use super::*;
+use crate::artifact::CscMatrix;
+use crate::artifact::mesh::{ContactPair, Mesh};
 use crate::assemble::test_model;
 use crate::contact::lcp::LcpSettings;
 use crate::equilibrium::{self, Load, Solver};
 use crate::mesh::brake::{BrakeGeometry, brake};
-use crate::mesh::{ContactPair, Mesh};
-use crate::model::CscMatrix;
 use crate::stability::sliding::Part;
 use crate::stage::{Input, Value};
 
@@ -116,7 +116,7 @@ fn the_matrices_stage_reads_matrix_market_files() {
     let mut params = BTreeMap::new();
     for (name, matrix) in [("m_path", &M), ("c_path", &C), ("k_path", &K)] {
         let path = dir.path().join(format!("{name}.mtx"));
-        let text = crate::export::matrix_market::write_matrix_market(matrix, "Hoffmann").unwrap();
+        let text = squeal_linalg::matrix_market::write_matrix_market(matrix, "Hoffmann").unwrap();
         std::fs::write(&path, text).unwrap();
         params.insert(name.to_string(), Value::Str(path.display().to_string()));
     }

@@ -692,7 +692,7 @@ mod tests {
     };
 
     use super::*;
-    use crate::modes::lanczos::SplitMix64;
+    use crate::rng::SplitMix64;
 
     /// A symmetric indefinite matrix on a 24 × 24 grid (lower triangle, CSC): random couplings
     /// to the right and above neighbours and a small random diagonal, so that Bunch–Kaufman

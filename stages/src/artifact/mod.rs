@@ -5,9 +5,14 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::equilibrium::Equilibrium;
-use crate::mesh::Mesh;
-use crate::model::{Model, RealModes};
+pub mod equilibrium;
+pub mod mesh;
+pub mod model;
+
+pub use equilibrium::{ContactFrames, Equilibrium};
+pub use mesh::{ContactPair, Mesh};
+pub use model::{CscMatrix, Model, RealModes};
+
 use crate::table::Table;
 
 /// A value produced by one stage and consumed by others.
@@ -72,6 +77,41 @@ impl std::fmt::Display for ArtifactType {
     }
 }
 
+/// A value an [`Artifact`] variant holds: what a stage reads from an input port with
+/// [`Inputs::get`](crate::stage::Inputs::get).
+pub trait ArtifactValue {
+    const TYPE: ArtifactType;
+    fn from_artifact(artifact: &Artifact) -> Option<&Self>;
+}
+
+macro_rules! artifact_value {
+    ($($variant:ident($value:ty)),* $(,)?) => {$(
+        impl ArtifactValue for $value {
+            const TYPE: ArtifactType = ArtifactType::$variant;
+            fn from_artifact(artifact: &Artifact) -> Option<&Self> {
+                match artifact {
+                    Artifact::$variant(value) => {
+                        // Deref coercion: the boxed variants give their content.
+                        let value: &$value = value;
+                        Some(value)
+                    }
+                    _ => None,
+                }
+            }
+        }
+    )*};
+}
+
+artifact_value!(
+    Table(Table),
+    Figure(Figure),
+    Document(Document),
+    Mesh(Mesh),
+    Model(Model),
+    RealModes(RealModes),
+    Equilibrium(Equilibrium),
+);
+
 /// The bytes could not be decoded as an artifact (a corrupt or foreign cache object).
 #[derive(Debug, thiserror::Error)]
 #[error("cannot decode artifact: {0}")]
@@ -97,6 +137,14 @@ impl Artifact {
 
     pub fn decode(bytes: &[u8]) -> Result<Artifact, DecodeError> {
         postcard::from_bytes(bytes).map_err(|err| DecodeError(err.to_string()))
+    }
+
+    /// A text file of a format other tools read, written as `<output>.<extension>`.
+    pub fn document(extension: &str, text: String) -> Artifact {
+        Artifact::Document(Document {
+            extension: extension.to_string(),
+            bytes: text.into_bytes(),
+        })
     }
 
     pub fn as_table(&self) -> Option<&Table> {

@@ -3,9 +3,9 @@
 
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
-use crate::model::CscMatrix;
-use crate::stage::StageError;
+use crate::Error;
 
 /// Rows per parallel task in a product: large enough to amortise scheduling.
 const ROWS_PER_TASK: usize = 2048;
@@ -54,16 +54,16 @@ pub fn diagonal(A: &CscMatrix) -> Vec<f64> {
 
 /// Checks that `A` is a well-formed square CSC matrix of size `n` with sorted rows, finite
 /// values and symmetric to roundoff; `name` is used in the message.
-pub fn check_symmetric(A: &CscMatrix, n: usize, name: &str) -> Result<(), StageError> {
+pub fn check_symmetric(A: &CscMatrix, n: usize, name: &str) -> Result<(), Error> {
     if A.n_rows != n || A.n_cols != n || A.col_ptr.len() != n + 1 {
-        return Err(StageError::new(format!(
+        return Err(Error::InvalidInput(format!(
             "{name} is {}×{} but the model has {n} DOFs",
             A.n_rows, A.n_cols
         )));
     }
     let nnz = A.col_ptr[n];
     if A.row_idx.len() != nnz || A.values.len() != nnz || A.col_ptr[0] != 0 {
-        return Err(StageError::new(format!(
+        return Err(Error::InvalidInput(format!(
             "{name} is malformed: {} column pointers end at {nnz} but it stores {} row indices and {} values",
             n + 1,
             A.row_idx.len(),
@@ -103,7 +103,88 @@ pub fn check_symmetric(A: &CscMatrix, n: usize, name: &str) -> Result<(), StageE
         None
     });
     match problem {
-        Some(message) => Err(StageError::new(message)),
+        Some(message) => Err(Error::InvalidInput(message)),
         None => Ok(()),
+    }
+}
+
+/// A sparse matrix in compressed sparse column form, both triangles stored for symmetric
+/// matrices. Row indices are sorted within each column.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CscMatrix {
+    pub n_rows: usize,
+    pub n_cols: usize,
+    /// `col_ptr[j]..col_ptr[j + 1]` indexes the entries of column `j`.
+    pub col_ptr: Vec<usize>,
+    pub row_idx: Vec<usize>,
+    pub values: Vec<f64>,
+}
+
+impl CscMatrix {
+    /// y = A x.
+    pub fn mul_vec(&self, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.n_rows];
+        for (col, x_col) in x.iter().enumerate().take(self.n_cols) {
+            for entry in self.col_ptr[col]..self.col_ptr[col + 1] {
+                y[self.row_idx[entry]] += self.values[entry] * x_col;
+            }
+        }
+        y
+    }
+}
+
+impl CscMatrix {
+    /// The `n_rows × n_cols` matrix with the sum of the values of each (row, col) of
+    /// `triplets` (duplicates add up, as in assembly); rows sorted within columns.
+    pub fn from_triplets(
+        n_rows: usize,
+        n_cols: usize,
+        mut triplets: Vec<(usize, usize, f64)>,
+    ) -> CscMatrix {
+        triplets.sort_unstable_by_key(|&(row, col, _)| (col, row));
+        let mut col_ptr = vec![0usize; n_cols + 1];
+        let mut row_idx = Vec::with_capacity(triplets.len());
+        let mut values: Vec<f64> = Vec::with_capacity(triplets.len());
+        let mut last = None;
+        for (row, col, value) in triplets {
+            if last == Some((row, col)) {
+                *values.last_mut().expect("an entry was pushed") += value;
+                continue;
+            }
+            last = Some((row, col));
+            row_idx.push(row);
+            values.push(value);
+            col_ptr[col + 1] += 1;
+        }
+        for col in 0..n_cols {
+            col_ptr[col + 1] += col_ptr[col];
+        }
+        CscMatrix {
+            n_rows,
+            n_cols,
+            col_ptr,
+            row_idx,
+            values,
+        }
+    }
+
+    /// `‖A‖₁`, the largest absolute column sum.
+    pub fn norm_1(&self) -> f64 {
+        (0..self.n_cols)
+            .map(|col| {
+                self.values[self.col_ptr[col]..self.col_ptr[col + 1]]
+                    .iter()
+                    .map(|value| value.abs())
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// The entries as (row, col, value).
+    pub fn triplets(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+        (0..self.n_cols).flat_map(move |col| {
+            (self.col_ptr[col]..self.col_ptr[col + 1])
+                .map(move |entry| (self.row_idx[entry], col, self.values[entry]))
+        })
     }
 }

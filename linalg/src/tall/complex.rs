@@ -478,7 +478,7 @@ mod avx {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::modes::lanczos::SplitMix64;
+    use crate::rng::SplitMix64;
 
     fn random(rows: usize, cols: usize, random: &mut SplitMix64) -> Mat<c64> {
         Mat::from_fn(rows, cols, |_, _| {

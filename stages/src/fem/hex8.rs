@@ -2,7 +2,7 @@
 //! and its consistent mass matrix.
 //!
 //! # Geometry
-//! Trilinear map from the reference cube (ξ, η, ζ) ∈ [−1, 1]³, node order of [`crate::mesh`]:
+//! Trilinear map from the reference cube (ξ, η, ζ) ∈ [−1, 1]³, node order of [`crate::artifact::Mesh`]:
 //!
 //! ```text
 //! N_a(ξ) = ⅛ (1 + ξ ξ_a)(1 + η η_a)(1 + ζ ζ_a),   x(ξ) = Σ_a N_a(ξ) x_a
@@ -470,7 +470,7 @@ pub fn min_det_j(coords: &[[f64; 3]; 8]) -> (f64, Location) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::assemble::material::Material;
+    use crate::fem::material::Material;
 
     fn steel() -> [[f64; 6]; 6] {
         Material {

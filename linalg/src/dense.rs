@@ -15,7 +15,7 @@ use faer::linalg::triangular_solve::{
 };
 use faer::{Mat, MatRef, Par};
 
-use crate::stage::StageError;
+use crate::Error;
 
 /// `(A + Aᵀ) / 2`: removes the roundoff asymmetry of a computed projection.
 pub fn symmetrised(A: MatRef<'_, f64>) -> Mat<f64> {
@@ -27,14 +27,14 @@ pub fn symmetrised(A: MatRef<'_, f64>) -> Mat<f64> {
 /// `A` is scaled to a largest entry of 1 first: faer's tridiagonal eigensolver loses accuracy
 /// on matrices of very large or very small norm (stiffness entries are ~1e11, Lanczos
 /// projections ~1e-6), and scaling by a power of two is exact.
-pub fn symmetric_eigen(A: MatRef<'_, f64>, par: Par) -> Result<(Vec<f64>, Mat<f64>), StageError> {
+pub fn symmetric_eigen(A: MatRef<'_, f64>, par: Par) -> Result<(Vec<f64>, Mat<f64>), Error> {
     let n = A.nrows();
     let largest = A
         .col_iter()
         .flat_map(|column| column.iter().copied())
         .fold(0.0f64, |largest, value| largest.max(value.abs()));
     if !largest.is_finite() {
-        return Err(StageError::new(format!(
+        return Err(Error::InvalidInput(format!(
             "dense symmetric eigensolver: the {n}×{n} matrix has a non-finite entry"
         )));
     }
@@ -61,7 +61,7 @@ pub fn symmetric_eigen(A: MatRef<'_, f64>, par: Par) -> Result<(Vec<f64>, Mat<f6
         Default::default(),
     )
     .map_err(|err| {
-        StageError::new(format!(
+        Error::Breakdown(format!(
             "dense symmetric eigensolver failed on a {n}×{n} matrix: {err:?}"
         ))
     })?;
@@ -75,7 +75,7 @@ pub fn generalized_symmetric_eigen(
     K: MatRef<'_, f64>,
     M: MatRef<'_, f64>,
     par: Par,
-) -> Result<(Vec<f64>, Mat<f64>), StageError> {
+) -> Result<(Vec<f64>, Mat<f64>), Error> {
     let n = K.nrows();
     let mut L = M.to_owned();
     let mut buffer = MemBuffer::new(cholesky_in_place_scratch::<f64>(n, par, Default::default()));
@@ -87,7 +87,7 @@ pub fn generalized_symmetric_eigen(
         Default::default(),
     )
     .map_err(|err| {
-        StageError::new(format!(
+        Error::Breakdown(format!(
             "the {n}×{n} projected mass matrix is not positive definite: {err:?}"
         ))
     })?;

@@ -32,12 +32,13 @@ use std::time::Instant;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatMut, MatRef, Par};
 
-use super::dense::{select_columns, symmetric_eigen, symmetrised};
-use super::factor::Factor;
-use super::parallel::{add_product, times, transpose_times};
-use super::sparse_ops::symmetric_mul;
-use crate::model::CscMatrix;
-use crate::stage::StageError;
+use crate::Error;
+use crate::csc::CscMatrix;
+use crate::csc::symmetric_mul;
+use crate::dense::{select_columns, symmetric_eigen, symmetrised};
+use crate::ldlt::Factor;
+use crate::rng::SplitMix64;
+use crate::tall::{add_product, times, transpose_times};
 
 /// `Op = (K − σ M)⁻¹ M`, applied to blocks of vectors; counts the vectors solved for.
 pub struct ShiftInvert<'a> {
@@ -86,36 +87,6 @@ impl<'a> ShiftInvert<'a> {
 
     pub fn sigma(&self) -> f64 {
         self.factor.sigma
-    }
-}
-
-/// Deterministic pseudo-random numbers (SplitMix64) for start and replacement vectors: the
-/// results must not change from run to run.
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    pub fn new(seed: u64) -> Self {
-        SplitMix64(seed)
-    }
-
-    /// Uniform in [−1, 1).
-    pub fn next_signed(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-
-    pub fn block(&mut self, n: usize, n_cols: usize) -> Mat<f64> {
-        let mut block = Mat::<f64>::zeros(n, n_cols);
-        for j in 0..n_cols {
-            for i in 0..n {
-                block[(i, j)] = self.next_signed();
-            }
-        }
-        block
     }
 }
 
@@ -257,7 +228,7 @@ fn orthonormalize_columnwise(
     M: &CscMatrix,
     entry_norms: &[f64],
     random: &mut SplitMix64,
-) -> Result<(Mat<f64>, Mat<f64>), StageError> {
+) -> Result<(Mat<f64>, Mat<f64>), Error> {
     let (n, p) = (W.nrows(), W.ncols());
     let mut R = Mat::<f64>::zeros(p, p);
     let mut MW = Mat::<f64>::zeros(n, p);
@@ -290,7 +261,7 @@ fn orthonormalize_columnwise(
             M_column = symmetric_mul(M, column.as_ref());
             norm = dot(column.col(0), M_column.col(0)).max(0.0).sqrt();
             if !(norm > 1e-8 * column.col(0).norm_l2()) {
-                return Err(StageError::new(format!(
+                return Err(Error::NotConverged(format!(
                     "Lanczos: the Krylov space is exhausted ({n} DOFs): no new direction is M-orthogonal to the basis"
                 )));
             }
@@ -321,7 +292,7 @@ fn orthonormalize_block(
     M: &CscMatrix,
     random: &mut SplitMix64,
     par: Par,
-) -> Result<Orthonormalized, StageError> {
+) -> Result<Orthonormalized, Error> {
     let entry_norms = column_norms(W);
     let coefficients = reorthogonalize(W, others, basis, local_start);
     let remaining = column_norms(W);
@@ -394,7 +365,7 @@ pub fn block_lanczos(
     locked: MatRef<'_, f64>,
     options: LanczosOptions,
     done: &dyn Fn(&[f64]) -> bool,
-) -> Result<RitzPairs, StageError> {
+) -> Result<RitzPairs, Error> {
     let M = op.M;
     let par = op.par;
     let n = M.n_rows;
@@ -527,7 +498,7 @@ pub fn block_lanczos(
                 }
                 restarts += 1;
                 if restarts > options.max_restarts {
-                    return Err(StageError::new(format!(
+                    return Err(Error::NotConverged(format!(
                         "Lanczos did not converge: {} Ritz pairs converged after {} restarts with a basis of {max_basis} vectors",
                         found_theta.len(),
                         options.max_restarts

@@ -22,9 +22,9 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, MatMut, Par, Side};
 
-use super::ordering;
-use crate::model::CscMatrix;
-use crate::stage::StageError;
+use crate::Error;
+use crate::csc::CscMatrix;
+use crate::ordering;
 
 /// Largest backward error of the check solve before a factorisation is declared unstable (no
 /// pivoting: a shift too close to an eigenvalue can ruin it).
@@ -75,7 +75,7 @@ impl ShiftedPencil {
         K: &CscMatrix,
         M: &CscMatrix,
         dof_of_node: &[[Option<u32>; 3]],
-    ) -> Result<ShiftedPencil, StageError> {
+    ) -> Result<ShiftedPencil, Error> {
         ShiftedPencil::with_ordering(K, M, dof_of_node, FillOrdering::NestedDissection)
     }
 
@@ -86,7 +86,7 @@ impl ShiftedPencil {
         M: &CscMatrix,
         dof_of_node: &[[Option<u32>; 3]],
         fill_ordering: FillOrdering,
-    ) -> Result<ShiftedPencil, StageError> {
+    ) -> Result<ShiftedPencil, Error> {
         let n = K.n_rows;
         let mut col_ptr = Vec::with_capacity(n + 1);
         col_ptr.push(0);
@@ -137,7 +137,7 @@ impl ShiftedPencil {
             CholeskySymbolicParams::default(),
         )
         .map_err(|err| {
-            StageError::new(format!(
+            Error::Breakdown(format!(
                 "symbolic factorisation of K - sigma M failed ({n} DOFs): {err:?}"
             ))
         })?;
@@ -158,7 +158,7 @@ impl ShiftedPencil {
     }
 
     /// The numeric factorisation of `K − σ M`.
-    pub fn factor(&self, sigma: f64, par: Par) -> Result<Factor<'_>, StageError> {
+    pub fn factor(&self, sigma: f64, par: Par) -> Result<Factor<'_>, Error> {
         let values: Vec<f64> = self
             .K_lower
             .iter()
@@ -191,13 +191,13 @@ impl ShiftedPencil {
                 Default::default(),
             )
             .map_err(|err| {
-                StageError::new(format!(
+                Error::Breakdown(format!(
                     "LDL^T of K - sigma M failed at sigma = {sigma:e} rad^2/s^2: {err:?} (sigma is an eigenvalue)"
                 ))
             })?;
         let pivots = pivots(&self.symbolic, &L_values);
         if let Some(bad) = pivots.iter().position(|pivot| !pivot.is_finite()) {
-            return Err(StageError::new(format!(
+            return Err(Error::Breakdown(format!(
                 "LDL^T of K - sigma M at sigma = {sigma:e} rad^2/s^2 has a non-finite pivot at position {bad}"
             )));
         }
@@ -288,7 +288,7 @@ impl Factor<'_> {
 
     /// Solves one system and checks its normwise backward error
     /// `‖A x − b‖ / (‖A‖₁ ‖x‖ + ‖b‖)`, which is at roundoff level for a stable factorisation.
-    fn check_solve(&self, par: Par) -> Result<(), StageError> {
+    fn check_solve(&self, par: Par) -> Result<(), Error> {
         let n = self.pencil.n;
         let b: Vec<f64> = (0..n)
             .map(|i| 1.0 + ((i as f64) * 0.618_033_988_75).fract())
@@ -302,7 +302,7 @@ impl Factor<'_> {
         let backward_error =
             norm(&residual) / (self.pencil.shifted_norm_1(self.sigma) * norm(&x) + norm(&b));
         if !(backward_error <= SOLVE_CHECK_TOLERANCE) {
-            return Err(StageError::new(format!(
+            return Err(Error::Breakdown(format!(
                 "LDL^T of K - sigma M at sigma = {:e} rad^2/s^2 is unstable: backward error of a solve {backward_error:.2e} > {SOLVE_CHECK_TOLERANCE:e}",
                 self.sigma
             )));

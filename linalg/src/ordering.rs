@@ -11,7 +11,7 @@ use std::sync::Mutex;
 use metis_sys as metis;
 use rayon::prelude::*;
 
-use crate::model::CscMatrix;
+use crate::csc::CscMatrix;
 
 /// METIS keeps its random generator in C globals: calls must not overlap, and each call sets
 /// the seed, which makes the ordering (hence every digit of the results) reproducible.

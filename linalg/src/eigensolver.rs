@@ -27,13 +27,13 @@ use std::time::Instant;
 
 use faer::{Mat, MatRef, Par};
 
-use super::dense::{generalized_symmetric_eigen, select_columns, symmetrised};
-use super::factor::{Factor, ShiftedPencil};
-use super::lanczos::{LanczosOptions, ShiftInvert, block_lanczos};
-use super::parallel::{times, transpose_times};
-use super::sparse_ops::{check_symmetric, diagonal, symmetric_mul};
-use crate::model::CscMatrix;
-use crate::stage::StageError;
+use crate::Error;
+use crate::csc::CscMatrix;
+use crate::csc::{check_symmetric, diagonal, symmetric_mul};
+use crate::dense::{generalized_symmetric_eigen, select_columns, symmetrised};
+use crate::lanczos::{LanczosOptions, ShiftInvert, block_lanczos};
+use crate::ldlt::{Factor, ShiftedPencil};
+use crate::tall::{times, transpose_times};
 
 /// Largest residual of a reported mode.
 pub const RESIDUAL_TOLERANCE: f64 = 1e-8;
@@ -165,11 +165,11 @@ fn residuals(
 }
 
 /// Median of `K_ii / M_ii`: the scale of the eigenvalues of a single DOF.
-fn diagonal_eigenvalue_scale(K: &CscMatrix, M: &CscMatrix) -> Result<f64, StageError> {
+fn diagonal_eigenvalue_scale(K: &CscMatrix, M: &CscMatrix) -> Result<f64, Error> {
     let K_diagonal = diagonal(K);
     let M_diagonal = diagonal(M);
     if let Some(dof) = M_diagonal.iter().position(|&m| !(m > 0.0)) {
-        return Err(StageError::new(format!(
+        return Err(Error::InvalidInput(format!(
             "M is not positive definite: M[{dof}, {dof}] = {:e}",
             M_diagonal[dof]
         )));
@@ -181,7 +181,9 @@ fn diagonal_eigenvalue_scale(K: &CscMatrix, M: &CscMatrix) -> Result<f64, StageE
         .filter(|ratio| *ratio > 0.0)
         .collect();
     if ratios.is_empty() {
-        return Err(StageError::new("K has no positive diagonal entry"));
+        return Err(Error::InvalidInput(
+            "K has no positive diagonal entry".to_string(),
+        ));
     }
     ratios.sort_by(f64::total_cmp);
     Ok(ratios[ratios.len() / 2])
@@ -194,7 +196,7 @@ fn factor_at<'a>(
     scale: f64,
     par: Par,
     report: &mut SolveReport,
-) -> Result<Factor<'a>, StageError> {
+) -> Result<Factor<'a>, Error> {
     let mut last_error = None;
     for attempt in 0..4 {
         let nudge = [0.0, -1e-7, 1e-7, -1e-5][attempt] * target.abs().max(scale);
@@ -207,7 +209,7 @@ fn factor_at<'a>(
             Err(err) => last_error = Some(err),
         }
     }
-    Err(last_error.unwrap_or_else(|| StageError::new("no factorisation attempted")))
+    Err(last_error.unwrap_or_else(|| Error::Breakdown("no factorisation attempted".to_string())))
 }
 
 /// The smallest `j ≥ first` with a gap between `sorted[j − 1]` and `sorted[j]`.
@@ -232,7 +234,7 @@ fn rayleigh_ritz(
     K: &CscMatrix,
     M: &CscMatrix,
     par: Par,
-) -> Result<RitzProducts, StageError> {
+) -> Result<RitzProducts, Error> {
     let KZ = symmetric_mul(K, Z);
     let MZ = symmetric_mul(M, Z);
     let K_projected = transpose_times(Z, KZ.as_ref());
@@ -261,7 +263,7 @@ fn refine(
     n_checked: usize,
     target: f64,
     K_norm: f64,
-) -> Result<(Candidates, usize), StageError> {
+) -> Result<(Candidates, usize), Error> {
     let (M, par, sigma) = (op.M, op.par, op.sigma());
     let mut MQ = MQ;
     let mut lambda = lambda;
@@ -308,16 +310,13 @@ fn refine(
             break;
         }
     }
-    let candidates = candidates.ok_or_else(|| StageError::new("no refinement step ran"))?;
+    let candidates =
+        candidates.ok_or_else(|| Error::NotConverged("no refinement step ran".to_string()))?;
     Ok((candidates, steps))
 }
 
 /// All eigenpairs of a small model, densely: λ ascending, `M`-orthonormal vectors.
-fn dense_candidates(
-    K: &CscMatrix,
-    M: &CscMatrix,
-    par: Par,
-) -> Result<(Vec<f64>, Mat<f64>), StageError> {
+fn dense_candidates(K: &CscMatrix, M: &CscMatrix, par: Par) -> Result<(Vec<f64>, Mat<f64>), Error> {
     let to_dense = |A: &CscMatrix| {
         let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
         for j in 0..A.n_cols {
@@ -342,18 +341,18 @@ pub fn solve(
     dof_of_node: &[[Option<u32>; 3]],
     band: Band,
     options: SolveOptions,
-) -> Result<Eigensolution, StageError> {
+) -> Result<Eigensolution, Error> {
     let par = options.par;
     let block_size = options.block_size.max(1);
     let n = K.n_rows;
     if n == 0 {
-        return Err(StageError::new("the model has no DOF"));
+        return Err(Error::InvalidInput("the model has no DOF".to_string()));
     }
     check_symmetric(K, n, "K")?;
     check_symmetric(M, n, "M")?;
     if band.n_modes == 0 && !band.lambda_hi.is_finite() {
-        return Err(StageError::new(
-            "n_modes = 0 asks for every mode below f_max_hz, but f_max_hz is not set",
+        return Err(Error::InvalidInput(
+            "n_modes = 0 asks for every mode below f_max_hz, but f_max_hz is not set".to_string(),
         ));
     }
     let mut report = SolveReport {
@@ -378,7 +377,7 @@ pub fn solve(
     let sigma = factor_sigma.sigma;
     report.sigma = sigma;
     if band.lambda_lo <= 0.0 && factor_sigma.negative_pivots > 0 {
-        return Err(StageError::new(format!(
+        return Err(Error::InvalidInput(format!(
             "K is not positive semi-definite: {} eigenvalue(s) below sigma = {sigma:e} rad^2/s^2",
             factor_sigma.negative_pivots
         )));
@@ -417,7 +416,7 @@ pub fn solve(
     let dense = n <= DENSE_LIMIT || (3 * n_needed > n && n <= 3 * DENSE_LIMIT);
     report.dense = dense;
     if !dense && 3 * n_needed > n {
-        return Err(StageError::new(format!(
+        return Err(Error::InvalidInput(format!(
             "{n_wanted} modes are too many for a model of {n} DOFs: ask for at most {}",
             n / 3 - block_size
         )));
@@ -542,7 +541,7 @@ pub fn solve(
                         2.0 * found_above_sigma.last().copied().unwrap_or(0.0).abs() + scale
                     }
                     None => {
-                        return Err(StageError::new(format!(
+                        return Err(Error::NotConverged(format!(
                             "found {} eigenvalues but no gap above the {n_wanted}th to place a Sturm shift",
                             found_above_sigma.len()
                         )));
@@ -577,7 +576,7 @@ pub fn solve(
             .residuals
             .iter()
             .fold(0.0f64, |worst, r| worst.max(*r));
-        return Err(StageError::new(format!(
+        return Err(Error::NotConverged(format!(
             "Sturm count: {expected} eigenvalues lie in [{sigma:e}, {:e}) rad^2/s^2 but {found} were found (worst residual {worst:.2e})",
             report.sturm_shift
         )));
@@ -591,7 +590,7 @@ pub fn solve(
         .take(n_wanted)
         .collect();
     if selected.len() < n_wanted {
-        return Err(StageError::new(format!(
+        return Err(Error::NotConverged(format!(
             "{n_wanted} modes wanted in the band but only {} were found",
             selected.len()
         )));
@@ -607,7 +606,7 @@ pub fn solve(
             .unwrap_or(0);
         // ‖K‖₁ / ‖M‖₁ estimates λ_max, hence the roundoff floor of this mode's residual.
         let floor = f64::EPSILON * K_norm / M.norm_1() / lambda[mode].abs().max(f64::MIN_POSITIVE);
-        return Err(StageError::new(format!(
+        return Err(Error::NotConverged(format!(
             "mode {} (omega^2 = {:e}) has residual {:.2e} > {RESIDUAL_TOLERANCE:e} (worst {worst:.2e}; roundoff floor about {floor:.1e})",
             mode + 1,
             lambda[mode],

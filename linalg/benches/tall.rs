@@ -1,8 +1,8 @@
 //! `Qᴴ W` and `X += Q C` for the Krylov basis's shape (28,224 rows: the default brake's
-//! reduced DOFs; 480 and 960 columns; blocks of 8 and 16), by `stability::tall` and by faer's
+//! reduced DOFs; 480 and 960 columns; blocks of 8 and 16), by `squeal_linalg::tall` and by faer's
 //! general product, on one thread and on all; and a Gram–Schmidt update with the next projection,
 //! apart and fused. Run with
-//! `cargo bench -p squeal-stages --bench tall`.
+//! `cargo bench -p squeal-linalg --bench tall`.
 
 #![allow(non_snake_case)] // matrices are named as in the equations
 
@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
-use squeal_stages::stability::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
+use squeal_linalg::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
 
 /// Median wall time of `f` over `runs` runs (s).
 fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {

@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use crate::artifact::Figure;
 use crate::stage::StageError;
 
-const FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+const FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
 /// The family every figure uses: the font above, registered under this name.
 pub const FONT: &str = "sans-serif";

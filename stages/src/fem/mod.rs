@@ -1,0 +1,5 @@
+//! Finite-element kernels shared by the stages: the hexahedron (shape functions, Jacobian,
+//! element matrices) and the materials (Hooke's law, Rayleigh damping, density per part).
+
+pub mod hex8;
+pub mod material;

@@ -1,0 +1,751 @@
+//! VTK XML unstructured grids (`.vtu`) of a mesh and fields on it (real and complex mode
+//! shapes, an equilibrium), for ParaView (`File > Open`), PyVista (`pyvista.read`) or meshio.
+//! The `vtu.*` stages ([`crate::export::vtu`]) and the stages with a VTU output use it.
+//!
+//! # What is written
+//!
+//! Plain ASCII XML, VTK file format 1.0, one piece:
+//!
+//! ```text
+//! <?xml version="1.0"?>
+//! <!-- squeal: parts 0 = disc, 1 = pad -->
+//! <VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">
+//!   <UnstructuredGrid>
+//!     <Piece NumberOfPoints="n" NumberOfCells="m">
+//!       <PointData>  arrays on nodes (below)
+//!       <CellData>   part: Int32, index into the part list of the comment above
+//!       <Points>     Float64 x 3, node coordinates (m)
+//!       <Cells>      connectivity: Int64, 8 per cell; offsets: Int64; types: UInt8, all 12
+//!     </Piece>
+//!   </UnstructuredGrid>
+//! </VTKFile>
+//! ```
+//!
+//! Our hexahedron node order is VTK_HEXAHEDRON's (type 12), so connectivity is written as is.
+//! Numbers are written exactly (shortest representation that reads back to the same double).
+//!
+//! Point arrays of `vtu.mesh`: one UInt8 array per node set, named after it (1 on the set's
+//! nodes, 0 elsewhere; `set_<name>` if the name is taken by a contact array), and with contact
+//! pairs `contact` (UInt8: 0 no pair, 1 disc node, 2 pad node), `contact_normal` (Float64 x 3,
+//! the pair's unit normal at its disc node) and `contact_area` (Float64, m², at the disc node).
+//!
+//! Point arrays of `vtu.modes`: one Float64 x 3 array per mode, `mode_0001_1234.5Hz` (number
+//! from 1, frequency ω/2π in Hz), the mass-normalised shape expanded from the free DOFs to the
+//! nodes with zeros at clamped DOFs. In ParaView, colour by a mode's magnitude to see where it
+//! moves, or apply `Warp By Vector` with it to see the deformed shape.
+
+use std::f64::consts::PI;
+use std::fmt::Write;
+
+use crate::artifact::mesh::Mesh;
+use crate::artifact::{Equilibrium, Model, RealModes};
+use crate::stage::StageError;
+
+/// VTK's cell type for an 8-node hexahedron.
+const VTK_HEXAHEDRON: u8 = 12;
+
+/// Point arrays `vtu.mesh` writes for contact pairs; node sets of these names are renamed.
+const CONTACT_ARRAYS: [&str; 3] = ["contact", "contact_normal", "contact_area"];
+
+/// The VTU text of a mesh: parts, node sets, contact pairs.
+pub fn mesh_vtu(mesh: &Mesh) -> Result<String, String> {
+    check_mesh(mesh)?;
+    let n_nodes = mesh.n_nodes();
+    let mut point_data = Vec::new();
+    for (name, nodes) in &mesh.node_sets {
+        let mut member = vec![0u8; n_nodes];
+        for node in nodes {
+            member[*node as usize] = 1;
+        }
+        let name = if CONTACT_ARRAYS.contains(&name.as_str()) && !mesh.contact_pairs.is_empty() {
+            format!("set_{name}")
+        } else {
+            name.clone()
+        };
+        point_data.push(DataArray::new(name, 1, Values::UInt8(member)));
+    }
+    if !mesh.contact_pairs.is_empty() {
+        let mut side = vec![0u8; n_nodes];
+        let mut normal = vec![0.0; 3 * n_nodes];
+        let mut area = vec![0.0; n_nodes];
+        for pair in &mesh.contact_pairs {
+            let (disc, pad) = (pair.disc_node as usize, pair.pad_node as usize);
+            side[disc] = 1;
+            side[pad] = 2;
+            normal[3 * disc..3 * disc + 3].copy_from_slice(&pair.normal);
+            area[disc] = pair.area;
+        }
+        point_data.push(DataArray::new("contact", 1, Values::UInt8(side)));
+        point_data.push(DataArray::new("contact_normal", 3, Values::Float64(normal)));
+        point_data.push(DataArray::new("contact_area", 1, Values::Float64(area)));
+    }
+    write_grid(mesh, &point_data)
+}
+
+/// The VTU text of the first `max_modes` modes on the model's mesh.
+pub fn modes_vtu(model: &Model, modes: &RealModes, max_modes: usize) -> Result<String, StageError> {
+    model.check_dof_map()?;
+    let n_dofs = model.n_dofs();
+    if modes.omega.len() != modes.shapes.len() {
+        return Err(StageError::new(format!(
+            "modes have {} frequencies but {} shapes",
+            modes.omega.len(),
+            modes.shapes.len()
+        )));
+    }
+    let mut point_data = Vec::new();
+    for (mode_idx, (omega, shape)) in modes
+        .omega
+        .iter()
+        .zip(&modes.shapes)
+        .enumerate()
+        .take(max_modes)
+    {
+        let number = mode_idx + 1;
+        if shape.len() != n_dofs {
+            return Err(StageError::new(format!(
+                "mode {number} has {} values, the model has {n_dofs} DOFs",
+                shape.len()
+            )));
+        }
+        let name = format!("mode_{number:04}_{:.1}Hz", omega / (2.0 * PI));
+        point_data.push(DataArray::new(
+            name,
+            3,
+            Values::Float64(nodal_vectors(model, shape)),
+        ));
+    }
+    write_grid(&model.mesh, &point_data).map_err(StageError::new)
+}
+
+/// The VTU text of complex mode shapes over the free DOFs: for each `(name, real, imaginary)`
+/// two vector fields `<name>_re` and `<name>_im` (animate `re·cos ωt − im·sin ωt` in ParaView).
+pub fn complex_modes_vtu(
+    model: &Model,
+    modes: &[(String, Vec<f64>, Vec<f64>)],
+) -> Result<String, StageError> {
+    model.check_dof_map()?;
+    let mut point_data = Vec::new();
+    for (name, real, imaginary) in modes {
+        for (suffix, part) in [("re", real), ("im", imaginary)] {
+            if part.len() != model.n_dofs() {
+                return Err(StageError::new(format!(
+                    "mode {name} has {} values, the model has {} DOFs",
+                    part.len(),
+                    model.n_dofs()
+                )));
+            }
+            point_data.push(DataArray::new(
+                format!("{name}_{suffix}"),
+                3,
+                Values::Float64(nodal_vectors(model, part)),
+            ));
+        }
+    }
+    write_grid(&model.mesh, &point_data).map_err(StageError::new)
+}
+
+/// A field over the free DOFs as one 3-vector per node, zero on clamped DOFs.
+fn nodal_vectors(model: &Model, field: &[f64]) -> Vec<f64> {
+    let mut vectors = vec![0.0; 3 * model.mesh.n_nodes()];
+    for (node, dofs) in model.dof_of_node.iter().enumerate() {
+        for (axis, dof) in dofs.iter().enumerate() {
+            if let Some(dof) = dof {
+                vectors[3 * node + axis] = field[*dof as usize];
+            }
+        }
+    }
+    vectors
+}
+
+/// The VTU text of a sliding equilibrium: the displacement (elastic part, without the pads'
+/// rigid approach) and, on both nodes of each contact pair, the contact pressure r_n / area (Pa)
+/// and the normal gap (m).
+pub fn equilibrium_vtu(model: &Model, equilibrium: &Equilibrium) -> Result<String, StageError> {
+    model.check_dof_map()?;
+    if equilibrium.u.len() != model.n_dofs()
+        || equilibrium.r_n.len() != model.mesh.contact_pairs.len()
+    {
+        return Err(StageError::new(
+            "the equilibrium does not belong to this model",
+        ));
+    }
+    let n_nodes = model.mesh.n_nodes();
+    let (mut pressure, mut gap) = (vec![0.0; n_nodes], vec![0.0; n_nodes]);
+    for ((pair, r_n), pair_gap) in model
+        .mesh
+        .contact_pairs
+        .iter()
+        .zip(&equilibrium.r_n)
+        .zip(&equilibrium.gap)
+    {
+        for node in [pair.disc_node, pair.pad_node] {
+            pressure[node as usize] = r_n / pair.area;
+            gap[node as usize] = *pair_gap;
+        }
+    }
+    let point_data = vec![
+        DataArray::new(
+            "displacement",
+            3,
+            Values::Float64(nodal_vectors(model, &equilibrium.u)),
+        ),
+        DataArray::new("contact_pressure", 1, Values::Float64(pressure)),
+        DataArray::new("contact_gap", 1, Values::Float64(gap)),
+    ];
+    write_grid(&model.mesh, &point_data).map_err(StageError::new)
+}
+
+/// The values of one data array.
+enum Values {
+    UInt8(Vec<u8>),
+    Int32(Vec<i32>),
+    Int64(Vec<i64>),
+    Float64(Vec<f64>),
+}
+
+impl Values {
+    fn vtk_type(&self) -> &'static str {
+        match self {
+            Values::UInt8(_) => "UInt8",
+            Values::Int32(_) => "Int32",
+            Values::Int64(_) => "Int64",
+            Values::Float64(_) => "Float64",
+        }
+    }
+}
+
+/// A named VTK data array of `components` values per tuple.
+struct DataArray {
+    name: String,
+    components: usize,
+    values: Values,
+}
+
+impl DataArray {
+    fn new(name: impl Into<String>, components: usize, values: Values) -> Self {
+        DataArray {
+            name: name.into(),
+            components,
+            values,
+        }
+    }
+
+    /// Writes `<DataArray ...>values</DataArray>`, `per_line` values on a line.
+    fn write(&self, out: &mut String, indent: &str, per_line: usize) -> Result<(), String> {
+        let _ = write!(
+            out,
+            "{indent}<DataArray type=\"{}\" Name=\"{}\"",
+            self.values.vtk_type(),
+            escape_attribute(&self.name)
+        );
+        if self.components > 1 {
+            let _ = write!(out, " NumberOfComponents=\"{}\"", self.components);
+        }
+        let _ = writeln!(out, " format=\"ascii\">");
+        let per_line = per_line.max(1);
+        let line = |idx: usize, out: &mut String| {
+            if idx.is_multiple_of(per_line) {
+                if idx > 0 {
+                    out.push('\n');
+                }
+                out.push_str(indent);
+                out.push_str("  ");
+            } else {
+                out.push(' ');
+            }
+        };
+        match &self.values {
+            Values::UInt8(values) => values.iter().enumerate().for_each(|(idx, value)| {
+                line(idx, out);
+                let _ = write!(out, "{value}");
+            }),
+            Values::Int32(values) => values.iter().enumerate().for_each(|(idx, value)| {
+                line(idx, out);
+                let _ = write!(out, "{value}");
+            }),
+            Values::Int64(values) => values.iter().enumerate().for_each(|(idx, value)| {
+                line(idx, out);
+                let _ = write!(out, "{value}");
+            }),
+            Values::Float64(values) => {
+                for (idx, value) in values.iter().enumerate() {
+                    if !value.is_finite() {
+                        return Err(format!(
+                            "array `{}` has a non-finite value at tuple {}",
+                            self.name,
+                            idx / self.components
+                        ));
+                    }
+                    line(idx, out);
+                    write_float(out, *value);
+                }
+            }
+        }
+        let _ = writeln!(out, "\n{indent}</DataArray>");
+        Ok(())
+    }
+}
+
+/// Writes a double exactly, in plain notation where that stays short, else in exponent form.
+fn write_float(out: &mut String, value: f64) {
+    let magnitude = value.abs();
+    if value == 0.0 || (1e-4..1e15).contains(&magnitude) {
+        let _ = write!(out, "{value}");
+    } else {
+        let _ = write!(out, "{value:e}");
+    }
+}
+
+fn escape_attribute(text: &str) -> String {
+    let mut escaped = String::with_capacity(text.len());
+    for ch in text.chars() {
+        match ch {
+            '&' => escaped.push_str("&amp;"),
+            '<' => escaped.push_str("&lt;"),
+            '>' => escaped.push_str("&gt;"),
+            '"' => escaped.push_str("&quot;"),
+            _ => escaped.push(ch),
+        }
+    }
+    escaped
+}
+
+/// Checks every index of the mesh, so that writing it cannot go out of bounds.
+fn check_mesh(mesh: &Mesh) -> Result<(), String> {
+    let n_nodes = mesh.n_nodes();
+    if let Some((hex_idx, _)) = mesh
+        .hexes
+        .iter()
+        .enumerate()
+        .find(|(_, hex)| hex.iter().any(|node| *node as usize >= n_nodes))
+    {
+        return Err(format!(
+            "mesh hexahedron {hex_idx} refers to a node beyond the {n_nodes} nodes"
+        ));
+    }
+    if mesh.hex_part.len() != mesh.hexes.len() {
+        return Err(format!(
+            "mesh has {} hexahedra but {} part indices",
+            mesh.hexes.len(),
+            mesh.hex_part.len()
+        ));
+    }
+    if let Some(part) = mesh
+        .hex_part
+        .iter()
+        .find(|part| **part as usize >= mesh.parts.len())
+    {
+        return Err(format!(
+            "mesh part index {part} is beyond its {} parts",
+            mesh.parts.len()
+        ));
+    }
+    for (name, nodes) in &mesh.node_sets {
+        if nodes.iter().any(|node| *node as usize >= n_nodes) {
+            return Err(format!(
+                "mesh node set `{name}` refers to a node beyond the {n_nodes} nodes"
+            ));
+        }
+    }
+    if mesh
+        .contact_pairs
+        .iter()
+        .any(|pair| pair.disc_node as usize >= n_nodes || pair.pad_node as usize >= n_nodes)
+    {
+        return Err(format!(
+            "a mesh contact pair refers to a node beyond the {n_nodes} nodes"
+        ));
+    }
+    Ok(())
+}
+
+/// The whole VTU document: the mesh's points, hexahedra and parts, plus `point_data`.
+fn write_grid(mesh: &Mesh, point_data: &[DataArray]) -> Result<String, String> {
+    check_mesh(mesh)?;
+    let n_nodes = mesh.n_nodes();
+    let n_cells = mesh.hexes.len();
+    // Roughly 25 bytes per number.
+    let n_numbers = 3 * n_nodes
+        + 10 * n_cells
+        + point_data
+            .iter()
+            .map(|array| array.components * n_nodes)
+            .sum::<usize>();
+    let mut out = String::with_capacity(1024 + 25 * n_numbers);
+    out.push_str("<?xml version=\"1.0\"?>\n");
+    let parts: Vec<String> = mesh
+        .parts
+        .iter()
+        .enumerate()
+        .map(|(idx, name)| format!("{idx} = {name}"))
+        .collect();
+    // "--" may not appear inside an XML comment.
+    let comment = format!("squeal: parts {}", parts.join(", ")).replace("--", "- -");
+    let _ = writeln!(out, "<!-- {comment} -->");
+    out.push_str(
+        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    out.push_str("  <UnstructuredGrid>\n");
+    let _ = writeln!(
+        out,
+        "    <Piece NumberOfPoints=\"{n_nodes}\" NumberOfCells=\"{n_cells}\">"
+    );
+    let indent = "        ";
+
+    out.push_str("      <PointData>\n");
+    for array in point_data {
+        let per_line = if array.components > 1 {
+            array.components
+        } else {
+            16
+        };
+        array.write(&mut out, indent, per_line)?;
+    }
+    out.push_str("      </PointData>\n");
+
+    out.push_str("      <CellData>\n");
+    let part: Vec<i32> = mesh.hex_part.iter().map(|part| *part as i32).collect();
+    DataArray::new("part", 1, Values::Int32(part)).write(&mut out, indent, 16)?;
+    out.push_str("      </CellData>\n");
+
+    out.push_str("      <Points>\n");
+    let coordinates: Vec<f64> = mesh.nodes.iter().flatten().copied().collect();
+    DataArray::new("Points", 3, Values::Float64(coordinates)).write(&mut out, indent, 3)?;
+    out.push_str("      </Points>\n");
+
+    out.push_str("      <Cells>\n");
+    let connectivity: Vec<i64> = mesh
+        .hexes
+        .iter()
+        .flatten()
+        .map(|node| i64::from(*node))
+        .collect();
+    DataArray::new("connectivity", 1, Values::Int64(connectivity)).write(&mut out, indent, 8)?;
+    let offsets: Vec<i64> = (1..=n_cells as i64).map(|cell| 8 * cell).collect();
+    DataArray::new("offsets", 1, Values::Int64(offsets)).write(&mut out, indent, 16)?;
+    let types = vec![VTK_HEXAHEDRON; n_cells];
+    DataArray::new("types", 1, Values::UInt8(types)).write(&mut out, indent, 16)?;
+    out.push_str("      </Cells>\n");
+
+    out.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+    use std::sync::Arc;
+
+    use crate::artifact::Artifact;
+    use crate::artifact::CscMatrix;
+    use crate::export::vtu::ModesVtu;
+    use crate::mesh::gmsh::{ContactGroups, ReadOptions, read_msh};
+    use crate::mesh::structured::block;
+    use crate::stage::{Input, Inputs, Params, Stage, Value};
+
+    /// A `<DataArray>` read back: its parent element, attributes and whitespace-split values.
+    #[derive(Debug)]
+    struct ParsedArray {
+        parent: String,
+        attributes: BTreeMap<String, String>,
+        values: Vec<String>,
+    }
+
+    impl ParsedArray {
+        fn floats(&self) -> Vec<f64> {
+            self.values.iter().map(|v| v.parse().unwrap()).collect()
+        }
+        fn ints(&self) -> Vec<i64> {
+            self.values.iter().map(|v| v.parse().unwrap()).collect()
+        }
+    }
+
+    /// A small XML reader for what we write: checks that tags nest and close, returns the
+    /// `Piece` attributes and every data array.
+    fn parse_vtu(xml: &str) -> (BTreeMap<String, String>, Vec<ParsedArray>) {
+        let mut stack: Vec<String> = Vec::new();
+        let mut piece = BTreeMap::new();
+        let mut arrays = Vec::new();
+        let mut rest = xml;
+        while let Some(open) = rest.find('<') {
+            let text = &rest[..open];
+            let close = rest[open..].find('>').expect("unclosed tag") + open;
+            let tag = &rest[open + 1..close];
+            if let Some(name) = tag.strip_prefix('/') {
+                assert_eq!(stack.pop().as_deref(), Some(name), "mismatched </{name}>");
+                if name == "DataArray" {
+                    let array: &mut ParsedArray = arrays.last_mut().unwrap();
+                    array.values = text.split_whitespace().map(String::from).collect();
+                }
+            } else if !tag.starts_with('?') && !tag.starts_with("!--") {
+                let (name, attribute_text) = tag.split_once(' ').unwrap_or((tag, ""));
+                let attributes = parse_attributes(attribute_text);
+                if name == "Piece" {
+                    piece = attributes.clone();
+                }
+                if name == "DataArray" {
+                    arrays.push(ParsedArray {
+                        parent: stack.last().cloned().unwrap_or_default(),
+                        attributes,
+                        values: Vec::new(),
+                    });
+                }
+                if !tag.ends_with('/') {
+                    stack.push(name.to_string());
+                }
+            }
+            rest = &rest[close + 1..];
+        }
+        assert!(stack.is_empty(), "unclosed elements: {stack:?}");
+        assert!(rest.trim().is_empty());
+        (piece, arrays)
+    }
+
+    fn parse_attributes(text: &str) -> BTreeMap<String, String> {
+        let mut attributes = BTreeMap::new();
+        let mut rest = text.trim();
+        while let Some(eq) = rest.find("=\"") {
+            let name = rest[..eq].trim().to_string();
+            let end = rest[eq + 2..].find('"').expect("unterminated attribute") + eq + 2;
+            let value = rest[eq + 2..end]
+                .replace("&quot;", "\"")
+                .replace("&lt;", "<")
+                .replace("&gt;", ">")
+                .replace("&amp;", "&");
+            attributes.insert(name, value);
+            rest = rest[end + 1..].trim();
+        }
+        attributes
+    }
+
+    fn array<'a>(arrays: &'a [ParsedArray], parent: &str, name: &str) -> &'a ParsedArray {
+        arrays
+            .iter()
+            .find(|a| {
+                a.parent == parent && a.attributes.get("Name").map(String::as_str) == Some(name)
+            })
+            .unwrap_or_else(|| panic!("no {parent} array `{name}`"))
+    }
+
+    fn two_part_mesh() -> Mesh {
+        let path = format!("{}/tests/data/two_part.msh", env!("CARGO_MANIFEST_DIR"));
+        let options = ReadOptions {
+            contact: Some(ContactGroups {
+                disc: "contact_disc".into(),
+                pad: "contact_pad".into(),
+                relative_tolerance: 1e-3,
+            }),
+        };
+        read_msh(&std::fs::read_to_string(path).unwrap(), &options).unwrap()
+    }
+
+    #[test]
+    fn mesh_vtu_reads_back_cells_points_parts_and_sets() {
+        let mut mesh = two_part_mesh();
+        // A name that needs escaping, and one that collides with a contact array.
+        mesh.node_sets.insert("a<&\"b".into(), vec![0]);
+        mesh.node_sets.insert("contact".into(), vec![1]);
+        let xml = mesh_vtu(&mesh).unwrap();
+        assert!(xml.contains("<!-- squeal: parts 0 = disc, 1 = pad -->"));
+        let (piece, arrays) = parse_vtu(&xml);
+        assert_eq!(piece["NumberOfPoints"], "24");
+        assert_eq!(piece["NumberOfCells"], "4");
+
+        let connectivity = array(&arrays, "Cells", "connectivity");
+        assert_eq!(connectivity.attributes["type"], "Int64");
+        let expected: Vec<i64> = mesh.hexes.iter().flatten().map(|n| i64::from(*n)).collect();
+        assert_eq!(connectivity.ints(), expected);
+        assert_eq!(array(&arrays, "Cells", "offsets").ints(), [8, 16, 24, 32]);
+        let types = array(&arrays, "Cells", "types");
+        assert_eq!(
+            (types.attributes["type"].as_str(), types.ints()),
+            ("UInt8", vec![12; 4])
+        );
+
+        let points = array(&arrays, "Points", "Points");
+        assert_eq!(points.attributes["NumberOfComponents"], "3");
+        let expected: Vec<f64> = mesh.nodes.iter().flatten().copied().collect();
+        assert_eq!(points.floats(), expected, "coordinates read back exactly");
+
+        let part = array(&arrays, "CellData", "part");
+        assert_eq!(
+            (part.attributes["type"].as_str(), part.ints()),
+            ("Int32", vec![0, 0, 1, 1])
+        );
+
+        let pad_back = array(&arrays, "PointData", "pad_back");
+        assert_eq!(pad_back.attributes["type"], "UInt8");
+        for (node, flag) in pad_back.ints().iter().enumerate() {
+            let on_set = mesh.node_sets["pad_back"].contains(&(node as u32));
+            assert_eq!(*flag, i64::from(on_set));
+        }
+        assert_eq!(array(&arrays, "PointData", "a<&\"b").ints()[0], 1);
+        assert_eq!(array(&arrays, "PointData", "set_contact").ints()[1], 1);
+
+        let contact = array(&arrays, "PointData", "contact").ints();
+        assert_eq!(contact.iter().filter(|side| **side == 1).count(), 6);
+        assert_eq!(contact.iter().filter(|side| **side == 2).count(), 6);
+        for pair in &mesh.contact_pairs {
+            assert_eq!(
+                (
+                    contact[pair.disc_node as usize],
+                    contact[pair.pad_node as usize]
+                ),
+                (1, 2)
+            );
+        }
+        let normal = array(&arrays, "PointData", "contact_normal").floats();
+        for pair in &mesh.contact_pairs {
+            let disc = pair.disc_node as usize;
+            assert_eq!(
+                normal[3 * disc..3 * disc + 3],
+                pair.normal,
+                "read back exactly"
+            );
+        }
+        let area: f64 = array(&arrays, "PointData", "contact_area")
+            .floats()
+            .iter()
+            .sum();
+        assert!((area - 2.0).abs() < 1e-12);
+    }
+
+    /// A 2 x 1 x 1 block clamped on its face x = 0, with two made-up modes.
+    fn clamped_block() -> (Model, RealModes) {
+        let mesh = block([2.0, 1.0, 1.0], [2, 1, 1], "steel");
+        let clamped = &mesh.node_sets["x0"];
+        let mut n_dofs = 0u32;
+        let dof_of_node: Vec<[Option<u32>; 3]> = (0..mesh.n_nodes() as u32)
+            .map(|node| {
+                if clamped.contains(&node) {
+                    [None; 3]
+                } else {
+                    n_dofs += 3;
+                    [Some(n_dofs - 3), Some(n_dofs - 2), Some(n_dofs - 1)]
+                }
+            })
+            .collect();
+        let n = n_dofs as usize;
+        let identity = CscMatrix {
+            n_rows: n,
+            n_cols: n,
+            col_ptr: (0..=n).collect(),
+            row_idx: (0..n).collect(),
+            values: vec![1.0; n],
+        };
+        let model = Model {
+            mesh,
+            dof_of_node,
+            M: identity.clone(),
+            K: identity.clone(),
+            C: identity,
+        };
+        let modes = RealModes {
+            omega: vec![2.0 * PI * 100.0, 2.0 * PI * 250.3],
+            shapes: vec![
+                (0..n).map(|dof| dof as f64 / 7.0).collect(),
+                (0..n).map(|dof| -1e-20 * dof as f64).collect(),
+            ],
+            residuals: vec![1e-14, 1e-13],
+        };
+        (model, modes)
+    }
+
+    fn stage_inputs(model: &Model, modes: &RealModes) -> Inputs {
+        Inputs(BTreeMap::from([
+            (
+                "model".to_string(),
+                Input::One(Arc::new(Artifact::Model(Box::new(model.clone())))),
+            ),
+            (
+                "modes".to_string(),
+                Input::One(Arc::new(Artifact::RealModes(Box::new(modes.clone())))),
+            ),
+        ]))
+    }
+
+    fn max_modes(n: i64) -> Params {
+        Params(BTreeMap::from([("max_modes".to_string(), Value::Int(n))]))
+    }
+
+    #[test]
+    fn modes_vtu_expands_shapes_to_nodes_with_zeros_where_clamped() {
+        let (model, modes) = clamped_block();
+        let outputs = ModesVtu
+            .run(&max_modes(20), &stage_inputs(&model, &modes))
+            .unwrap();
+        let Artifact::Document(vtu) = &outputs["vtu"] else {
+            panic!("not a document")
+        };
+        assert_eq!(vtu.extension, "vtu");
+        let (piece, arrays) = parse_vtu(std::str::from_utf8(&vtu.bytes).unwrap());
+        assert_eq!(piece["NumberOfPoints"], "12");
+        let names: Vec<&str> = arrays
+            .iter()
+            .filter(|a| a.parent == "PointData")
+            .map(|a| a.attributes["Name"].as_str())
+            .collect();
+        assert_eq!(names, ["mode_0001_100.0Hz", "mode_0002_250.3Hz"]);
+        for (mode_idx, name) in names.iter().enumerate() {
+            let values = array(&arrays, "PointData", name);
+            assert_eq!(values.attributes["NumberOfComponents"], "3");
+            let values = values.floats();
+            assert_eq!(values.len(), 3 * 12);
+            for (node, dofs) in model.dof_of_node.iter().enumerate() {
+                for (axis, dof) in dofs.iter().enumerate() {
+                    let expected = dof.map_or(0.0, |dof| modes.shapes[mode_idx][dof as usize]);
+                    assert_eq!(
+                        values[3 * node + axis],
+                        expected,
+                        "mode {name}, node {node}"
+                    );
+                }
+            }
+        }
+        assert_eq!(array(&arrays, "CellData", "part").ints(), [0, 0]);
+
+        let outputs = ModesVtu
+            .run(&max_modes(1), &stage_inputs(&model, &modes))
+            .unwrap();
+        let Artifact::Document(vtu) = &outputs["vtu"] else {
+            panic!("not a document")
+        };
+        let (_, arrays) = parse_vtu(std::str::from_utf8(&vtu.bytes).unwrap());
+        assert_eq!(arrays.iter().filter(|a| a.parent == "PointData").count(), 1);
+    }
+
+    #[test]
+    fn inconsistent_inputs_are_refused_in_one_line() {
+        let (model, mut modes) = clamped_block();
+        modes.shapes[1].pop();
+        let err = ModesVtu
+            .run(&max_modes(20), &stage_inputs(&model, &modes))
+            .unwrap_err();
+        assert!(
+            err.message
+                .contains("mode 2 has 23 values, the model has 24 DOFs"),
+            "{err}"
+        );
+
+        let (model, mut modes) = clamped_block();
+        modes.shapes[0][4] = f64::NAN;
+        let err = ModesVtu
+            .run(&max_modes(20), &stage_inputs(&model, &modes))
+            .unwrap_err();
+        assert!(
+            err.message
+                .contains("`mode_0001_100.0Hz` has a non-finite value"),
+            "{err}"
+        );
+
+        let mut mesh = block([1.0, 1.0, 1.0], [1, 1, 1], "steel");
+        mesh.hexes[0][7] = 99;
+        let err = mesh_vtu(&mesh).unwrap_err();
+        assert!(
+            err.contains("hexahedron 0 refers to a node beyond the 8 nodes"),
+            "{err}"
+        );
+    }
+}
