@@ -15,6 +15,7 @@
 pub mod csc;
 pub mod dense;
 pub mod eigensolver;
+pub mod gram_schmidt;
 pub mod lanczos;
 pub mod lblt;
 pub mod ldlt;
@@ -22,6 +23,7 @@ pub mod matrix_market;
 pub mod ordering;
 pub mod rng;
 pub mod tall;
+pub mod toar;
 
 pub use csc::CscMatrix;
 

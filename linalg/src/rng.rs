@@ -32,3 +32,12 @@ impl SplitMix64 {
         block
     }
 }
+
+impl SplitMix64 {
+    /// A complex block with real and imaginary parts uniform in [−1, 1).
+    pub fn complex_block(&mut self, rows: usize, cols: usize) -> Mat<faer::c64> {
+        Mat::from_fn(rows, cols, |_, _| {
+            faer::c64::new(self.next_signed(), self.next_signed())
+        })
+    }
+}

@@ -1,0 +1,281 @@
+//! Covering the band: shifts placed up the imaginary axis, their disks' overlaps checked, each
+//! eigenvalue kept from the shift whose cell it lies in.
+
+use std::f64::consts::PI;
+
+use faer::c64;
+
+use super::shift::{ShiftResult, solve_shift};
+use super::{BandReport, EigenPair, KrylovOptions, ShiftReport};
+use crate::stability::shift_invert::EmbeddedPattern;
+use crate::stability::sliding::SlidingSystem;
+use crate::stage::StageError;
+
+/// A disk that falls short with a radius below this multiple of the band's half-width at the
+/// height covered so far ends the search with an error (`solve_band`): a shift there could
+/// cover only a sliver of the band.
+const WEDGE_MARGIN: f64 = 1.05;
+
+/// Heights y (rad/s) of the band the disk |λ − iω| < r covers: every point with that imaginary
+/// part and |Re| ≤ (d_max/2) y is inside.
+fn covered(omega: f64, radius: f64, half_rate: f64) -> (f64, f64) {
+    let a = 1.0 + half_rate * half_rate;
+    let discriminant = omega * omega - a * (omega * omega - radius * radius);
+    if discriminant <= 0.0 {
+        return (omega, omega);
+    }
+    let root = discriminant.sqrt();
+    ((omega - root) / a, (omega + root) / a)
+}
+
+fn in_band(lambda: c64, omega_max: f64, half_rate: f64) -> bool {
+    lambda.im > 0.0 && lambda.im <= omega_max && lambda.re.abs() <= half_rate * lambda.im
+}
+
+/// All eigenpairs with `0 < Im λ ≤ omega_max` and `|2 Re λ/Im λ| ≤ max_divergence_rate`,
+/// ordered by frequency. `progress` receives the fraction of the band covered.
+pub fn solve_band(
+    system: &SlidingSystem,
+    omega_max: f64,
+    max_divergence_rate: f64,
+    options: &KrylovOptions,
+    progress: &dyn Fn(f64),
+) -> Result<(Vec<EigenPair>, BandReport), StageError> {
+    let half_rate = max_divergence_rate / 2.0;
+    let pattern = EmbeddedPattern::new(system)?;
+    let mut report = BandReport {
+        factor_entries: pattern.factor_len(),
+        ..BandReport::default()
+    };
+    let mut kept: Vec<EigenPair> = Vec::new();
+    // The previous shift: its coverage top, its cell's lower cut, the eigenvalues inside its
+    // disk and the band's eigenpairs among them.
+    let mut previous: Option<(f64, f64, Vec<c64>, Vec<EigenPair>)> = None;
+    let mut covered_to = 0.0_f64;
+    let mut step = omega_max / 10.0;
+    // A shift whose disk fell short of what is covered, kept until a shift below fills the gap.
+    let mut pending: Option<ShiftResult> = None;
+    while covered_to < omega_max {
+        let gap_filled = pending.as_ref().is_some_and(|result| {
+            covered(result.sigma.im, result.radius, half_rate).0 <= covered_to
+        });
+        let result = match pending.take() {
+            Some(result) if gap_filled => result,
+            short => {
+                // Below a shift that fell short, halfway to it: the disk must reach up into
+                // it as well as down to what is covered (the origin for the first shift).
+                let short_low = short
+                    .as_ref()
+                    .map(|short| covered(short.sigma.im, short.radius, half_rate).0);
+                let omega = match short_low {
+                    Some(low) => 0.5 * (covered_to + low),
+                    None => (covered_to + step).min(omega_max),
+                };
+                let height_gap = |y: f64| ((omega - y).powi(2) + (half_rate * y).powi(2)).sqrt();
+                let needed = 1.05 * height_gap(covered_to).max(short_low.map_or(0.0, height_gap));
+                pending = short;
+                solve_shift(
+                    system,
+                    &pattern,
+                    c64::new(0.0, omega),
+                    needed,
+                    &|lambda| in_band(lambda, omega_max, half_rate),
+                    options,
+                    &mut report,
+                )?
+            }
+        };
+        let omega = result.sigma.im;
+        let (low, high) = covered(omega, result.radius, half_rate);
+        let reaches = if previous.is_none() {
+            result.radius >= omega
+        } else {
+            low <= covered_to
+        };
+        if !reaches {
+            // The basis limit left the disk too small. Where the band's wedge is about as wide
+            // as the disk, no shift can help: every disk must hold the wedge's cross-section
+            // at the height covered so far, and barely wider ones would crawl up the band.
+            let wedge = half_rate * covered_to;
+            if result.radius < WEDGE_MARGIN * wedge {
+                return Err(StageError::new(format!(
+                    "at {:.0} Hz the band (|divergence rate| ≤ {max_divergence_rate}) reaches ±{:.0} Hz off the frequency axis, and a shift at {:.0} Hz resolves a disk of only {:.0} Hz radius with {} vectors (max_basis), too small to cover more than a sliver of it: lower max_divergence_rate or raise max_basis",
+                    covered_to / (2.0 * PI),
+                    wedge / (2.0 * PI),
+                    omega / (2.0 * PI),
+                    result.radius / (2.0 * PI),
+                    result.basis
+                )));
+            }
+            // Otherwise keep it, and fill the gap below it with a shift halfway; if that one
+            // falls short too (or this is the first shift), start over closer.
+            if step < 1e-4 * omega_max {
+                return Err(StageError::new(format!(
+                    "the shift at {:.1} Hz trusts only a radius of {:.1} Hz with {} vectors: raise max_basis",
+                    omega / (2.0 * PI),
+                    result.radius / (2.0 * PI),
+                    result.basis
+                )));
+            }
+            if previous.is_some() && pending.is_none() && low < high {
+                tracing::info!(
+                    "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); a shift below fills the gap",
+                    omega / (2.0 * PI),
+                    result.basis,
+                    result.radius / (2.0 * PI)
+                );
+                report.fell_short += 1;
+                pending = Some(result);
+            } else {
+                step = 0.5 * (omega - covered_to);
+                pending = None;
+                tracing::info!(
+                    "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); starting over closer, at {:.0} Hz",
+                    omega / (2.0 * PI),
+                    result.basis,
+                    result.radius / (2.0 * PI),
+                    (covered_to + step).min(omega_max) / (2.0 * PI)
+                );
+            }
+            continue;
+        }
+        let mut shift_report = ShiftReport {
+            frequency_hz: omega / (2.0 * PI),
+            radius: result.radius,
+            basis: result.basis,
+            found: result.converged.len(),
+            seconds: result.seconds,
+            ..ShiftReport::default()
+        };
+        let is_inside =
+            |lambda: c64| (lambda - result.sigma).norm() < result.radius && lambda.im > 0.0;
+        let inside: Vec<c64> = result
+            .converged
+            .iter()
+            .copied()
+            .filter(|&lambda| is_inside(lambda))
+            .collect();
+        let inside_pairs: Vec<EigenPair> = result
+            .pairs
+            .into_iter()
+            .filter(|pair| is_inside(pair.lambda))
+            .collect();
+        let cut = match previous.take() {
+            Some((previous_high, previous_cut, previous_inside, previous_pairs)) => {
+                // Both disks cover [low, previous_high]: there the two sets must agree.
+                let window = (low, previous_high);
+                check_overlap(&previous_inside, &inside, window, omega_max, half_rate).map_err(
+                    |(theirs, mine)| {
+                        StageError::new(format!(
+                            "shifts at {:.1} Hz and {:.1} Hz disagree on the eigenvalues between {:.1} and {:.1} Hz ({theirs} against {mine}): an eigenvalue was missed; raise max_basis",
+                            report.shifts.last().map_or(0.0, |shift| shift.frequency_hz),
+                            omega / (2.0 * PI),
+                            window.0 / (2.0 * PI),
+                            window.1 / (2.0 * PI),
+                        ))
+                    },
+                )?;
+                shift_report.overlap_matched = inside
+                    .iter()
+                    .filter(|lambda| lambda.im >= window.0 && lambda.im <= window.1)
+                    .count();
+                let cut = 0.5 * (window.0 + window.1);
+                kept.extend(
+                    previous_pairs
+                        .into_iter()
+                        .filter(|pair| pair.lambda.im >= previous_cut && pair.lambda.im < cut),
+                );
+                cut
+            }
+            None => 0.0,
+        };
+        shift_report.kept = inside.iter().filter(|lambda| lambda.im >= cut).count();
+        tracing::info!(
+            "stability: shift at {:.0} Hz, {} vectors, trusted radius {:.0} Hz, {} eigenvalues kept",
+            shift_report.frequency_hz,
+            shift_report.basis,
+            shift_report.radius / (2.0 * PI),
+            shift_report.kept
+        );
+        report.shifts.push(shift_report);
+        covered_to = high;
+        progress((covered_to / omega_max).min(1.0));
+        // Aim the next disk at `per_shift` eigenvalues. It spans about twice the step in
+        // height; the density is that of this disk's upper half, raised by half as modal
+        // density grows with frequency.
+        let above = inside.iter().filter(|lambda| lambda.im >= omega).count();
+        step = if above == 0 {
+            1.6 * result.radius
+        } else {
+            let density = 1.5 * above as f64 / result.radius;
+            (options.per_shift as f64 / (2.0 * density))
+                .clamp(0.1 * result.radius, 1.6 * result.radius)
+        };
+        previous = Some((high, cut, inside, inside_pairs));
+    }
+    if let Some((_, cut, _, pairs)) = previous {
+        kept.extend(pairs.into_iter().filter(|pair| pair.lambda.im >= cut));
+    }
+    kept.retain(|pair| in_band(pair.lambda, omega_max, half_rate));
+    kept.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
+    Ok((kept, report))
+}
+
+/// Checks that two shifts found the same eigenvalues in the band part of `window` (heights):
+/// each eigenvalue strictly inside, found by one, must be matched by the other. Returns the
+/// two counts on failure.
+fn check_overlap(
+    theirs: &[c64],
+    mine: &[c64],
+    window: (f64, f64),
+    omega_max: f64,
+    half_rate: f64,
+) -> Result<(), (usize, usize)> {
+    let margin = 1e-6 * window.1;
+    let within = |lambda: c64, slack: f64| {
+        lambda.im >= window.0 - slack
+            && lambda.im <= window.1 + slack
+            && lambda.im <= omega_max + slack
+            && lambda.re.abs() <= half_rate * lambda.im + slack
+    };
+    let strict = |set: &[c64]| -> Vec<c64> {
+        set.iter()
+            .copied()
+            .filter(|&lambda| within(lambda, -margin))
+            .collect()
+    };
+    let loose = |set: &[c64]| -> Vec<c64> {
+        set.iter()
+            .copied()
+            .filter(|&lambda| within(lambda, margin))
+            .collect()
+    };
+    let (theirs_strict, mine_strict) = (strict(theirs), strict(mine));
+    if match_count(&mine_strict, &loose(theirs)) != mine_strict.len()
+        || match_count(&theirs_strict, &loose(mine)) != theirs_strict.len()
+    {
+        return Err((theirs_strict.len(), mine_strict.len()));
+    }
+    Ok(())
+}
+
+/// Number of one-to-one matches between two sets of eigenvalues (relative distance 1e-6).
+fn match_count(a: &[c64], b: &[c64]) -> usize {
+    let mut used = vec![false; b.len()];
+    let mut matched = 0;
+    for lambda in a {
+        let best = b
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| !used[*j])
+            .map(|(j, other)| (j, (other - lambda).norm()))
+            .min_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((j, distance)) = best
+            && distance <= 1e-6 * lambda.norm()
+        {
+            used[j] = true;
+            matched += 1;
+        }
+    }
+    matched
+}
