@@ -62,3 +62,37 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
 pub fn test_kinds() -> Vec<Arc<dyn Stage>> {
     testing::kinds()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A value of the declared type for a parameter without a default.
+    fn placeholder(spec: &ParamSpec) -> Value {
+        match &spec.ty {
+            ParamType::Bool => Value::Bool(false),
+            ParamType::Int { min } => Value::Int((*min).max(1)),
+            ParamType::Float { min } => Value::Float(min.max(1.0)),
+            ParamType::Str | ParamType::Path => Value::Str("placeholder".to_string()),
+            ParamType::Choice(names) => Value::Str(names[0].to_string()),
+        }
+    }
+
+    #[test]
+    fn every_stage_reads_its_declared_parameters_into_its_typed_struct() {
+        for kind in all_kinds().into_iter().chain(test_kinds()) {
+            let params = Params(
+                kind.params()
+                    .iter()
+                    .map(|spec| {
+                        let value = spec.default.clone().unwrap_or_else(|| placeholder(spec));
+                        (spec.name.to_string(), value)
+                    })
+                    .collect(),
+            );
+            if let Err(err) = kind.check_params(&params) {
+                panic!("{}: {err}", kind.kind());
+            }
+        }
+    }
+}

@@ -240,6 +240,28 @@ impl Params {
         }
     }
 
+    /// The parameters read into a stage's typed struct, whose field names are the declared
+    /// names. Declare the struct `#[serde(deny_unknown_fields)]`: a name spelt differently in
+    /// the struct and in [`Stage::params`] is then an error (missing or unknown field), which
+    /// the test of every kind's [`Stage::check_params`] catches before any study runs.
+    pub fn typed<T: serde::de::DeserializeOwned>(&self) -> Result<T, StageError> {
+        let fields = self
+            .0
+            .iter()
+            .map(|(name, value)| {
+                let value = match value {
+                    Value::Bool(value) => serde_json::Value::from(*value),
+                    Value::Int(value) => serde_json::Value::from(*value),
+                    Value::Float(value) => serde_json::Value::from(*value),
+                    Value::Str(value) => serde_json::Value::from(value.as_str()),
+                };
+                (name.clone(), value)
+            })
+            .collect();
+        serde_json::from_value(serde_json::Value::Object(fields))
+            .map_err(|err| StageError::new(format!("parameters: {err}")))
+    }
+
     pub fn str(&self, name: &str) -> &str {
         match self.get(name) {
             Value::Str(value) => value,
@@ -333,6 +355,13 @@ pub trait Stage: Send + Sync {
     fn outputs(&self) -> Vec<PortSpec>;
     fn pure(&self) -> bool {
         true
+    }
+    /// Reads `params` into the stage's typed parameter struct ([`Params::typed`]), as `run`
+    /// does first. Stages that read their parameters that way override it, so that the test
+    /// of every kind catches a parameter the struct and the declaration name differently.
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        let _ = params;
+        Ok(())
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError>;
 }

@@ -471,6 +471,21 @@ pub fn back_reactions(
     Ok(total)
 }
 
+/// The parameters of `equilibrium`, as declared in [`SlidingEquilibrium::params`].
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EquilibriumParams {
+    mu: f64,
+    omega: f64,
+    load: String,
+    interference: f64,
+    pressure: f64,
+    solver: String,
+    tolerance: f64,
+    max_iterations: i64,
+    relaxation: f64,
+}
+
 /// The `equilibrium` stage.
 pub struct SlidingEquilibrium;
 
@@ -578,29 +593,27 @@ impl Stage for SlidingEquilibrium {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<EquilibriumParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
-        let solver = match params.str("solver") {
+        let params: EquilibriumParams = params.typed()?;
+        let solver = match params.solver.as_str() {
             "fixed_point" => Solver::FixedPoint,
             _ => Solver::SemismoothNewton,
         };
         let settings = LcpSettings {
-            tolerance: params.float("tolerance"),
-            max_iterations: params.int("max_iterations") as usize,
-            relaxation: params.float("relaxation"),
+            tolerance: params.tolerance,
+            max_iterations: params.max_iterations as usize,
+            relaxation: params.relaxation,
         };
-        let load = match params.str("load") {
-            "pressure" => Load::Pressure(params.float("pressure")),
-            _ => Load::Interference(params.float("interference")),
+        let load = match params.load.as_str() {
+            "pressure" => Load::Pressure(params.pressure),
+            _ => Load::Interference(params.interference),
         };
-        let (equilibrium, report) = solve(
-            model,
-            params.float("mu"),
-            params.float("omega"),
-            load,
-            solver,
-            &settings,
-        )?;
+        let (equilibrium, report) =
+            solve(model, params.mu, params.omega, load, solver, &settings)?;
         let contact = contact_table(model, &equilibrium);
         let summary = summary_table(&equilibrium, &report, &model.mesh);
         let pressure: Vec<f64> = equilibrium

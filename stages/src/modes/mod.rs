@@ -99,6 +99,9 @@ impl Stage for Modes {
         ]
     }
 
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<ModesParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let band = band_from_params(params)?;
@@ -120,11 +123,22 @@ impl Stage for Modes {
     }
 }
 
+/// The parameters of `modes`, as declared in [`Modes::params`].
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModesParams {
+    n_modes: i64,
+    f_max_hz: f64,
+    shift_hz: f64,
+}
+
 /// The wanted band from the stage parameters, as eigenvalues λ = ω² = (2π f)².
 pub fn band_from_params(params: &Params) -> Result<Band, StageError> {
-    let n_modes = params.int("n_modes");
-    let f_max_hz = params.float("f_max_hz");
-    let shift_hz = params.float("shift_hz");
+    let ModesParams {
+        n_modes,
+        f_max_hz,
+        shift_hz,
+    } = params.typed()?;
     if n_modes < 0 || !(f_max_hz >= 0.0) || !(shift_hz >= 0.0) {
         return Err(StageError::new(format!(
             "n_modes = {n_modes}, f_max_hz = {f_max_hz}, shift_hz = {shift_hz}: none may be negative"

@@ -342,6 +342,19 @@ pub fn eigenvalue_table(pairs: &[EigenPair]) -> Table {
 /// The `stability` stage.
 pub struct Stability;
 
+/// The parameters of `stability`, as declared in [`Stability::params`].
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StabilityParams {
+    method: String,
+    f_max_hz: f64,
+    max_divergence_rate: f64,
+    friction_damping: bool,
+    n_real_modes: i64,
+    max_basis: i64,
+    shapes: String,
+}
+
 impl Stage for Stability {
     fn kind(&self) -> &'static str {
         "stability"
@@ -442,22 +455,26 @@ impl Stage for Stability {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<StabilityParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
-        let method = match params.str("method") {
+        let params: StabilityParams = params.typed()?;
+        let method = match params.method.as_str() {
             "real_mode_projection" => Method::RealModeProjection {
-                n_real_modes: params.int("n_real_modes") as usize,
+                n_real_modes: params.n_real_modes as usize,
             },
             _ => Method::Krylov,
         };
         let settings = Settings {
             method,
-            f_max_hz: params.float("f_max_hz"),
-            max_divergence_rate: params.float("max_divergence_rate"),
-            friction_damping: params.bool("friction_damping"),
+            f_max_hz: params.f_max_hz,
+            max_divergence_rate: params.max_divergence_rate,
+            friction_damping: params.friction_damping,
             krylov: KrylovOptions {
-                max_basis: params.int("max_basis") as usize,
+                max_basis: params.max_basis as usize,
                 ..KrylovOptions::default()
             },
             dense_limit: DENSE_LIMIT,
@@ -468,7 +485,7 @@ impl Stage for Stability {
             .iter()
             .map(|pair| mode_shape(&solution.system, &pair.q))
             .collect();
-        let only_unstable = params.str("shapes") == "unstable";
+        let only_unstable = params.shapes == "unstable";
         let mut fields = Vec::new();
         let mut unstable_fields = Vec::new();
         for (mode, (pair, shape)) in solution.pairs.iter().zip(&shapes).enumerate() {
