@@ -333,6 +333,97 @@ fn dense_candidates(K: &CscMatrix, M: &CscMatrix, par: Par) -> Result<(Vec<f64>,
     )
 }
 
+/// What a Lanczos attempt must find: enough eigenvalues above σ, beyond the wanted ones, for
+/// the Sturm check ([`solve`]).
+struct LanczosTarget {
+    sigma: f64,
+    n_wanted: usize,
+    n_needed: usize,
+    /// The band's top and its count, when the whole band is wanted.
+    band_shift: Option<(usize, f64)>,
+    absolute_gap: f64,
+    /// Eigenvalues a failed Sturm check found missing below the previous Sturm shift.
+    n_missing: usize,
+}
+
+/// One Lanczos attempt, deflated against the candidates found so far: returns `M Q` and the
+/// eigenvalues of the previous candidates and of the new Ritz vectors, side by side.
+fn lanczos_candidates(
+    op: &ShiftInvert<'_>,
+    candidates: &Candidates,
+    target: &LanczosTarget,
+    block_size: usize,
+    attempt: usize,
+    report: &mut SolveReport,
+) -> Result<(Mat<f64>, Vec<f64>), Error> {
+    let n = candidates.vectors.nrows();
+    let LanczosTarget {
+        sigma,
+        n_wanted,
+        n_needed,
+        band_shift,
+        absolute_gap,
+        n_missing,
+    } = *target;
+    let lanczos_started = Instant::now();
+    let max_basis = (5 * n_needed / 2)
+        .max(n_needed + 10 * block_size)
+        .min(n / 3);
+    let lanczos_options = LanczosOptions {
+        block_size,
+        max_basis,
+        tolerance: LANCZOS_TOLERANCE,
+        max_restarts: 8,
+        seed: 0x5eed_0000 + attempt as u64,
+    };
+    let locked_lambda = candidates.lambda.clone();
+    let previous_shift = report.sturm_shift;
+    let done = |theta_descending: &[f64]| {
+        let mut lambda: Vec<f64> = theta_descending
+            .iter()
+            .filter(|theta| **theta > 0.0)
+            .map(|theta| sigma + 1.0 / theta)
+            .collect();
+        let new_below_previous_shift = lambda
+            .iter()
+            .filter(|value| **value < previous_shift)
+            .count();
+        if new_below_previous_shift < n_missing {
+            return false;
+        }
+        lambda.extend_from_slice(&locked_lambda);
+        lambda.sort_by(f64::total_cmp);
+        match band_shift {
+            Some((count, tau)) => {
+                lambda.iter().filter(|value| **value < tau).count() >= count
+                    && lambda.iter().any(|value| *value >= tau)
+            }
+            None => {
+                lambda.len() > n_wanted
+                    && gap_at_or_above(&lambda, n_wanted, absolute_gap).is_some()
+            }
+        }
+    };
+    let ritz = block_lanczos(op, candidates.vectors.as_ref(), lanczos_options, &done)?;
+    report.basis_size = report.basis_size.max(ritz.basis_size);
+    report.restarts += ritz.restarts;
+    report.solve_seconds = ritz.solve_seconds;
+    report.orthogonalize_seconds += ritz.orthogonalize_seconds;
+    report.ritz_seconds += ritz.ritz_seconds;
+    report.lanczos_seconds += lanczos_started.elapsed().as_secs_f64();
+    let n_previous = candidates.lambda.len();
+    let mut MQ = Mat::<f64>::zeros(n, n_previous + ritz.vectors.ncols());
+    MQ.as_mut()
+        .subcols_mut(0, n_previous)
+        .copy_from(&candidates.M_vectors);
+    MQ.as_mut()
+        .subcols_mut(n_previous, ritz.vectors.ncols())
+        .copy_from(&ritz.M_vectors);
+    let mut lambda = candidates.lambda.clone();
+    lambda.extend(ritz.theta.iter().map(|theta| sigma + 1.0 / theta));
+    Ok((MQ, lambda))
+}
+
 /// The wanted eigenpairs of `(K, M)` (symmetric, `M` positive definite) in `band`, proved
 /// complete; `dof_of_node` groups DOFs by node for the ordering.
 pub fn solve(
@@ -450,65 +541,16 @@ pub fn solve(
         let (MQ, lambda) = if let Some((lambda, vectors)) = &dense_start {
             (symmetric_mul(M, vectors.as_ref()), lambda.clone())
         } else {
-            let lanczos_started = Instant::now();
-            let max_basis = (5 * n_needed / 2)
-                .max(n_needed + 10 * block_size)
-                .min(n / 3);
-            let lanczos_options = LanczosOptions {
-                block_size,
-                max_basis,
-                tolerance: LANCZOS_TOLERANCE,
-                max_restarts: 8,
-                seed: 0x5eed_0000 + attempt as u64,
+            let target = LanczosTarget {
+                sigma,
+                n_wanted,
+                n_needed,
+                band_shift,
+                absolute_gap,
+                n_missing: sturm_failure
+                    .map_or(0, |(expected, found): (usize, usize)| expected - found),
             };
-            let locked_lambda = candidates.lambda.clone();
-            let n_missing =
-                sturm_failure.map_or(0, |(expected, found): (usize, usize)| expected - found);
-            let previous_shift = report.sturm_shift;
-            let done = |theta_descending: &[f64]| {
-                let mut lambda: Vec<f64> = theta_descending
-                    .iter()
-                    .filter(|theta| **theta > 0.0)
-                    .map(|theta| sigma + 1.0 / theta)
-                    .collect();
-                let new_below_previous_shift = lambda
-                    .iter()
-                    .filter(|value| **value < previous_shift)
-                    .count();
-                if new_below_previous_shift < n_missing {
-                    return false;
-                }
-                lambda.extend_from_slice(&locked_lambda);
-                lambda.sort_by(f64::total_cmp);
-                match band_shift {
-                    Some((count, tau)) => {
-                        lambda.iter().filter(|value| **value < tau).count() >= count
-                            && lambda.iter().any(|value| *value >= tau)
-                    }
-                    None => {
-                        lambda.len() > n_wanted
-                            && gap_at_or_above(&lambda, n_wanted, absolute_gap).is_some()
-                    }
-                }
-            };
-            let ritz = block_lanczos(&op, candidates.vectors.as_ref(), lanczos_options, &done)?;
-            report.basis_size = report.basis_size.max(ritz.basis_size);
-            report.restarts += ritz.restarts;
-            report.solve_seconds = ritz.solve_seconds;
-            report.orthogonalize_seconds += ritz.orthogonalize_seconds;
-            report.ritz_seconds += ritz.ritz_seconds;
-            report.lanczos_seconds += lanczos_started.elapsed().as_secs_f64();
-            let n_previous = candidates.lambda.len();
-            let mut MQ = Mat::<f64>::zeros(n, n_previous + ritz.vectors.ncols());
-            MQ.as_mut()
-                .subcols_mut(0, n_previous)
-                .copy_from(&candidates.M_vectors);
-            MQ.as_mut()
-                .subcols_mut(n_previous, ritz.vectors.ncols())
-                .copy_from(&ritz.M_vectors);
-            let mut lambda = candidates.lambda.clone();
-            lambda.extend(ritz.theta.iter().map(|theta| sigma + 1.0 / theta));
-            (MQ, lambda)
+            lanczos_candidates(&op, &candidates, &target, block_size, attempt, &mut report)?
         };
         let refine_started = Instant::now();
         let steps;
@@ -524,43 +566,19 @@ pub fn solve(
         report.refinement_steps += steps;
         report.refine_seconds += refine_started.elapsed().as_secs_f64();
 
-        // Sturm check: count the eigenvalues in [σ, τ) and compare with those found there.
-        let found_above_sigma: Vec<f64> = candidates
-            .lambda
-            .iter()
-            .copied()
-            .filter(|value| *value >= sigma || band.lambda_lo <= 0.0)
-            .collect();
-        let (tau, expected) = match band_shift {
-            Some((count, tau)) => (tau, count),
-            None => {
-                let tau = match gap_at_or_above(&found_above_sigma, n_wanted, absolute_gap) {
-                    Some(j) => 0.5 * (found_above_sigma[j - 1] + found_above_sigma[j]),
-                    // Every eigenvalue above σ was found: count them all.
-                    None if found_above_sigma.len() == available => {
-                        2.0 * found_above_sigma.last().copied().unwrap_or(0.0).abs() + scale
-                    }
-                    None => {
-                        return Err(Error::NotConverged(format!(
-                            "found {} eigenvalues but no gap above the {n_wanted}th to place a Sturm shift",
-                            found_above_sigma.len()
-                        )));
-                    }
-                };
-                let factor_tau = factor_at(&pencil, tau, scale, par, &mut report)?;
-                (
-                    factor_tau.sigma,
-                    factor_tau.negative_pivots.saturating_sub(below_sigma),
-                )
-            }
+        let sturm = SturmCheck {
+            pencil: &pencil,
+            scale,
+            par,
+            lambda_lo: band.lambda_lo,
+            sigma,
+            below_sigma,
+            available,
+            n_wanted,
+            band_shift,
+            absolute_gap,
         };
-        let found = found_above_sigma
-            .iter()
-            .filter(|value| **value < tau)
-            .count();
-        report.sturm_shift = tau;
-        report.sturm_count = expected;
-        report.found_below_sturm_shift = found;
+        let (expected, found) = sturm.count(&candidates.lambda, &mut report)?;
         if found == expected {
             sturm_failure = None;
             break;
@@ -582,6 +600,84 @@ pub fn solve(
         )));
     }
 
+    select_band(candidates, band, n_wanted, K_norm / M.norm_1(), report)
+}
+
+/// The Sturm check of [`solve`]: the eigenvalues in `[σ, τ)` counted by the inertia of
+/// `K − τ M` against those found there. τ is the band's top when the whole band is wanted,
+/// else in a gap above the wanted eigenvalues.
+struct SturmCheck<'a> {
+    pencil: &'a ShiftedPencil,
+    scale: f64,
+    par: Par,
+    lambda_lo: f64,
+    sigma: f64,
+    /// Negative pivots of `K − σ M`.
+    below_sigma: usize,
+    /// Eigenvalues above σ.
+    available: usize,
+    n_wanted: usize,
+    band_shift: Option<(usize, f64)>,
+    absolute_gap: f64,
+}
+
+impl SturmCheck<'_> {
+    /// (expected, found) for the candidate eigenvalues `lambda`; the shift and the counts go
+    /// into `report`.
+    fn count(&self, lambda: &[f64], report: &mut SolveReport) -> Result<(usize, usize), Error> {
+        let found_above_sigma: Vec<f64> = lambda
+            .iter()
+            .copied()
+            .filter(|value| *value >= self.sigma || self.lambda_lo <= 0.0)
+            .collect();
+        let (tau, expected) = match self.band_shift {
+            Some((count, tau)) => (tau, count),
+            None => {
+                let tau = match gap_at_or_above(
+                    &found_above_sigma,
+                    self.n_wanted,
+                    self.absolute_gap,
+                ) {
+                    Some(j) => 0.5 * (found_above_sigma[j - 1] + found_above_sigma[j]),
+                    // Every eigenvalue above σ was found: count them all.
+                    None if found_above_sigma.len() == self.available => {
+                        2.0 * found_above_sigma.last().copied().unwrap_or(0.0).abs() + self.scale
+                    }
+                    None => {
+                        return Err(Error::NotConverged(format!(
+                            "found {} eigenvalues but no gap above the {}th to place a Sturm shift",
+                            found_above_sigma.len(),
+                            self.n_wanted
+                        )));
+                    }
+                };
+                let factor_tau = factor_at(self.pencil, tau, self.scale, self.par, report)?;
+                (
+                    factor_tau.sigma,
+                    factor_tau.negative_pivots.saturating_sub(self.below_sigma),
+                )
+            }
+        };
+        let found = found_above_sigma
+            .iter()
+            .filter(|value| **value < tau)
+            .count();
+        report.sturm_shift = tau;
+        report.sturm_count = expected;
+        report.found_below_sturm_shift = found;
+        Ok((expected, found))
+    }
+}
+
+/// The first `n_wanted` candidates in the band, each checked against the residual tolerance;
+/// `lambda_max` (estimated by ‖K‖₁ / ‖M‖₁) gives the round-off floor an error reports.
+fn select_band(
+    candidates: Candidates,
+    band: Band,
+    n_wanted: usize,
+    lambda_max: f64,
+    mut report: SolveReport,
+) -> Result<Eigensolution, Error> {
     let selected: Vec<usize> = (0..candidates.lambda.len())
         .filter(|&j| {
             let value = candidates.lambda[j];
@@ -604,8 +700,8 @@ pub fn solve(
             .iter()
             .position(|r| !(*r <= RESIDUAL_TOLERANCE))
             .unwrap_or(0);
-        // ‖K‖₁ / ‖M‖₁ estimates λ_max, hence the roundoff floor of this mode's residual.
-        let floor = f64::EPSILON * K_norm / M.norm_1() / lambda[mode].abs().max(f64::MIN_POSITIVE);
+        // λ_max bounds the roundoff floor of this mode's residual.
+        let floor = f64::EPSILON * lambda_max / lambda[mode].abs().max(f64::MIN_POSITIVE);
         return Err(Error::NotConverged(format!(
             "mode {} (omega^2 = {:e}) has residual {:.2e} > {RESIDUAL_TOLERANCE:e} (worst {worst:.2e}; roundoff floor about {floor:.1e})",
             mode + 1,
