@@ -612,8 +612,7 @@ impl Stage for SlidingEquilibrium {
             "pressure" => Load::Pressure(params.pressure),
             _ => Load::Interference(params.interference),
         };
-        let (equilibrium, report) =
-            solve(model, params.mu, params.omega, load, solver, &settings)?;
+        let (equilibrium, report) = solve(model, params.mu, params.omega, load, solver, &settings)?;
         let contact = contact_table(model, &equilibrium);
         let summary = summary_table(&equilibrium, &report, &model.mesh);
         let pressure: Vec<f64> = equilibrium
