@@ -12,6 +12,7 @@
 // `!(x > 0.0)` is how numerical checks reject NaN together with x <= 0.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod cholesky;
 pub mod csc;
 pub mod dense;
 pub mod eigensolver;

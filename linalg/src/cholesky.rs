@@ -1,0 +1,449 @@
+//! Sparse Cholesky `A = P L Lᵀ Pᵀ` of a symmetric positive definite combination `Σ cᵢ Aᵢ`,
+//! with its solve split in two halves around a few *interface* unknowns.
+//!
+//! A time integrator with contact solves `A x = b + Gᵀ r` once per step, where `G` (a few
+//! rows, each touching a few unknowns: the interface) maps the solution to the contact
+//! quantities `g = G x`, and `r` is only known after a small problem in `g` has been solved.
+//! Written with the two triangular halves,
+//!
+//! ```text
+//! y = L⁻¹ Pᵀ b,    Y = L⁻¹ Pᵀ Gᵀ,    G A⁻¹ (b + Gᵀ r) = Yᵀ y + (Yᵀ Y) r,
+//! x = P L⁻ᵀ (y + Y r)
+//! ```
+//!
+//! so one forward and one backward sweep (one solve) give both the free contact quantities
+//! `Yᵀ y` and the corrected solution, with the Delassus operator `Yᵀ Y = G A⁻¹ Gᵀ` formed once.
+//! `Y` is nonzero only on the rows that the interface unknowns reach in the elimination tree;
+//! the ordering puts the interface unknowns last in their component (after a nested
+//! dissection of the rest), so that these rows are few and `Y` is stored compactly, as its
+//! nonzero rows only.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, supernodal::SupernodalLltRef,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+
+use crate::Error;
+use crate::csc::CscMatrix;
+use crate::ordering;
+
+/// A symmetric positive definite matrix factorised as `P L Lᵀ Pᵀ` (supernodal).
+pub struct Cholesky {
+    n: usize,
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+    /// Position in elimination order → unknown.
+    forward: Vec<usize>,
+}
+
+/// Rows `lower` of `A` for one column, with `row ≥ col`.
+fn lower_entries(A: &CscMatrix, col: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+    (A.col_ptr[col]..A.col_ptr[col + 1])
+        .map(move |entry| (A.row_idx[entry], A.values[entry]))
+        .filter(move |&(row, _)| row >= col)
+}
+
+/// The lower triangle of `Σ cᵢ Aᵢ` over the union of the patterns, in compressed columns.
+fn combine_lower(terms: &[(f64, &CscMatrix)], n: usize) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0);
+    let mut row_idx = Vec::new();
+    let mut values = Vec::new();
+    let mut column: Vec<(usize, f64)> = Vec::new();
+    for col in 0..n {
+        column.clear();
+        for (coefficient, A) in terms {
+            column.extend(lower_entries(A, col).map(|(row, value)| (row, coefficient * value)));
+        }
+        // A stable sort keeps the terms' order for equal rows: the sums do not depend on
+        // anything but the input.
+        column.sort_by_key(|&(row, _)| row);
+        let mut last = usize::MAX;
+        for &(row, value) in &column {
+            if row == last {
+                *values.last_mut().expect("an entry was pushed") += value;
+            } else {
+                row_idx.push(row);
+                values.push(value);
+                last = row;
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
+    (col_ptr, row_idx, values)
+}
+
+impl Cholesky {
+    /// Factorises `A = Σ cᵢ Aᵢ` (each `Aᵢ` symmetric, both triangles stored, size `n`), ordered
+    /// by nested dissection of the node graph (`dof_of_node` groups the unknowns by node) with
+    /// the unknowns of `interface` eliminated last.
+    pub fn new(
+        terms: &[(f64, &CscMatrix)],
+        dof_of_node: &[[Option<u32>; 3]],
+        interface: &[usize],
+        par: Par,
+    ) -> Result<Cholesky, Error> {
+        let Some(&(_, first)) = terms.first() else {
+            return Err(Error::InvalidInput("no matrix to factorise".into()));
+        };
+        let n = first.n_rows;
+        for (_, A) in terms {
+            if A.n_rows != n || A.n_cols != n {
+                return Err(Error::InvalidInput(format!(
+                    "a term of the combination is {} x {}, the first is {n} x {n}",
+                    A.n_rows, A.n_cols
+                )));
+            }
+        }
+        if let Some(&bad) = interface.iter().find(|&&unknown| unknown >= n) {
+            return Err(Error::InvalidInput(format!(
+                "interface unknown {bad} is out of range (n = {n})"
+            )));
+        }
+        let (col_ptr, row_idx, values) = combine_lower(terms, n);
+        if let Some(bad) = values.iter().position(|value| !value.is_finite()) {
+            return Err(Error::InvalidInput(format!(
+                "the matrix to factorise has a non-finite entry (entry {bad} of its lower triangle)"
+            )));
+        }
+        let matrices: Vec<&CscMatrix> = terms.iter().map(|(_, A)| *A).collect();
+        let groups = ordering::dof_groups(dof_of_node, n);
+        let order =
+            ordering::nested_dissection(&groups, &matrices, n).unwrap_or_else(|| (0..n).collect());
+        // The interface last, each part keeping its nested-dissection order.
+        let mut on_interface = vec![false; n];
+        for &unknown in interface {
+            on_interface[unknown] = true;
+        }
+        let forward: Vec<usize> = order
+            .iter()
+            .copied()
+            .filter(|&unknown| !on_interface[unknown])
+            .chain(
+                order
+                    .iter()
+                    .copied()
+                    .filter(|&unknown| on_interface[unknown]),
+            )
+            .collect();
+        let mut inverse = vec![0usize; n];
+        for (position, &unknown) in forward.iter().enumerate() {
+            inverse[unknown] = position;
+        }
+        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let symbolic = factorize_symbolic_cholesky(
+            pattern,
+            Side::Lower,
+            SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, n)),
+            CholeskySymbolicParams {
+                // The split solves need the supernodal triangular sweeps.
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
+        )
+        .map_err(|err| {
+            Error::Breakdown(format!("symbolic Cholesky failed ({n} unknowns): {err:?}"))
+        })?;
+        let forward = match symbolic.perm() {
+            Some(perm) => perm.arrays().0.to_vec(),
+            None => (0..n).collect(),
+        };
+        let A = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx),
+            &values,
+        );
+        let mut L_values = vec![0.0; symbolic.len_val()];
+        let mut buffer =
+            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        symbolic
+            .factorize_numeric_llt(
+                &mut L_values,
+                A,
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut buffer),
+                Default::default(),
+            )
+            .map_err(|err| {
+                Error::Breakdown(format!(
+                    "Cholesky of the {n} x {n} matrix failed: it is not positive definite ({err:?})"
+                ))
+            })?;
+        Ok(Cholesky {
+            n,
+            symbolic,
+            values: L_values,
+            forward,
+        })
+    }
+
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Number of stored entries of `L`.
+    pub fn factor_len(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Position of each unknown in elimination order.
+    pub fn positions(&self) -> Vec<usize> {
+        let mut inverse = vec![0usize; self.n];
+        for (position, &unknown) in self.forward.iter().enumerate() {
+            inverse[unknown] = position;
+        }
+        inverse
+    }
+
+    fn factor(&self) -> SupernodalLltRef<'_, usize, f64> {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(supernodal) => {
+                SupernodalLltRef::new(supernodal, &self.values)
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => {
+                unreachable!("the symbolic analysis is forced supernodal")
+            }
+        }
+    }
+
+    /// `Y = L⁻¹ Pᵀ B` for `B` given in elimination order (`B` overwritten).
+    pub fn forward_in_place(&self, B: MatMut<'_, f64>, par: Par) {
+        let mut buffer = MemBuffer::new(self.scratch(B.ncols(), par));
+        self.factor()
+            .l_solve_with_conj(Conj::No, B, par, MemStack::new(&mut buffer));
+    }
+
+    /// `L⁻ᵀ Y` in elimination order (`Y` overwritten).
+    pub fn backward_in_place(&self, Y: MatMut<'_, f64>, par: Par) {
+        let mut buffer = MemBuffer::new(self.scratch(Y.ncols(), par));
+        self.factor()
+            .l_transpose_solve_with_conj(Conj::No, Y, par, MemStack::new(&mut buffer));
+    }
+
+    fn scratch(&self, n_rhs: usize, par: Par) -> faer::dyn_stack::StackReq {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(supernodal) => {
+                supernodal.solve_in_place_scratch::<f64>(n_rhs, par)
+            }
+            SymbolicCholeskyRaw::Simplicial(simplicial) => {
+                simplicial.solve_in_place_scratch::<f64>(n_rhs)
+            }
+        }
+    }
+
+    /// `b` (indexed by unknown) into elimination order.
+    pub fn permute(&self, b: &[f64], out: &mut [f64]) {
+        for (slot, &unknown) in out.iter_mut().zip(&self.forward) {
+            *slot = b[unknown];
+        }
+    }
+
+    /// `y` (in elimination order) back to unknowns.
+    pub fn unpermute(&self, y: &[f64], out: &mut [f64]) {
+        for (&value, &unknown) in y.iter().zip(&self.forward) {
+            out[unknown] = value;
+        }
+    }
+
+    /// `x = A⁻¹ b` for every column of `B` (indexed by unknown, overwritten).
+    pub fn solve_in_place(&self, mut B: MatMut<'_, f64>, par: Par) {
+        let mut work = Mat::<f64>::zeros(self.n, B.ncols());
+        for col in 0..B.ncols() {
+            for (position, &unknown) in self.forward.iter().enumerate() {
+                work[(position, col)] = B[(unknown, col)];
+            }
+        }
+        self.forward_in_place(work.as_mut(), par);
+        self.backward_in_place(work.as_mut(), par);
+        for col in 0..B.ncols() {
+            for (position, &unknown) in self.forward.iter().enumerate() {
+                B[(unknown, col)] = work[(position, col)];
+            }
+        }
+    }
+}
+
+/// `Y = L⁻¹ Pᵀ Gᵀ` stored by its nonzero rows, and the Delassus operator `W = Yᵀ Y = G A⁻¹ Gᵀ`.
+pub struct InterfaceSolve {
+    /// Rows (in elimination order) where `Y` is nonzero, ascending.
+    pub rows: Vec<usize>,
+    /// Those rows of `Y` (`rows.len()` × number of rows of `G`).
+    pub Y: Mat<f64>,
+    /// `G A⁻¹ Gᵀ`, symmetric positive semi-definite.
+    pub W: Mat<f64>,
+}
+
+impl InterfaceSolve {
+    /// `G` given by its rows, each a list of (unknown, coefficient); the forward sweeps run in
+    /// fixed blocks of columns on rayon, each sequential, so the bytes do not depend on the
+    /// thread count.
+    pub fn new(cholesky: &Cholesky, G_rows: &[Vec<(usize, f64)>]) -> InterfaceSolve {
+        use rayon::prelude::*;
+        const BLOCK: usize = 32;
+        let n = cholesky.n;
+        let positions = cholesky.positions();
+        let blocks: Vec<Mat<f64>> = G_rows
+            .par_chunks(BLOCK)
+            .map(|block| {
+                let mut B = Mat::<f64>::zeros(n, block.len());
+                for (col, row) in block.iter().enumerate() {
+                    for &(unknown, coefficient) in row {
+                        B[(positions[unknown], col)] += coefficient;
+                    }
+                }
+                cholesky.forward_in_place(B.as_mut(), Par::Seq);
+                B
+            })
+            .collect();
+        let nonzero = |row: usize| {
+            blocks
+                .iter()
+                .any(|B| (0..B.ncols()).any(|col| B[(row, col)] != 0.0))
+        };
+        let rows: Vec<usize> = (0..n).filter(|&row| nonzero(row)).collect();
+        let m = G_rows.len();
+        let mut Y = Mat::<f64>::zeros(rows.len(), m);
+        let mut col = 0;
+        for B in &blocks {
+            for block_col in 0..B.ncols() {
+                for (compact, &row) in rows.iter().enumerate() {
+                    Y[(compact, col)] = B[(row, block_col)];
+                }
+                col += 1;
+            }
+        }
+        let W = Y.transpose() * &Y;
+        InterfaceSolve { rows, Y, W }
+    }
+
+    /// `Yᵀ y` for `y` in elimination order: `G A⁻¹ b` when `y = L⁻¹ Pᵀ b`.
+    pub fn project(&self, y: &[f64], out: &mut [f64]) {
+        let gathered = Mat::from_fn(self.rows.len(), 1, |compact, _| y[self.rows[compact]]);
+        let product = self.Y.transpose() * &gathered;
+        for (slot, value) in out.iter_mut().zip(product.col(0).iter()) {
+            *slot = *value;
+        }
+    }
+
+    /// `y += Y r`.
+    pub fn lift(&self, r: MatRef<'_, f64>, y: &mut [f64]) {
+        let product = &self.Y * r;
+        for (compact, &row) in self.rows.iter().enumerate() {
+            y[row] += product[(compact, 0)];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::SplitMix64;
+
+    /// A random sparse SPD matrix: a 1D Laplacian-like band plus a diagonal shift, on `n`
+    /// unknowns, and a second term to combine with.
+    fn matrices(n: usize) -> (CscMatrix, CscMatrix) {
+        let mut rng = SplitMix64::new(7);
+        let mut stiffness = Vec::new();
+        let mut mass = Vec::new();
+        for i in 0..n {
+            stiffness.push((i, i, 4.0 + rng.next_signed().abs()));
+            mass.push((i, i, 1.0 + rng.next_signed().abs()));
+            for offset in [1usize, 7] {
+                if i + offset < n {
+                    let value = -0.5 * rng.next_signed().abs();
+                    stiffness.push((i, i + offset, value));
+                    stiffness.push((i + offset, i, value));
+                }
+            }
+        }
+        (
+            CscMatrix::from_triplets(n, n, stiffness),
+            CscMatrix::from_triplets(n, n, mass),
+        )
+    }
+
+    #[test]
+    fn split_solve_with_interface_correction_equals_a_direct_solve() {
+        let n = 60;
+        let (K, M) = matrices(n);
+        let terms = [(1.0, &K), (3.0, &M)];
+        let interface = [5usize, 17, 40, 41];
+        let cholesky = Cholesky::new(&terms, &[], &interface, Par::Seq).unwrap();
+        let G_rows: Vec<Vec<(usize, f64)>> = vec![
+            vec![(5, 1.0), (17, -1.0)],
+            vec![(40, 0.6), (41, 0.8)],
+            vec![(17, 1.0)],
+        ];
+        let interface_solve = InterfaceSolve::new(&cholesky, &G_rows);
+        // The interface is eliminated last: Y lives on a few rows only.
+        assert!(interface_solve.rows.len() <= interface.len());
+        let mut rng = SplitMix64::new(3);
+        let b: Vec<f64> = (0..n).map(|_| rng.next_signed().abs() - 0.5).collect();
+        let r = Mat::from_fn(3, 1, |i, _| [0.3, -1.2, 2.0][i]);
+        // Direct: x = A⁻¹ (b + Gᵀ r), g = G x.
+        let mut rhs = b.clone();
+        for (row, entries) in G_rows.iter().enumerate() {
+            for &(unknown, coefficient) in entries {
+                rhs[unknown] += coefficient * r[(row, 0)];
+            }
+        }
+        let mut direct = Mat::from_fn(n, 1, |i, _| rhs[i]);
+        cholesky.solve_in_place(direct.as_mut(), Par::Seq);
+        let A_x = |x: &[f64]| -> Vec<f64> {
+            let (Kx, Mx) = (K.mul_vec(x), M.mul_vec(x));
+            Kx.iter().zip(&Mx).map(|(k, m)| k + 3.0 * m).collect()
+        };
+        let x_direct: Vec<f64> = direct.col(0).iter().copied().collect();
+        let residual = A_x(&x_direct)
+            .iter()
+            .zip(&rhs)
+            .map(|(ax, b)| (ax - b).abs())
+            .fold(0.0, f64::max);
+        assert!(residual < 1e-13, "direct solve residual {residual:e}");
+        // Split: y = L⁻¹ Pᵀ b, g_free = Yᵀ y, g = g_free + W r, x = P L⁻ᵀ (y + Y r).
+        let mut y = vec![0.0; n];
+        cholesky.permute(&b, &mut y);
+        let mut y_mat = Mat::from_fn(n, 1, |i, _| y[i]);
+        cholesky.forward_in_place(y_mat.as_mut(), Par::Seq);
+        let mut y: Vec<f64> = y_mat.col(0).iter().copied().collect();
+        let mut g = vec![0.0; 3];
+        interface_solve.project(&y, &mut g);
+        let Wr = &interface_solve.W * &r;
+        interface_solve.lift(r.as_ref(), &mut y);
+        let mut y_mat = Mat::from_fn(n, 1, |i, _| y[i]);
+        cholesky.backward_in_place(y_mat.as_mut(), Par::Seq);
+        let mut x = vec![0.0; n];
+        let y: Vec<f64> = y_mat.col(0).iter().copied().collect();
+        cholesky.unpermute(&y, &mut x);
+        for (split, direct) in x.iter().zip(&x_direct) {
+            assert!((split - direct).abs() < 1e-13, "{split} vs {direct}");
+        }
+        for (row, entries) in G_rows.iter().enumerate() {
+            let g_direct: f64 = entries.iter().map(|&(u, c)| c * x_direct[u]).sum();
+            let g_split = g[row] + Wr[(row, 0)];
+            assert!(
+                (g_split - g_direct).abs() < 1e-13,
+                "{g_split} vs {g_direct}"
+            );
+        }
+    }
+
+    #[test]
+    fn an_indefinite_matrix_is_refused() {
+        let (K, M) = matrices(20);
+        let error = Cholesky::new(&[(1.0, &K), (-10.0, &M)], &[], &[], Par::Seq)
+            .err()
+            .expect("K - 10 M is indefinite");
+        assert!(
+            error.to_string().contains("not positive definite"),
+            "{error}"
+        );
+    }
+}
