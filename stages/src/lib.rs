@@ -26,6 +26,7 @@ pub mod stability;
 pub mod stage;
 pub mod table;
 pub mod testing;
+pub mod transient;
 pub mod vtu;
 
 use std::sync::Arc;
@@ -48,6 +49,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(stability::Stability),
         Arc::new(stability::track::Track),
         Arc::new(stability::lumped::StabilityMatrices),
+        Arc::new(transient::Transient),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),

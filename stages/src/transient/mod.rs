@@ -1,0 +1,719 @@
+//! `transient`: the time response of the friction-destabilised brake, from its sliding
+//! equilibrium, with unilateral contact and Coulomb friction at every pair (non-smooth contact
+//! dynamics, Jean 1999).
+//!
+//! # The scheme
+//!
+//! A first-order θ-method with step τ, the contact reactions entering as impulses over the
+//! step (their mean force `r` over the step, applied at its end):
+//!
+//! ```text
+//! M (V¹ − V⁰)/τ + C V^θ + K U^θ = F^θ + Hᵀ r,      U¹ = U⁰ + τ V^θ,   x^θ = θ x¹ + (1−θ) x⁰
+//! ```
+//!
+//! Eliminating `U¹` (`U^θ = U⁰ + τθ V^θ`):
+//!
+//! ```text
+//! J V¹ = F_MTD + Hᵀ r,     J = M/τ + θ (C + τθ K)
+//! F_MTD = θ F¹ + (1−θ) F⁰ + (M/τ − (1−θ) C − τθ(1−θ) K) V⁰ − K U⁰
+//! ```
+//!
+//! (the `V⁰` factor carries `−τθ(1−θ) K`; the test
+//! `undamped_scheme_without_contact_conserves_energy_exactly` would fail with any other).
+//! `J` is symmetric positive definite and constant: factorised once (sparse Cholesky,
+//! [`squeal_linalg::cholesky`]). For θ = ½ the scheme is the trapezoidal rule: second order and
+//! conserving `½VᵀMV + ½UᵀKU` exactly without damping and contact; for θ > ½ it is first order
+//! and dissipates; it is unconditionally stable for θ ≥ ½.
+//!
+//! # Contact
+//!
+//! `H` maps the DOFs to the relative displacement of each pair (pad minus disc) in its frame
+//! (n, t, b) ([`crate::contact`]); `w = H V` are the relative velocities. The disc turns: its
+//! material slides past the pads at `v_g` along t, so the slip is `s = (w_t − v_g, w_b)` and a
+//! pair in contact sticks (`s = 0`), slides, or opens. Per step, with `W = H J⁻¹ Hᵀ` formed
+//! once (the Delassus operator), the relative velocities are `w = H J⁻¹ F_MTD + W r` and the
+//! laws are solved on the pairs only ([`contact`]):
+//!
+//! ```text
+//! 0 ≤ r_n ⊥ B̃ + τ w_n ≥ 0,    B̃ = g⁰ + τ(1−θ) w_n⁰         (the equivalent gap)
+//! ‖r_T‖ ≤ μ r_n,   s ≠ 0 ⇒ r_T = −μ r_n s/‖s‖
+//! ```
+//!
+//! The equivalent gap is the gap `g¹ = B̃ + τθ w_n¹` with the end-of-step velocity counted
+//! fully. Complementarity makes the next step's `B̃` equal to `B̃ + τ w_n¹ ≥ 0`, so by
+//! induction `B̃ ≥ 0` at every step and `g¹ = (1−θ) B̃ + θ (B̃ + τ w_n¹) ≥ 0`: no pair ever
+//! penetrates (beyond the contact solver's tolerance). A pair that closes gets
+//! `w_n¹ = −B̃/τ`, a final approach that ends exactly at contact, and `w_n = 0` the step after:
+//! impacts are inelastic.
+//!
+//! # Initial condition
+//!
+//! The sliding equilibrium `(u_e, r_e)` is a fixed point of the scheme (`V = 0`, `r = r_e`,
+//! every closed pair sliding). The run starts from it plus either a complex mode `φ` of the
+//! stability stage (`initial: mode`), `U⁰ = u_e + Re φ`, `V⁰ = Re(λ φ)` with `φ` scaled so that
+//! its largest component is real and equals `amplitude`, or a normal velocity `kick_velocity`
+//! of every pad contact node (`initial: kick`). The imposed load is taken as the one that makes
+//! the stored equilibrium exact, `F = K u_e − Hᵀ r_e` (the nominal load, up to the
+//! equilibrium solver's residual).
+//!
+//! # Outputs
+//!
+//! What a person plots, never the state history: contact-zone averages and contact-state
+//! fractions over time (`history`), the normal relative displacement and velocity of a few
+//! pairs (`points`), displacement and velocity snapshots over the final window (`snapshots`,
+//! `velocity_snapshots`: the input of `svd_projection`, with `mass`), the energy audit
+//! (`energy`, see [`energy`]) and figures of both.
+
+pub mod contact;
+pub mod energy;
+mod figure;
+pub mod scheme;
+#[cfg(test)]
+mod tests;
+
+use faer::c64;
+use serde::Deserialize;
+
+use crate::artifact::{Artifact, ArtifactType, Equilibrium, Model};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::{ColumnData, Table};
+use contact::Solver;
+use scheme::{ContactState, Failure, Run, Settings, Structure};
+
+/// Most steps a run takes (a guard against a duration/step pair typed wrong).
+const MAX_STEPS: usize = 10_000_000;
+
+pub struct Transient;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransientParams {
+    theta: f64,
+    tau: f64,
+    duration: f64,
+    initial: String,
+    mode: i64,
+    amplitude: f64,
+    kick_velocity: f64,
+    solver: String,
+    tolerance: f64,
+    max_iterations: i64,
+    output_every: i64,
+    record_pairs: String,
+    snapshot_window: f64,
+    n_snapshots: i64,
+}
+
+impl TransientParams {
+    fn check(&self) -> Result<(), StageError> {
+        let bad = |message: String| Err(StageError::new(message));
+        if !(self.tau > 0.0) || !self.tau.is_finite() {
+            return bad(format!(
+                "tau = {} s: the time step must be positive",
+                self.tau
+            ));
+        }
+        if !(0.5..=1.0).contains(&self.theta) {
+            return bad(format!(
+                "theta = {}: the scheme is stable for theta in [0.5, 1]",
+                self.theta
+            ));
+        }
+        if !(self.duration >= self.tau) || !self.duration.is_finite() {
+            return bad(format!(
+                "duration = {} s is shorter than one step (tau = {} s)",
+                self.duration, self.tau
+            ));
+        }
+        if self.duration / self.tau > MAX_STEPS as f64 {
+            return bad(format!(
+                "duration / tau = {:.3e} steps: more than {MAX_STEPS}",
+                self.duration / self.tau
+            ));
+        }
+        if !(self.tolerance > 0.0) {
+            return bad(format!(
+                "tolerance = {}: the contact solver needs a positive tolerance",
+                self.tolerance
+            ));
+        }
+        Ok(())
+    }
+
+    fn n_steps(&self) -> usize {
+        (self.duration / self.tau).round() as usize
+    }
+
+    fn solver(&self) -> Solver {
+        match self.solver.as_str() {
+            "fixed_point" => Solver::FixedPoint,
+            _ => Solver::GaussSeidel,
+        }
+    }
+}
+
+impl Stage for Transient {
+    fn kind(&self) -> &'static str {
+        "transient"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::float(
+                "theta",
+                0.5,
+                "",
+                "theta of the scheme, in [0.5, 1] (0.5: second order, conservative)",
+            ),
+            ParamSpec::float("tau", 1e-6, "s", "time step").at_least(0.0),
+            ParamSpec::float("duration", 2e-3, "s", "simulated time").at_least(0.0),
+            ParamSpec::choice(
+                "initial",
+                &["mode", "kick"],
+                "mode",
+                "start: equilibrium plus a complex mode, or plus a normal velocity of the pads' contact nodes",
+            ),
+            ParamSpec::int(
+                "mode",
+                0,
+                "initial: mode, the mode number of the stability tables (0: the most unstable)",
+            )
+            .at_least(0.0),
+            ParamSpec::float(
+                "amplitude",
+                1e-8,
+                "m",
+                "initial: mode, the largest displacement component of the mode",
+            )
+            .at_least(0.0),
+            ParamSpec::float(
+                "kick_velocity",
+                1e-3,
+                "m/s",
+                "initial: kick, the normal velocity given to every pad contact node",
+            ),
+            ParamSpec::choice(
+                "solver",
+                &["gauss_seidel", "fixed_point"],
+                "gauss_seidel",
+                "contact solver: projected Gauss-Seidel, or the Jacobi fixed point of the projection laws",
+            ),
+            ParamSpec::float(
+                "tolerance",
+                1e-10,
+                "",
+                "contact solver tolerance (natural residual over the force scale)",
+            )
+            .at_least(0.0),
+            ParamSpec::int(
+                "max_iterations",
+                2000,
+                "contact solver iteration limit per step",
+            )
+            .at_least(1.0),
+            ParamSpec::int(
+                "output_every",
+                1,
+                "steps between rows of history, points and energy",
+            )
+            .at_least(1.0),
+            ParamSpec::string(
+                "record_pairs",
+                "",
+                "contact pairs recorded in points, comma separated (empty: four spread over the pairs)",
+            ),
+            ParamSpec::float(
+                "snapshot_window",
+                0.0,
+                "s",
+                "length of the final window kept as snapshots (0: the last fifth of the run)",
+            )
+            .at_least(0.0),
+            ParamSpec::int("n_snapshots", 100, "snapshots kept over the final window")
+                .at_least(1.0),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "model",
+                ArtifactType::Model,
+                "M, C, K and the contact pairs",
+            ),
+            PortSpec::one(
+                "equilibrium",
+                ArtifactType::Equilibrium,
+                "the sliding equilibrium the run starts from",
+            ),
+            PortSpec::one(
+                "eigenvalues",
+                ArtifactType::Table,
+                "the stability stage's eigenvalues (mode, re, im)",
+            ),
+            PortSpec::one(
+                "shapes",
+                ArtifactType::Table,
+                "the stability stage's mode shapes (dof, mode_NNNN_re, mode_NNNN_im)",
+            ),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "history",
+                ArtifactType::Table,
+                "t; contact-zone averages u_n, u_t, v_n, v_t; kinetic; open, stick, slide fractions",
+            ),
+            PortSpec::one(
+                "points",
+                ArtifactType::Table,
+                "t; pair_P_un, pair_P_vn of the recorded pairs",
+            ),
+            PortSpec::one(
+                "snapshots",
+                ArtifactType::Table,
+                "wide: one row per node and direction, displacement from the equilibrium at each kept step (step_NNNNNNNN)",
+            ),
+            PortSpec::one(
+                "velocity_snapshots",
+                ArtifactType::Table,
+                "wide: as snapshots, the velocity",
+            ),
+            PortSpec::one(
+                "mass",
+                ArtifactType::Table,
+                "M as COO row, col, value on the snapshot rows (for svd_projection)",
+            ),
+            PortSpec::one(
+                "energy",
+                ArtifactType::Table,
+                "t; kinetic, strain, viscous, scheme, drive, friction, normal, balance_error (J)",
+            ),
+            PortSpec::one(
+                "summary",
+                ArtifactType::Table,
+                "steps, contact solver figures, peak penetration, energy balance",
+            ),
+            PortSpec::one(
+                "figure",
+                ArtifactType::Figure,
+                "kinetic energy, contact averages and contact states against time",
+            ),
+            PortSpec::one(
+                "energy_figure",
+                ArtifactType::Figure,
+                "the energy audit against time",
+            ),
+        ]
+    }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<TransientParams>().map(drop)
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let model: &Model = inputs.get("model")?;
+        let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
+        let eigenvalues = inputs.table("eigenvalues")?;
+        let shapes = inputs.table("shapes")?;
+        let params: TransientParams = params.typed()?;
+        params.check()?;
+        model.check_dof_map()?;
+        let (structure, contact_state) = structure_of(model, equilibrium)?;
+        let (u0, v0) = match params.initial.as_str() {
+            "kick" => kick(model, equilibrium, params.kick_velocity),
+            _ => {
+                let (lambda, shape) =
+                    chosen_mode(eigenvalues, shapes, params.mode, model.n_dofs())?;
+                mode_start(lambda, &shape, params.amplitude)
+            }
+        };
+        let settings = settings_of(&params, model.mesh.contact_pairs.len())?;
+        let run = integrate(&structure, &contact_state, &settings, u0, v0, &params)?;
+        outputs(model, &settings, &run)
+    }
+}
+
+/// `H`'s rows and the equilibrium's contact data.
+pub fn structure_of<'a>(
+    model: &'a Model,
+    equilibrium: &Equilibrium,
+) -> Result<(Structure<'a>, ContactState), StageError> {
+    let n_pairs = model.mesh.contact_pairs.len();
+    let frames = &equilibrium.frames;
+    if equilibrium.u.len() != model.n_dofs()
+        || equilibrium.r_n.len() != n_pairs
+        || equilibrium.gap.len() != n_pairs
+        || frames.n.len() != n_pairs
+    {
+        return Err(StageError::new(format!(
+            "the equilibrium does not belong to this model: {} DOFs and {} pairs, the model has {} and {n_pairs}",
+            equilibrium.u.len(),
+            equilibrium.r_n.len(),
+            model.n_dofs()
+        )));
+    }
+    let mut r_e = Vec::with_capacity(3 * n_pairs);
+    for (p, &r_n) in equilibrium.r_n.iter().enumerate() {
+        let closed = equilibrium.closed[p];
+        r_e.extend([r_n, if closed { equilibrium.mu * r_n } else { 0.0 }, 0.0]);
+    }
+    let structure = Structure {
+        M: &model.M,
+        C: &model.C,
+        K: &model.K,
+        dof_of_node: &model.dof_of_node,
+        H_rows: crate::contact::h_columns(model, frames),
+    };
+    let contact_state = ContactState {
+        gap: equilibrium.gap.clone(),
+        sliding_speed: frames.sliding_speed.clone(),
+        r_e,
+        mu: equilibrium.mu,
+    };
+    Ok((structure, contact_state))
+}
+
+/// The complex mode `mode` (1-based; 0 = the most unstable) of the stability tables, over the
+/// free DOFs.
+fn chosen_mode(
+    eigenvalues: &Table,
+    shapes: &Table,
+    mode: i64,
+    n_dofs: usize,
+) -> Result<(c64, Vec<c64>), StageError> {
+    let f64_column = |table: &Table, name: &str| -> Result<Vec<f64>, StageError> {
+        match table.column(name) {
+            Some(ColumnData::F64(values)) => Ok(values.clone()),
+            _ => Err(StageError::new(format!(
+                "the stability tables have no f64 column `{name}`"
+            ))),
+        }
+    };
+    let modes: Vec<i64> = match eigenvalues.column("mode") {
+        Some(ColumnData::I64(values)) => values.clone(),
+        _ => {
+            return Err(StageError::new(
+                "the eigenvalues table has no i64 column `mode`",
+            ));
+        }
+    };
+    let re = f64_column(eigenvalues, "re")?;
+    let im = f64_column(eigenvalues, "im")?;
+    let has_shape = |mode: i64| shapes.column(&format!("mode_{mode:04}_re")).is_some();
+    let chosen = if mode == 0 {
+        (0..modes.len())
+            .filter(|&row| re[row] > 0.0 && has_shape(modes[row]))
+            .max_by(|&a, &b| re[a].total_cmp(&re[b]))
+            .ok_or_else(|| {
+                StageError::new(
+                    "no unstable mode with a shape in the stability tables: choose `mode`, or `initial: kick`",
+                )
+            })?
+    } else {
+        modes.iter().position(|&m| m == mode).ok_or_else(|| {
+            StageError::new(format!(
+                "mode {mode} is not in the stability tables (modes 1 to {})",
+                modes.len()
+            ))
+        })?
+    };
+    let number = modes[chosen];
+    if !has_shape(number) {
+        return Err(StageError::new(format!(
+            "mode {number} has no shape in the shapes table (the stability stage keeps `shapes: unstable` only?)"
+        )));
+    }
+    let real = f64_column(shapes, &format!("mode_{number:04}_re"))?;
+    let imaginary = f64_column(shapes, &format!("mode_{number:04}_im"))?;
+    let dofs: Vec<i64> = match shapes.column("dof") {
+        Some(ColumnData::I64(values)) => values.clone(),
+        _ => return Err(StageError::new("the shapes table has no i64 column `dof`")),
+    };
+    let mut shape = vec![c64::new(0.0, 0.0); n_dofs];
+    for (row, &dof) in dofs.iter().enumerate() {
+        if dof >= 0 {
+            let dof = dof as usize;
+            if dof >= n_dofs {
+                return Err(StageError::new(format!(
+                    "the shapes table names DOF {dof}, the model has {n_dofs}"
+                )));
+            }
+            shape[dof] = c64::new(real[row], imaginary[row]);
+        }
+    }
+    Ok((c64::new(re[chosen], im[chosen]), shape))
+}
+
+/// `u = Re φ`, `v = Re(λ φ)`, `φ` turned so its largest component is real, `amplitude`.
+fn mode_start(lambda: c64, shape: &[c64], amplitude: f64) -> (Vec<f64>, Vec<f64>) {
+    let largest = shape
+        .iter()
+        .copied()
+        .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+        .unwrap_or(c64::new(0.0, 0.0));
+    let scale = if largest.norm() > 0.0 {
+        largest.conj() * (amplitude / (largest.norm() * largest.norm()))
+    } else {
+        c64::new(0.0, 0.0)
+    };
+    let scaled: Vec<c64> = shape.iter().map(|value| value * scale).collect();
+    (
+        scaled.iter().map(|value| value.re).collect(),
+        scaled.iter().map(|value| (lambda * value).re).collect(),
+    )
+}
+
+/// No displacement; every pad contact node moving at `speed` along its pair's normal.
+fn kick(model: &Model, equilibrium: &Equilibrium, speed: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = model.n_dofs();
+    let mut v = vec![0.0; n];
+    for (pair, normal) in model.mesh.contact_pairs.iter().zip(&equilibrium.frames.n) {
+        for (axis, dof) in model.dof_of_node[pair.pad_node as usize].iter().enumerate() {
+            if let Some(dof) = dof {
+                v[*dof as usize] = speed * normal[axis];
+            }
+        }
+    }
+    (vec![0.0; n], v)
+}
+
+fn settings_of(params: &TransientParams, n_pairs: usize) -> Result<Settings, StageError> {
+    let n_steps = params.n_steps();
+    let record_pairs: Vec<usize> = if params.record_pairs.trim().is_empty() {
+        let count = n_pairs.min(4);
+        (0..count).map(|k| k * n_pairs / count.max(1)).collect()
+    } else {
+        params
+            .record_pairs
+            .split(',')
+            .map(|item| {
+                let item = item.trim();
+                item.parse::<usize>()
+                    .ok()
+                    .filter(|&p| p < n_pairs)
+                    .ok_or_else(|| {
+                        StageError::new(format!(
+                            "record_pairs: `{item}` is not a pair number (0 to {})",
+                            n_pairs.saturating_sub(1)
+                        ))
+                    })
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let window = if params.snapshot_window > 0.0 {
+        params.snapshot_window
+    } else {
+        0.2 * params.duration
+    };
+    let window_steps = ((window / params.tau).round() as usize).clamp(1, n_steps);
+    let n_snapshots = (params.n_snapshots as usize).min(window_steps);
+    let stride = window_steps / n_snapshots;
+    let snapshot_steps: Vec<usize> = (0..n_snapshots)
+        .map(|k| n_steps - (n_snapshots - 1 - k) * stride)
+        .collect();
+    Ok(Settings {
+        theta: params.theta,
+        tau: params.tau,
+        n_steps,
+        solver: params.solver(),
+        tolerance: params.tolerance,
+        max_iterations: params.max_iterations as usize,
+        output_every: params.output_every as usize,
+        record_pairs,
+        snapshot_steps,
+    })
+}
+
+fn integrate(
+    structure: &Structure,
+    contact_state: &ContactState,
+    settings: &Settings,
+    u0: Vec<f64>,
+    v0: Vec<f64>,
+    params: &TransientParams,
+) -> Result<Run, StageError> {
+    scheme::integrate(structure, contact_state, settings, u0, v0, |_| {}).map_err(|failure| {
+        match failure {
+            Failure::Linear(err) => StageError::new(format!("transient: J = M/tau + theta (C + tau theta K): {err}")),
+            Failure::Contact {
+                step,
+                t,
+                history,
+                iterations,
+            } => StageError::new(format!(
+                "transient: the contact solver ({}) did not converge at step {step} (t = {t:.6e} s) in {iterations} iterations; last residuals {} (tolerance {:e}); raise max_iterations, loosen tolerance or shorten tau",
+                params.solver,
+                history
+                    .iter()
+                    .map(|residual| format!("{residual:.2e}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                params.tolerance
+            )),
+            Failure::NotFinite { step, t } => StageError::new(format!(
+                "transient: the velocity is not finite at step {step} (t = {t:.6e} s)"
+            )),
+        }
+    })
+}
+
+fn outputs(model: &Model, settings: &Settings, run: &Run) -> Result<Outputs, StageError> {
+    let history = &run.history;
+    let column =
+        |f: &dyn Fn(&scheme::HistoryRow) -> f64| history.iter().map(f).collect::<Vec<f64>>();
+    let history_table = Table::new()
+        .with("t", column(&|row| row.t))
+        .with("u_n", column(&|row| row.u_n))
+        .with("u_t", column(&|row| row.u_t))
+        .with("v_n", column(&|row| row.v_n))
+        .with("v_t", column(&|row| row.v_t))
+        .with("kinetic", column(&|row| row.kinetic))
+        .with("open", column(&|row| row.open))
+        .with("stick", column(&|row| row.stick))
+        .with("slide", column(&|row| row.slide))
+        .with(
+            "contact_iterations",
+            history
+                .iter()
+                .map(|row| row.contact_iterations as i64)
+                .collect::<Vec<i64>>(),
+        );
+    let mut points = Table::new().with("t", column(&|row| row.t));
+    for (k, pair) in settings.record_pairs.iter().enumerate() {
+        points = points
+            .with(format!("pair_{pair}_un"), column(&|row| row.points[k].0))
+            .with(format!("pair_{pair}_vn"), column(&|row| row.points[k].1));
+    }
+    let energy = Table::new()
+        .with("t", column(&|row| row.t))
+        .with("kinetic", column(&|row| row.energy.kinetic))
+        .with("strain", column(&|row| row.energy.strain))
+        .with("viscous", column(&|row| row.energy.viscous))
+        .with("scheme", column(&|row| row.energy.scheme))
+        .with("drive", column(&|row| row.energy.drive))
+        .with("friction", column(&|row| row.energy.friction))
+        .with("normal", column(&|row| row.energy.normal))
+        .with("balance_error", column(&|row| row.energy.balance_error));
+    let snapshot_name = |t: f64| format!("step_{:08}", (t / settings.tau).round() as u64);
+    let snapshots = model.nodal_table(
+        run.snapshots
+            .iter()
+            .map(|snapshot| (snapshot_name(snapshot.t), snapshot.u.clone()))
+            .collect(),
+    );
+    let velocity_snapshots = model.nodal_table(
+        run.snapshots
+            .iter()
+            .map(|snapshot| (snapshot_name(snapshot.t), snapshot.v.clone()))
+            .collect(),
+    );
+    let summary = summary_table(settings, run);
+    let figure = figure::history(history, settings)?;
+    let energy_figure = figure::energy(history)?;
+    Ok(Outputs::from([
+        ("history".to_string(), Artifact::Table(history_table)),
+        ("points".to_string(), Artifact::Table(points)),
+        ("snapshots".to_string(), Artifact::Table(snapshots)),
+        (
+            "velocity_snapshots".to_string(),
+            Artifact::Table(velocity_snapshots),
+        ),
+        ("mass".to_string(), Artifact::Table(mass_table(model))),
+        ("energy".to_string(), Artifact::Table(energy)),
+        ("summary".to_string(), Artifact::Table(summary)),
+        ("figure".to_string(), Artifact::Figure(figure)),
+        ("energy_figure".to_string(), Artifact::Figure(energy_figure)),
+    ]))
+}
+
+/// `M` on the rows of [`Model::nodal_table`] (node-major, three per node).
+fn mass_table(model: &Model) -> Table {
+    let mut row_of_dof = vec![0i64; model.n_dofs()];
+    if model.dof_of_node.is_empty() {
+        for (dof, row) in row_of_dof.iter_mut().enumerate() {
+            *row = dof as i64;
+        }
+    } else {
+        for (node, dofs) in model.dof_of_node.iter().enumerate() {
+            for (direction, dof) in dofs.iter().enumerate() {
+                if let Some(dof) = dof {
+                    row_of_dof[*dof as usize] = (3 * node + direction) as i64;
+                }
+            }
+        }
+    }
+    let (mut rows, mut cols, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    for (row, col, value) in model.M.triplets() {
+        rows.push(row_of_dof[row]);
+        cols.push(row_of_dof[col]);
+        values.push(value);
+    }
+    Table::new()
+        .with("row", rows)
+        .with("col", cols)
+        .with("value", values)
+}
+
+/// The largest kinetic-plus-strain energy of the run, the scale of the balance error.
+pub fn peak_energy(history: &[scheme::HistoryRow]) -> f64 {
+    history
+        .iter()
+        .map(|row| row.energy.kinetic + row.energy.strain)
+        .fold(0.0, f64::max)
+}
+
+fn summary_table(settings: &Settings, run: &Run) -> Table {
+    let last = run.history.last().cloned().unwrap_or_default();
+    let peak = peak_energy(&run.history);
+    let worst_balance = run
+        .history
+        .iter()
+        .map(|row| row.energy.balance_error.abs())
+        .fold(0.0, f64::max);
+    let quantities: Vec<(&str, f64)> = vec![
+        ("steps", settings.n_steps as f64),
+        ("tau", settings.tau),
+        ("theta", settings.theta),
+        ("factor_entries", run.factor_len as f64),
+        ("interface_rows", run.interface_rows as f64),
+        ("worst_contact_residual", run.worst_contact_residual),
+        (
+            "most_contact_iterations",
+            run.most_contact_iterations as f64,
+        ),
+        ("peak_penetration", run.peak_penetration),
+        ("peak_energy", peak),
+        ("final_kinetic", last.energy.kinetic),
+        ("worst_balance_error", worst_balance),
+        (
+            "relative_balance_error",
+            if peak > 0.0 {
+                worst_balance / peak
+            } else {
+                0.0
+            },
+        ),
+        ("final_open", last.open),
+        ("final_stick", last.stick),
+        ("final_slide", last.slide),
+    ];
+    Table::new()
+        .with(
+            "quantity",
+            quantities
+                .iter()
+                .map(|(name, _)| name.to_string())
+                .collect::<Vec<String>>(),
+        )
+        .with(
+            "value",
+            quantities
+                .iter()
+                .map(|(_, value)| *value)
+                .collect::<Vec<f64>>(),
+        )
+}
