@@ -11,14 +11,19 @@
 //! `w = H v` the pairs' relative velocities. The terms, accumulated from the start:
 //! - `viscous`: Rayleigh damping's dissipation (≥ 0);
 //! - `scheme`: the θ-method's own dissipation, zero for θ = ½ (≥ 0);
-//! - the work of the contact reactions in excess of the equilibrium's, split per pair as
-//!   `drive` (the disc's sliding velocity: `(r_t − r_e,t) v_g`, where squeal gets its energy),
-//!   `friction` (against the slip `s = (w_t − v_g, w_b)`) and `normal` (impacts, separations).
+//! - the work of the contact reactions, per pair: `drive = r_t v_g`, the power the turning disc
+//!   feeds in through friction; `friction = r_T·s` with the slip `s = (w_t − v_g, w_b)`, what
+//!   friction dissipates (≤ 0 while sliding); `normal = r_n w_n`, impacts and separations;
+//! - `loads = −r_e·w`: the imposed loads are constant, and their work on the departure net of
+//!   the equilibrium's elastic forces is that of the equilibrium reactions, reversed.
 //!
-//! The imposed loads are constant: their work against the departure is balanced by the
-//! equilibrium's reactions, which is why the reactions enter as `r − r_e`. The balance error
-//! `T + E − (T₀ + E₀) − (drive + friction + normal − viscous − scheme)` is zero up to
-//! round-off and the accuracy of the solves: it is the audit's verdict.
+//! At the equilibrium `drive` and `friction` cancel (every pair slides at `v_g`); squeal gets its
+//! energy from their difference. The balance error
+//! `T + E − (T₀ + E₀) − (drive + friction + normal + loads − viscous − scheme)` is zero up to
+//! round-off and the accuracy of the solves: it is the audit's verdict. The four contact terms
+//! add up to `τ Σ (r − r_e)·w^θ`, which the balance sums directly: `drive` and `friction` grow
+//! large and opposite (μ r_n v_g per pair), and their round-off would swamp the energy of a
+//! small vibration.
 
 /// Accumulated energies and works (J) at one time.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -30,12 +35,15 @@ pub struct Totals {
     pub drive: f64,
     pub friction: f64,
     pub normal: f64,
+    pub loads: f64,
     pub balance_error: f64,
 }
 
 /// The running audit.
 pub struct Audit {
     initial: f64,
+    /// `τ Σ (r − r_e)·w^θ`, the contact terms' sum without their cancellation.
+    contact_excess: f64,
     pub totals: Totals,
 }
 
@@ -71,6 +79,7 @@ impl Audit {
         let strain = 0.5 * dot(u.iter().copied(), K_u.iter().copied());
         Audit {
             initial: kinetic + strain,
+            contact_excess: 0.0,
             totals: Totals {
                 kinetic,
                 strain,
@@ -112,13 +121,18 @@ impl Audit {
         for (p, &speed) in work.sliding_speed.iter().enumerate() {
             let k = 3 * p;
             let w_mid = [0, 1, 2].map(|d| mid(work.w_new[k + d], work.w_old[k + d]));
-            let dr = [0, 1, 2].map(|d| work.r[k + d] - work.r_e[k + d]);
-            totals.normal += tau * dr[0] * w_mid[0];
-            totals.drive += tau * dr[1] * speed;
-            totals.friction += tau * (dr[1] * (w_mid[1] - speed) + dr[2] * w_mid[2]);
+            let r = &work.r[k..k + 3];
+            totals.normal += tau * r[0] * w_mid[0];
+            totals.drive += tau * r[1] * speed;
+            totals.friction += tau * (r[1] * (w_mid[1] - speed) + r[2] * w_mid[2]);
+            totals.loads -= tau * (0..3).map(|d| work.r_e[k + d] * w_mid[d]).sum::<f64>();
+            self.contact_excess += tau
+                * (0..3)
+                    .map(|d| (r[d] - work.r_e[k + d]) * w_mid[d])
+                    .sum::<f64>();
         }
         totals.balance_error = totals.kinetic + totals.strain
             - self.initial
-            - (totals.drive + totals.friction + totals.normal - totals.viscous - totals.scheme);
+            - (self.contact_excess - totals.viscous - totals.scheme);
     }
 }

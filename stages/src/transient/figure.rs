@@ -20,6 +20,15 @@ fn thinned(history: &[HistoryRow]) -> impl Iterator<Item = &HistoryRow> {
     history.iter().step_by(stride)
 }
 
+/// Engineering labels, in exponent form below 0.01 (energies and velocities are small).
+fn axis_label(value: f64) -> String {
+    if value != 0.0 && value.abs() < 1e-2 {
+        format!("{value:.1e}")
+    } else {
+        plot::tick_label(value)
+    }
+}
+
 fn span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), v| {
         (low.min(v), high.max(v))
@@ -104,7 +113,7 @@ fn panel<DB: DrawingBackend>(
             .x_desc("t (s)")
             .y_desc(y_desc)
             .x_label_formatter(&|t| plot::tick_label(*t))
-            .y_label_formatter(&|value| format!("{value:.2e}"))
+            .y_label_formatter(&|value| axis_label(*value))
             .label_style((plot::FONT, 13))
             .light_line_style(WHITE)
             .draw()
@@ -135,7 +144,7 @@ impl Drawing for HistoryPlot<'_> {
         panel(
             &panels[0],
             self.history,
-            &format!("Transient (tau = {} s)", plot::tick_label(self.tau)),
+            &format!("Transient (tau = {:.3e} s)", self.tau),
             "kinetic energy (J)",
             &[("kinetic", &|row: &HistoryRow| row.kinetic)],
             true,
@@ -182,8 +191,10 @@ impl Drawing for EnergyPlot<'_> {
                 ("kinetic + strain", &|row: &HistoryRow| {
                     row.energy.kinetic + row.energy.strain
                 }),
-                ("drive (disc)", &|row: &HistoryRow| row.energy.drive),
-                ("friction", &|row: &HistoryRow| row.energy.friction),
+                ("drive + friction", &|row: &HistoryRow| {
+                    row.energy.drive + row.energy.friction
+                }),
+                ("loads", &|row: &HistoryRow| row.energy.loads),
                 ("normal (impacts)", &|row: &HistoryRow| row.energy.normal),
                 ("-viscous", &|row: &HistoryRow| -row.energy.viscous),
                 ("-scheme", &|row: &HistoryRow| -row.energy.scheme),

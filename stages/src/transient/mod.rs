@@ -292,7 +292,7 @@ impl Stage for Transient {
             PortSpec::one(
                 "energy",
                 ArtifactType::Table,
-                "t; kinetic, strain, viscous, scheme, drive, friction, normal, balance_error (J)",
+                "t; kinetic, strain, viscous, scheme, drive, friction, normal, loads, balance_error (J)",
             ),
             PortSpec::one(
                 "summary",
@@ -597,6 +597,7 @@ fn outputs(model: &Model, settings: &Settings, run: &Run) -> Result<Outputs, Sta
         .with("drive", column(&|row| row.energy.drive))
         .with("friction", column(&|row| row.energy.friction))
         .with("normal", column(&|row| row.energy.normal))
+        .with("loads", column(&|row| row.energy.loads))
         .with("balance_error", column(&|row| row.energy.balance_error));
     let snapshot_name = |t: f64| format!("step_{:08}", (t / settings.tau).round() as u64);
     let snapshots = model.nodal_table(
