@@ -16,7 +16,8 @@
 //! r_n ← max(0, r_n − ρ_n (w_n − w_n,min)),    r_T ← proj_{‖·‖ ≤ μ r_n}(r_T − ρ_T s)
 //! ```
 //!
-//! with `ρ` from the diagonal of `W` (`ρ_n = 1/W_nn`, `ρ_T = 2/(W_tt + W_bb)` per pair), whose
+//! with `ρ` from the diagonal of `W` (`ρ_n = 1/W_nn`, `ρ_T = 1/max(W_tt, W_bb)` per pair: one
+//! length for both tangential directions keeps the disk projection isotropic), whose
 //! fixed points are exactly the solutions:
 //! - [`Solver::FixedPoint`], the classic algorithm of the method: every pair at once from the
 //!   previous iterate (a Jacobi sweep), `w = w_free + W r` once per iteration;
@@ -86,7 +87,7 @@ impl Problem<'_> {
         for p in 0..self.n_pairs() {
             let k = 3 * p;
             rho_n.push(1.0 / W[(k, k)]);
-            rho_T.push(2.0 / (W[(k + 1, k + 1)] + W[(k + 2, k + 2)]));
+            rho_T.push(1.0 / W[(k + 1, k + 1)].max(W[(k + 2, k + 2)]));
         }
         Step { rho_n, rho_T }
     }

@@ -502,3 +502,157 @@ fn bad_parameters_are_refused_with_the_figure_that_matters() {
         assert!(error.message.contains(expected), "{overrides:?}: {error}");
     }
 }
+
+/// Hoffmann's two-DOF model on a belt: a mass (x along the belt, y normal) held by springs k1,
+/// k2 at 150° and 20°, pressed by a normal force N through a contact spring k3 onto a light
+/// contact node (mass m_B, sharing x, its own normal DOF y_B) that slides on the belt at V.
+/// DOFs: x, y_A, y_B. While the contact node slides, y_B = 0 and the linearised problem is
+/// Hoffmann's: `diag(m + m_B, m) q̈ + [[k11, k12 + μ k3], [k12, k22 + k3]] q = 0`.
+#[test]
+fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
+    let (m, m_b, k3, mu, normal_force, belt) = (1.0, 1e-3, 1.0, 0.38, 1e-3, 0.01);
+    let (a1, a2) = (150f64.to_radians(), 20f64.to_radians());
+    let k11 = a1.cos().powi(2) + a2.cos().powi(2);
+    let k12 = a1.cos() * a1.sin() + a2.cos() * a2.sin();
+    let k22 = a1.sin().powi(2) + a2.sin().powi(2);
+    let M = CscMatrix::from_triplets(3, 3, vec![(0, 0, m + m_b), (1, 1, m), (2, 2, m_b)]);
+    let K = CscMatrix::from_triplets(
+        3,
+        3,
+        vec![
+            (0, 0, k11),
+            (0, 1, k12),
+            (1, 0, k12),
+            (1, 1, k22 + k3),
+            (1, 2, -k3),
+            (2, 1, -k3),
+            (2, 2, k3),
+        ],
+    );
+    let C = CscMatrix::from_triplets(3, 3, Vec::new());
+    // The linearised sliding problem and its most unstable eigenpair.
+    let reduced_M = CscMatrix::from_triplets(2, 2, vec![(0, 0, m + m_b), (1, 1, m)]);
+    let reduced_K = CscMatrix::from_triplets(
+        2,
+        2,
+        vec![
+            (0, 0, k11),
+            (0, 1, k12 + mu * k3),
+            (1, 0, k12),
+            (1, 1, k22 + k3),
+        ],
+    );
+    let no_damping = CscMatrix::from_triplets(2, 2, Vec::new());
+    let pairs =
+        crate::stability::lumped::solve_matrices(&reduced_M, &no_damping, &reduced_K, 0.0, 1e-12)
+            .unwrap();
+    let lambda = pairs
+        .iter()
+        .map(|pair| pair.lambda)
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .unwrap();
+    assert!(lambda.re > 0.0);
+    // Its shape: the null vector of λ² M + K, scaled to 1e-5.
+    let a11 = lambda * lambda * (m + m_b) + k11;
+    let a12 = faer::c64::new(k12 + mu * k3, 0.0);
+    let shape = [-a12, a11, faer::c64::new(0.0, 0.0)];
+    let (u0, v0) = mode_start(lambda, &shape, 1e-8);
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows: vec![vec![(2, 1.0)], vec![(0, 1.0)], Vec::new()],
+    };
+    let contact_state = ContactState {
+        gap: vec![0.0],
+        sliding_speed: vec![belt],
+        r_e: vec![normal_force, mu * normal_force, 0.0],
+        mu,
+    };
+    let period = 2.0 * PI / lambda.im;
+    let steps_per_period = 400;
+    let tau = period / steps_per_period as f64;
+    let n_periods = 90;
+    let settings = settings(0.5, tau, n_periods * steps_per_period);
+    let run = integrate(&structure, &contact_state, &settings, u0, v0, |_| {}).unwrap();
+    let peaks: Vec<(f64, f64)> = run
+        .history
+        .chunks(steps_per_period)
+        .filter(|chunk| chunk.len() == steps_per_period)
+        .map(|chunk| {
+            let row = chunk
+                .iter()
+                .max_by(|a, b| a.kinetic.total_cmp(&b.kinetic))
+                .unwrap();
+            (row.t, row.kinetic)
+        })
+        .collect();
+    // Linear growth while the contact slides throughout: the per-period peaks of the kinetic
+    // energy grow as e^{2 Re λ t}, fitted over the first 15 periods.
+    let early = &peaks[1..16];
+    assert!(
+        run.history[..16 * steps_per_period]
+            .iter()
+            .all(|row| row.slide == 1.0)
+    );
+    let n = early.len() as f64;
+    let mean_t = early.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_y = early.iter().map(|p| p.1.ln()).sum::<f64>() / n;
+    let slope = early
+        .iter()
+        .map(|(t, e)| (t - mean_t) * (e.ln() - mean_y))
+        .sum::<f64>()
+        / early.iter().map(|(t, _)| (t - mean_t).powi(2)).sum::<f64>();
+    let growth = slope / 2.0;
+    assert!(
+        (growth - lambda.re).abs() < 0.02 * lambda.re,
+        "growth rate {growth} against Re lambda {}",
+        lambda.re
+    );
+    // Saturation: the contact node lifts off the belt once the normal vibration outgrows the
+    // preload, and the energy stays bounded (the peaks of the last 30 periods below 1.05 times
+    // the first maximum, where the linear growth would have gone on by more than six decades).
+    assert!(
+        run.history.iter().any(|row| row.open > 0.0),
+        "the contact never opens"
+    );
+    let first_maximum = peaks[40..60].iter().map(|p| p.1).fold(0.0, f64::max);
+    let later_maximum = peaks[60..].iter().map(|p| p.1).fold(0.0, f64::max);
+    assert!(
+        later_maximum <= 1.05 * first_maximum,
+        "{later_maximum} after {first_maximum}"
+    );
+    let linear = peaks[0].1 * (2.0 * lambda.re * (peaks.last().unwrap().0 - peaks[0].0)).exp();
+    assert!(
+        first_maximum < 1e-6 * linear,
+        "{first_maximum} against {linear}"
+    );
+}
+
+#[test]
+fn stage_outputs_do_not_depend_on_the_thread_count() {
+    let inputs = brake_inputs();
+    let params = stage_params(&[
+        ("tau", Value::Float(2e-6)),
+        ("duration", Value::Float(4e-4)),
+        ("amplitude", Value::Float(1e-6)),
+    ]);
+    let encoded = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| Transient.run(&params, &inputs).unwrap())
+            .iter()
+            .map(|(name, artifact)| (name.clone(), artifact.encode()))
+            .collect::<Vec<_>>()
+    };
+    let one = encoded(1);
+    for threads in [2, 3] {
+        assert!(
+            one == encoded(threads),
+            "outputs differ on {threads} threads"
+        );
+    }
+}
