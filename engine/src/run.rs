@@ -9,12 +9,12 @@
 use std::collections::{BTreeMap, HashMap};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_cache::{ActionRecord, Digest};
-use squeal_stages::{Artifact, Input, Inputs, Outputs, Params, StageError};
+use squeal_stages::{Artifact, Input, Inputs, Outputs, Params, Progress, StageError};
 
 use crate::output;
 use crate::plan::{Context, Decision, ResolvedInputs};
@@ -95,9 +95,13 @@ struct Executor<'a> {
     /// Artifacts decoded or produced during this run, so consumers need not read them back.
     memo: Mutex<HashMap<Digest, Arc<Artifact>>>,
     progress: ProgressBar,
+    /// Holds the overall bar and one bar per stage that reports its progress.
+    bars: MultiProgress,
 }
 
 const EXPORTS_FILE: &str = ".squeal-exports.json";
+/// Resolution of a stage's progress bar.
+const STAGE_BAR_STEPS: u64 = 1000;
 
 /// Runs every instance of the context and writes the outputs, the manifest and the record.
 pub fn run(
@@ -127,18 +131,17 @@ pub fn run(
         .ok()
         .and_then(|bytes| serde_json::from_slice(&bytes).ok())
         .unwrap_or_default();
-    let progress = if options.progress {
-        let bar =
-            ProgressBar::with_draw_target(Some(n_instances as u64), ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
-                .expect("valid template")
-                .progress_chars("=> "),
-        );
-        bar
+    let bars = MultiProgress::with_draw_target(if options.progress {
+        ProgressDrawTarget::stderr()
     } else {
-        ProgressBar::hidden()
-    };
+        ProgressDrawTarget::hidden()
+    });
+    let progress = bars.add(ProgressBar::new(n_instances as u64));
+    progress.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
     let roots: Vec<usize> = (0..n_instances).filter(|&idx| pending[idx] == 0).collect();
     let executor = Executor {
         context,
@@ -153,6 +156,7 @@ pub fn run(
         }),
         memo: Mutex::new(HashMap::new()),
         progress,
+        bars,
     };
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(jobs) = options.jobs {
@@ -199,6 +203,18 @@ pub fn run(
     };
     crate::manifest::write(&options.out_dir.join("manifest.parquet"), &report)?;
     Ok(report)
+}
+
+/// A bar for one stage's own progress (fraction, time left, its message).
+fn stage_progress_bar(bars: &MultiProgress, name: &str) -> ProgressBar {
+    let bar = bars.add(ProgressBar::new(STAGE_BAR_STEPS));
+    bar.set_style(
+        ProgressStyle::with_template("  {prefix} [{bar:30}] {percent:>3}% eta {eta} {wide_msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(name.to_string());
+    bar
 }
 
 fn spawn<'s>(scope: &rayon::Scope<'s>, executor: &'s Executor<'s>, idx: usize) {
@@ -331,19 +347,36 @@ impl Executor<'_> {
             stage_inputs.0.insert(port.clone(), value);
         }
         let params = Params(instance.params.clone());
-        let outputs: Outputs =
-            match catch_unwind(AssertUnwindSafe(|| stage.run(&params, &stage_inputs))) {
-                Ok(Ok(outputs)) => outputs,
-                Ok(Err(StageError { message })) => return Err(message),
-                Err(payload) => {
-                    let message = payload
-                        .downcast_ref::<String>()
-                        .cloned()
-                        .or_else(|| payload.downcast_ref::<&str>().map(|text| text.to_string()))
-                        .unwrap_or_else(|| "unknown panic".into());
-                    return Err(format!("internal error in `{}`: {message}", stage.kind()));
-                }
-            };
+        // The stage's own bar appears with its first report.
+        let stage_bar: Arc<OnceLock<ProgressBar>> = Arc::new(OnceLock::new());
+        let reporter = {
+            let (stage_bar, bars, name) =
+                (stage_bar.clone(), self.bars.clone(), instance.name.clone());
+            Progress::new(move |fraction, message| {
+                let bar = stage_bar.get_or_init(|| stage_progress_bar(&bars, &name));
+                bar.set_position((fraction * STAGE_BAR_STEPS as f64) as u64);
+                bar.set_message(message.to_string());
+            })
+        };
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            stage.run_with_progress(&params, &stage_inputs, &reporter)
+        }));
+        if let Some(bar) = stage_bar.get() {
+            bar.finish_and_clear();
+            self.bars.remove(bar);
+        }
+        let outputs: Outputs = match result {
+            Ok(Ok(outputs)) => outputs,
+            Ok(Err(StageError { message })) => return Err(message),
+            Err(payload) => {
+                let message = payload
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| payload.downcast_ref::<&str>().map(|text| text.to_string()))
+                    .unwrap_or_else(|| "unknown panic".into());
+                return Err(format!("internal error in `{}`: {message}", stage.kind()));
+            }
+        };
         let declared = stage.outputs();
         for port in &declared {
             match outputs.get(port.name) {

@@ -33,7 +33,7 @@ use std::sync::Arc;
 
 pub use artifact::{Artifact, ArtifactType, Document, Figure};
 pub use stage::{
-    Arity, Coords, Input, Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage,
+    Arity, Coords, Input, Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Progress, Stage,
     StageError, Value,
 };
 pub use table::{Column, ColumnData, Table};

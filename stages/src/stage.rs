@@ -340,6 +340,43 @@ impl StageError {
     }
 }
 
+/// Where a long stage reports how far it is: a fraction in [0, 1] and a short message (the
+/// engine shows them as a progress bar with an estimate of the time left). Reports are cheap;
+/// the sink decides how often to draw.
+#[derive(Clone, Default)]
+pub struct Progress {
+    sink: Option<Arc<dyn Fn(f64, &str) + Send + Sync>>,
+}
+
+impl Progress {
+    /// Reports go nowhere.
+    pub fn none() -> Progress {
+        Progress { sink: None }
+    }
+
+    pub fn new(sink: impl Fn(f64, &str) + Send + Sync + 'static) -> Progress {
+        Progress {
+            sink: Some(Arc::new(sink)),
+        }
+    }
+
+    pub fn report(&self, fraction: f64, message: &str) {
+        if let Some(sink) = &self.sink {
+            sink(fraction.clamp(0.0, 1.0), message);
+        }
+    }
+}
+
+impl fmt::Debug for Progress {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(if self.sink.is_some() {
+            "Progress(reporting)"
+        } else {
+            "Progress(none)"
+        })
+    }
+}
+
 /// A kind of stage. Implementations are pure: `run` is a deterministic function of the
 /// parameters and inputs. A stage that is not (reads the clock, a file outside the study)
 /// returns `false` from [`Stage::pure`] and is never cached.
@@ -364,4 +401,15 @@ pub trait Stage: Send + Sync {
         Ok(())
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError>;
+    /// [`Stage::run`], reporting progress; what the engine calls. Long stages override it (and
+    /// implement `run` as this with [`Progress::none`]).
+    fn run_with_progress(
+        &self,
+        params: &Params,
+        inputs: &Inputs,
+        progress: &Progress,
+    ) -> Result<Outputs, StageError> {
+        let _ = progress;
+        self.run(params, inputs)
+    }
 }

@@ -75,10 +75,13 @@ use faer::c64;
 use serde::Deserialize;
 
 use crate::artifact::{Artifact, ArtifactType, Equilibrium, Model};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, Stage, StageError};
 use crate::table::{ColumnData, Table};
 use contact::Solver;
 use scheme::{ContactState, Failure, Run, Settings, Structure};
+
+/// Progress reports over a run.
+const PROGRESS_REPORTS: usize = 500;
 
 /// Most steps a run takes (a guard against a duration/step pair typed wrong).
 const MAX_STEPS: usize = 10_000_000;
@@ -315,6 +318,14 @@ impl Stage for Transient {
         params.typed::<TransientParams>().map(drop)
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        self.run_with_progress(params, inputs, &Progress::none())
+    }
+    fn run_with_progress(
+        &self,
+        params: &Params,
+        inputs: &Inputs,
+        progress: &Progress,
+    ) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         let eigenvalues = inputs.table("eigenvalues")?;
@@ -332,7 +343,14 @@ impl Stage for Transient {
             }
         };
         let settings = settings_of(&params, model.mesh.contact_pairs.len())?;
-        let run = integrate(&structure, &contact_state, &settings, u0, v0, &params)?;
+        let run = integrate(
+            &structure,
+            &contact_state,
+            &settings,
+            (u0, v0),
+            &params,
+            progress,
+        )?;
         outputs(model, &settings, &run)
     }
 }
@@ -532,11 +550,24 @@ fn integrate(
     structure: &Structure,
     contact_state: &ContactState,
     settings: &Settings,
-    u0: Vec<f64>,
-    v0: Vec<f64>,
+    (u0, v0): (Vec<f64>, Vec<f64>),
     params: &TransientParams,
+    progress: &Progress,
 ) -> Result<Run, StageError> {
-    scheme::integrate(structure, contact_state, settings, u0, v0, |_| {}).map_err(|failure| {
+    let n_steps = settings.n_steps;
+    let report_every = (n_steps / PROGRESS_REPORTS).max(1);
+    let on_step = |step: usize| {
+        if step % report_every == 0 {
+            progress.report(
+                step as f64 / n_steps as f64,
+                &format!(
+                    "step {step} of {n_steps}, t = {:.4e} s",
+                    step as f64 * settings.tau
+                ),
+            );
+        }
+    };
+    scheme::integrate(structure, contact_state, settings, u0, v0, on_step).map_err(|failure| {
         match failure {
             Failure::Linear(err) => StageError::new(format!("transient: J = M/tau + theta (C + tau theta K): {err}")),
             Failure::Contact {
