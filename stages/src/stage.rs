@@ -345,8 +345,11 @@ impl StageError {
 /// the sink decides how often to draw.
 #[derive(Clone, Default)]
 pub struct Progress {
-    sink: Option<Arc<dyn Fn(f64, &str) + Send + Sync>>,
+    sink: Option<Arc<ProgressSink>>,
 }
+
+/// What receives the reports: `(fraction, message)`.
+type ProgressSink = dyn Fn(f64, &str) + Send + Sync;
 
 impl Progress {
     /// Reports go nowhere.

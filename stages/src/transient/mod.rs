@@ -557,7 +557,7 @@ fn integrate(
     let n_steps = settings.n_steps;
     let report_every = (n_steps / PROGRESS_REPORTS).max(1);
     let on_step = |step: usize| {
-        if step % report_every == 0 {
+        if step.is_multiple_of(report_every) {
             progress.report(
                 step as f64 / n_steps as f64,
                 &format!(

@@ -427,7 +427,7 @@ pub fn integrate(
             states[p] = classify(&r, &w, p, contact_state);
             peak_penetration = peak_penetration.max(-(contact_state.gap[p] + delta[3 * p]));
         }
-        if step % settings.output_every == 0 || step == settings.n_steps {
+        if step.is_multiple_of(settings.output_every) || step == settings.n_steps {
             history.push(record(step, &states, &delta, &w, &audit, report.iterations));
         }
         if settings.snapshot_steps.get(next_snapshot) == Some(&step) {
