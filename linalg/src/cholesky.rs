@@ -20,6 +20,7 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::linalg::matmul::matmul;
 use faer::perm::PermRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
@@ -27,7 +28,7 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, supernodal::SupernodalLltRef,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
 
 use crate::Error;
 use crate::csc::CscMatrix;
@@ -319,22 +320,45 @@ impl InterfaceSolve {
                 col += 1;
             }
         }
-        let W = Y.transpose() * &Y;
+        let mut W = Mat::<f64>::zeros(m, m);
+        matmul(
+            W.as_mut(),
+            Accum::Replace,
+            Y.transpose(),
+            Y.as_ref(),
+            1.0,
+            Par::Seq,
+        );
         InterfaceSolve { rows, Y, W }
     }
 
     /// `Yᵀ y` for `y` in elimination order: `G A⁻¹ b` when `y = L⁻¹ Pᵀ b`.
     pub fn project(&self, y: &[f64], out: &mut [f64]) {
-        let gathered = Mat::from_fn(self.rows.len(), 1, |compact, _| y[self.rows[compact]]);
-        let product = self.Y.transpose() * &gathered;
-        for (slot, value) in out.iter_mut().zip(product.col(0).iter()) {
-            *slot = *value;
-        }
+        let gathered: Vec<f64> = self.rows.iter().map(|&row| y[row]).collect();
+        let gathered = MatRef::from_column_major_slice(&gathered, self.rows.len(), 1);
+        let out = MatMut::from_column_major_slice_mut(out, self.Y.ncols(), 1);
+        matmul(
+            out,
+            Accum::Replace,
+            self.Y.transpose(),
+            gathered,
+            1.0,
+            Par::Seq,
+        );
     }
 
     /// `y += Y r`.
-    pub fn lift(&self, r: MatRef<'_, f64>, y: &mut [f64]) {
-        let product = &self.Y * r;
+    pub fn lift(&self, r: &[f64], y: &mut [f64]) {
+        let r = MatRef::from_column_major_slice(r, self.Y.ncols(), 1);
+        let mut product = Mat::<f64>::zeros(self.rows.len(), 1);
+        matmul(
+            product.as_mut(),
+            Accum::Replace,
+            self.Y.as_ref(),
+            r,
+            1.0,
+            Par::Seq,
+        );
         for (compact, &row) in self.rows.iter().enumerate() {
             y[row] += product[(compact, 0)];
         }
@@ -416,7 +440,8 @@ mod tests {
         let mut g = vec![0.0; 3];
         interface_solve.project(&y, &mut g);
         let Wr = &interface_solve.W * &r;
-        interface_solve.lift(r.as_ref(), &mut y);
+        let r_values: Vec<f64> = r.col(0).iter().copied().collect();
+        interface_solve.lift(&r_values, &mut y);
         let mut y_mat = Mat::from_fn(n, 1, |i, _| y[i]);
         cholesky.backward_in_place(y_mat.as_mut(), Par::Seq);
         let mut x = vec![0.0; n];

@@ -486,7 +486,7 @@ fn mode_start(lambda: c64, shape: &[c64], amplitude: f64) -> (Vec<f64>, Vec<f64>
 }
 
 /// No displacement; every pad contact node moving at `speed` along its pair's normal.
-fn kick(model: &Model, equilibrium: &Equilibrium, speed: f64) -> (Vec<f64>, Vec<f64>) {
+pub fn kick(model: &Model, equilibrium: &Equilibrium, speed: f64) -> (Vec<f64>, Vec<f64>) {
     let n = model.n_dofs();
     let mut v = vec![0.0; n];
     for (pair, normal) in model.mesh.contact_pairs.iter().zip(&equilibrium.frames.n) {

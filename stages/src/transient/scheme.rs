@@ -14,7 +14,7 @@
 //! their union pattern; `K u` is carried by its own recursion `K u¹ = K u⁰ + τ K v^θ`, so a
 //! step costs one solve and one fused product.
 
-use faer::{Mat, Par};
+use faer::{MatMut, Par};
 use rayon::prelude::*;
 use squeal_linalg::CscMatrix;
 use squeal_linalg::cholesky::{Cholesky, InterfaceSolve};
@@ -107,6 +107,21 @@ pub struct Run {
     pub worst_contact_residual: f64,
     pub most_contact_iterations: usize,
     pub peak_penetration: f64,
+    /// Where the time went (for benchmarks; never in an output: it is not reproducible).
+    pub timings: Timings,
+}
+
+/// Wall time of a run's parts (s).
+#[derive(Debug, Clone, Default)]
+pub struct Timings {
+    /// Cholesky of J (ordering, symbolic and numeric).
+    pub factor: f64,
+    /// `Y = L⁻¹ Pᵀ Hᵀ` and `W = Yᵀ Y`.
+    pub delassus: f64,
+    /// The steps: their forward and backward sweeps, their contact solves, all of them.
+    pub sweeps: f64,
+    pub contact: f64,
+    pub steps: f64,
 }
 
 /// Why a run stopped.
@@ -208,6 +223,8 @@ pub fn integrate(
     let n = structure.K.n_rows;
     let n_pairs = contact_state.gap.len();
     let m = 3 * n_pairs;
+    let mut timings = Timings::default();
+    let clock = std::time::Instant::now();
     let interface: Vec<usize> = {
         let mut dofs: Vec<usize> = structure
             .H_rows
@@ -229,7 +246,10 @@ pub fn integrate(
         Par::Seq,
     )
     .map_err(Failure::Linear)?;
+    timings.factor = clock.elapsed().as_secs_f64();
+    let clock = std::time::Instant::now();
     let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
+    timings.delassus = clock.elapsed().as_secs_f64();
     let products = FusedProducts::new([structure.M, structure.C, structure.K]);
 
     // Hᵀ r_e, the equilibrium's contact force.
@@ -257,7 +277,10 @@ pub fn integrate(
     let mut audit = Audit::new(&u, &v, &MCK_v, &K_u);
 
     let mut rhs = vec![0.0; n];
-    let mut y = Mat::<f64>::zeros(n, 1);
+    // The step's vector in elimination order, through both sweeps.
+    let mut y = vec![0.0; n];
+    let mut u_old = vec![0.0; n];
+    let mut K_u_old = vec![0.0; n];
     let mut w_free = vec![0.0; m];
     let mut w_new = vec![0.0; m];
     let mut w_n_min = vec![0.0; n_pairs];
@@ -323,6 +346,7 @@ pub fn integrate(
         next_snapshot = 1;
     }
 
+    let steps_clock = std::time::Instant::now();
     for step in 1..=settings.n_steps {
         let t = step as f64 * tau;
         // F_MTD for the departure, in elimination order.
@@ -333,14 +357,11 @@ pub fn integrate(
             let [Mv, Cv, Kv] = MCK_v[i];
             rhs[i] = a * Mv + b * Cv + c * Kv - K_u[i] - equilibrium_force[i];
         }
-        let mut permuted = vec![0.0; n];
-        cholesky.permute(&rhs, &mut permuted);
-        for (i, value) in permuted.iter().enumerate() {
-            y[(i, 0)] = *value;
-        }
-        cholesky.forward_in_place(y.as_mut(), Par::Seq);
-        let y_slice: Vec<f64> = y.col(0).iter().copied().collect();
-        interface_solve.project(&y_slice, &mut w_free);
+        cholesky.permute(&rhs, &mut y);
+        let clock = std::time::Instant::now();
+        cholesky.forward_in_place(MatMut::from_column_major_slice_mut(&mut y, n, 1), Par::Seq);
+        timings.sweeps += clock.elapsed().as_secs_f64();
+        interface_solve.project(&y, &mut w_free);
         // The equivalent gap B̃ = g + τ(1−θ) w_n (Signorini on the end-of-step velocity).
         for p in 0..n_pairs {
             let gap = contact_state.gap[p] + delta[3 * p];
@@ -355,6 +376,7 @@ pub fn integrate(
             mu: contact_state.mu,
             force_scale,
         };
+        let clock = std::time::Instant::now();
         let report = if n_pairs == 0 {
             contact::Report {
                 iterations: 0,
@@ -376,26 +398,23 @@ pub fn integrate(
                 iterations: failure.iterations,
             })?
         };
+        timings.contact += clock.elapsed().as_secs_f64();
         worst_contact_residual = worst_contact_residual.max(report.residual);
         most_contact_iterations = most_contact_iterations.max(report.iterations);
-        let mut y_slice = y_slice;
         if n_pairs > 0 {
-            let r_col = Mat::from_fn(m, 1, |i, _| r[i]);
-            interface_solve.lift(r_col.as_ref(), &mut y_slice);
+            interface_solve.lift(&r, &mut y);
         }
-        for (i, value) in y_slice.iter().enumerate() {
-            y[(i, 0)] = *value;
-        }
-        cholesky.backward_in_place(y.as_mut(), Par::Seq);
-        let solved: Vec<f64> = y.col(0).iter().copied().collect();
-        cholesky.unpermute(&solved, &mut v_new);
+        let clock = std::time::Instant::now();
+        cholesky.backward_in_place(MatMut::from_column_major_slice_mut(&mut y, n, 1), Par::Seq);
+        timings.sweeps += clock.elapsed().as_secs_f64();
+        cholesky.unpermute(&y, &mut v_new);
         if v_new.iter().any(|value| !value.is_finite()) {
             return Err(Failure::NotFinite { step, t });
         }
         products.apply(&v_new, &mut MCK_v_new);
         // u¹ = u⁰ + τ v^θ, K u¹ = K u⁰ + τ K v^θ, δ¹ = δ⁰ + τ w^θ.
-        let u_old = u.clone();
-        let K_u_old = K_u.clone();
+        u_old.copy_from_slice(&u);
+        K_u_old.copy_from_slice(&K_u);
         for i in 0..n {
             u[i] += tau * (theta * v_new[i] + (1.0 - theta) * v[i]);
             K_u[i] += tau * (theta * MCK_v_new[i][2] + (1.0 - theta) * MCK_v[i][2]);
@@ -440,7 +459,9 @@ pub fn integrate(
         }
         on_step(step);
     }
+    timings.steps = steps_clock.elapsed().as_secs_f64();
     Ok(Run {
+        timings,
         history,
         snapshots,
         factor_len: cholesky.factor_len(),

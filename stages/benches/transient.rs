@@ -1,0 +1,199 @@
+//! The nonlinear transient of the default brake (`mesh.brake` defaults, μ = 0.38, ω = 4 rad/s,
+//! interference 0.1 mm), started by a normal velocity kick of the pads' contact nodes: the
+//! factorisation of J and the Delassus set-up, the cost of a step split into the sparse sweeps,
+//! the contact solve and the rest, against one plain solve with J's factor, then the whole run
+//! with its wall time and peak memory.
+//! Run with `cargo bench -p squeal-stages --bench transient`. `SQUEAL_BENCH_STEPS` (20,000),
+//! `SQUEAL_BENCH_TAU` (1e-6 s), `SQUEAL_BENCH_KICK` (1e-3 m/s) and `SQUEAL_BENCH_SOLVER`
+//! (`gauss_seidel` or `fixed_point`) override the run.
+//!
+//! With `SQUEAL_EXPORT_DIR=<dir>`, M, C, K (Matrix Market), the rows of H, the pairs' data and
+//! the initial velocity are written there for `benches/transient_scipy.py`, the same scheme
+//! written with scipy.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::time::Instant;
+
+use faer::{Mat, Par};
+use squeal_linalg::cholesky::Cholesky;
+use squeal_linalg::matrix_market::write_matrix_market;
+use squeal_stages::assemble::{Assemble, assemble_model};
+use squeal_stages::contact::lcp::LcpSettings;
+use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
+use squeal_stages::mesh::brake::{BrakeGeometry, brake};
+use squeal_stages::transient::contact::Solver as ContactSolver;
+use squeal_stages::transient::scheme::{Settings, integrate};
+use squeal_stages::transient::{kick, structure_of};
+use squeal_stages::{Params, Stage, Value};
+
+/// Peak resident memory of this process (MiB), from /proc.
+fn peak_memory_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|status| {
+            status
+                .lines()
+                .find(|line| line.starts_with("VmHWM:"))
+                .and_then(|line| line.split_whitespace().nth(1))
+                .and_then(|kib| kib.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kib| kib / 1024.0)
+}
+
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(format!("SQUEAL_BENCH_{name}"))
+        .ok()
+        .and_then(|value| value.parse().ok())
+        .unwrap_or(default)
+}
+
+fn main() {
+    let mesh = brake(&BrakeGeometry::default()).expect("default brake");
+    let values: BTreeMap<String, Value> = Assemble
+        .params()
+        .into_iter()
+        .map(|spec| (spec.name.to_string(), spec.default.expect("defaults")))
+        .collect();
+    let clamped = vec!["hub".to_string(), "pad_backs".to_string()];
+    let (model, _) = assemble_model(&mesh, &Params(values), &clamped).expect("assembly");
+    let (equilibrium, _) = equilibrium(
+        &model,
+        0.38,
+        4.0,
+        Load::Interference(1e-4),
+        Solver::SemismoothNewton,
+        &LcpSettings::default(),
+    )
+    .expect("equilibrium");
+    let n_steps: usize = env_or("STEPS", 20_000);
+    let tau: f64 = env_or("TAU", 1e-6);
+    let (structure, contact_state) = structure_of(&model, &equilibrium).expect("structure");
+    let (u0, v0) = kick(&model, &equilibrium, env_or("KICK", 1e-3));
+    println!(
+        "default brake: {} free DOFs, {} pairs ({} closed); tau = {tau:e} s, {n_steps} steps",
+        model.n_dofs(),
+        equilibrium.closed.len(),
+        equilibrium.closed.iter().filter(|closed| **closed).count(),
+    );
+    if let Ok(dir) = std::env::var("SQUEAL_EXPORT_DIR") {
+        export(&dir, &structure, &contact_state, &v0);
+    }
+
+    // One plain solve with J's factor (the same ordering as the run's), the yardstick of a step.
+    let theta = 0.5;
+    let mut interface: Vec<usize> = structure
+        .H_rows
+        .iter()
+        .flat_map(|row| row.iter().map(|&(dof, _)| dof))
+        .collect();
+    interface.sort_unstable();
+    interface.dedup();
+    let cholesky = Cholesky::new(
+        &[
+            (1.0 / tau, structure.M),
+            (theta, structure.C),
+            (tau * theta * theta, structure.K),
+        ],
+        structure.dof_of_node,
+        &interface,
+        Par::Seq,
+    )
+    .expect("J is positive definite");
+    let mut rhs = Mat::from_fn(model.n_dofs(), 1, |i, _| ((i * 7919) % 1000) as f64 - 500.0);
+    let repeats = 20;
+    let clock = Instant::now();
+    for _ in 0..repeats {
+        cholesky.solve_in_place(rhs.as_mut(), Par::Seq);
+    }
+    let solve_ms = 1e3 * clock.elapsed().as_secs_f64() / repeats as f64;
+    drop(cholesky);
+
+    let settings = Settings {
+        theta,
+        tau,
+        n_steps,
+        solver: match std::env::var("SQUEAL_BENCH_SOLVER").as_deref() {
+            Ok("fixed_point") => ContactSolver::FixedPoint,
+            _ => ContactSolver::GaussSeidel,
+        },
+        tolerance: 1e-10,
+        max_iterations: 2000,
+        output_every: 1,
+        record_pairs: vec![0],
+        snapshot_steps: Vec::new(),
+    };
+    let clock = Instant::now();
+    let run = integrate(&structure, &contact_state, &settings, u0, v0, |_| {})
+        .unwrap_or_else(|failure| panic!("the run failed: {failure:?}"));
+    let wall = clock.elapsed().as_secs_f64();
+    let timings = &run.timings;
+    let per_step = |seconds: f64| 1e3 * seconds / n_steps as f64;
+    let step_ms = per_step(timings.steps);
+    println!(
+        "factorisation of J {:.2} s ({} entries in L), Delassus operator {:.2} s ({} rows of Y)",
+        timings.factor, run.factor_len, timings.delassus, run.interface_rows
+    );
+    println!(
+        "per step {step_ms:.3} ms: sweeps {:.3} ms, contact {:.3} ms, the rest {:.3} ms; one plain solve {solve_ms:.3} ms; step / solve = {:.2}",
+        per_step(timings.sweeps),
+        per_step(timings.contact),
+        per_step(timings.steps - timings.sweeps - timings.contact),
+        step_ms / solve_ms
+    );
+    let last = run.history.last().expect("rows");
+    println!(
+        "run {wall:.1} s wall, peak memory {:.0} MiB; most contact iterations {}, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; balance error {:.2e} J of peak {:.2e} J",
+        peak_memory_mib(),
+        run.most_contact_iterations,
+        run.worst_contact_residual,
+        last.open,
+        last.stick,
+        last.slide,
+        run.history
+            .iter()
+            .map(|row| row.energy.balance_error.abs())
+            .fold(0.0, f64::max),
+        squeal_stages::transient::peak_energy(&run.history)
+    );
+}
+
+/// The scheme's data for `transient_scipy.py`.
+fn export(
+    dir: &str,
+    structure: &squeal_stages::transient::scheme::Structure,
+    contact_state: &squeal_stages::transient::scheme::ContactState,
+    v0: &[f64],
+) {
+    let dir = std::path::Path::new(dir);
+    std::fs::create_dir_all(dir).expect("export directory");
+    for (name, matrix) in [("M", structure.M), ("C", structure.C), ("K", structure.K)] {
+        let text = write_matrix_market(matrix, name).expect("a finite matrix");
+        std::fs::write(dir.join(format!("{name}.mtx")), text).expect("write matrix");
+    }
+    let mut h = std::fs::File::create(dir.join("H.csv")).expect("H.csv");
+    writeln!(h, "row,dof,value").unwrap();
+    for (row, entries) in structure.H_rows.iter().enumerate() {
+        for (dof, value) in entries {
+            writeln!(h, "{row},{dof},{value:e}").unwrap();
+        }
+    }
+    let mut pairs = std::fs::File::create(dir.join("pairs.csv")).expect("pairs.csv");
+    writeln!(pairs, "gap,sliding_speed,r_n,r_t,r_b,mu").unwrap();
+    for p in 0..contact_state.gap.len() {
+        writeln!(
+            pairs,
+            "{:e},{:e},{:e},{:e},{:e},{:e}",
+            contact_state.gap[p],
+            contact_state.sliding_speed[p],
+            contact_state.r_e[3 * p],
+            contact_state.r_e[3 * p + 1],
+            contact_state.r_e[3 * p + 2],
+            contact_state.mu
+        )
+        .unwrap();
+    }
+    let text: String = v0.iter().map(|value| format!("{value:e}\n")).collect();
+    std::fs::write(dir.join("v0.csv"), text).expect("v0.csv");
+    println!("exported to {}", dir.display());
+}
