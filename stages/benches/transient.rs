@@ -143,13 +143,14 @@ fn main() {
     );
     let last = run.history.last().expect("rows");
     println!(
-        "run {wall:.1} s wall, peak memory {:.0} MiB; most contact iterations {}, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; balance error {:.2e} J of peak {:.2e} J",
+        "run {wall:.1} s wall, peak memory {:.0} MiB; most contact iterations {}, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; final kinetic energy {:.6e} J; balance error {:.2e} J of peak {:.2e} J",
         peak_memory_mib(),
         run.most_contact_iterations,
         run.worst_contact_residual,
         last.open,
         last.stick,
         last.slide,
+        last.kinetic,
         run.history
             .iter()
             .map(|row| row.energy.balance_error.abs())

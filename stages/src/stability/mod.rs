@@ -53,7 +53,7 @@ use faer::{Mat, Par, c64};
 use crate::artifact::Equilibrium;
 use crate::artifact::Model;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::ldlt::ShiftedPencil;
@@ -133,6 +133,16 @@ pub fn solve(
     equilibrium: &Equilibrium,
     settings: &Settings,
 ) -> Result<Solution, StageError> {
+    solve_with_progress(model, equilibrium, settings, &Progress::none())
+}
+
+/// [`solve`], reporting the fraction of the band covered to `progress`.
+pub fn solve_with_progress(
+    model: &Model,
+    equilibrium: &Equilibrium,
+    settings: &Settings,
+    progress: &Progress,
+) -> Result<Solution, StageError> {
     if !(settings.f_max_hz > 0.0) {
         return Err(StageError::new(format!(
             "f_max_hz = {} must be positive",
@@ -170,6 +180,10 @@ pub fn solve(
         Method::Krylov => {
             let progress = |fraction: f64| {
                 tracing::info!("stability: {:.0} % of the band covered", 100.0 * fraction);
+                progress.report(
+                    fraction,
+                    &format!("{:.0} % of the band covered", 100.0 * fraction),
+                );
             };
             let (pairs, band) = krylov::solve_band(
                 &system,
@@ -459,6 +473,14 @@ impl Stage for Stability {
         params.typed::<StabilityParams>().map(drop)
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        self.run_with_progress(params, inputs, &Progress::none())
+    }
+    fn run_with_progress(
+        &self,
+        params: &Params,
+        inputs: &Inputs,
+        progress: &Progress,
+    ) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         let params: StabilityParams = params.typed()?;
@@ -479,7 +501,7 @@ impl Stage for Stability {
             },
             dense_limit: DENSE_LIMIT,
         };
-        let solution = solve(model, equilibrium, &settings)?;
+        let solution = solve_with_progress(model, equilibrium, &settings, progress)?;
         let shapes: Vec<Vec<c64>> = solution
             .pairs
             .iter()
