@@ -4,6 +4,7 @@
 //! stage contract of `squeal-stages` is used here. Only this crate and `squeal-cache` touch
 //! the file system.
 
+pub mod checkpoint;
 pub mod dag;
 pub mod instances;
 pub mod key;

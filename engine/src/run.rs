@@ -14,7 +14,9 @@ use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_cache::{ActionRecord, Digest};
-use squeal_stages::{Artifact, Input, Inputs, Outputs, Params, Progress, StageError};
+use squeal_stages::{Artifact, Input, Inputs, Outputs, Params, Progress, RunContext, StageError};
+
+use crate::checkpoint::CacheCheckpoints;
 
 use crate::output;
 use crate::plan::{Context, Decision, ResolvedInputs};
@@ -358,9 +360,16 @@ impl Executor<'_> {
                 bar.set_message(message.to_string());
             })
         };
+        let checkpoints = CacheCheckpoints::new(context.cache, &key, &instance.name, stage.kind());
+        let run_context = RunContext {
+            progress: &reporter,
+            checkpoints: &checkpoints,
+        };
         let result = catch_unwind(AssertUnwindSafe(|| {
-            stage.run_with_progress(&params, &stage_inputs, &reporter)
+            stage.run_with(&params, &stage_inputs, &run_context)
         }));
+        // Finished, or failed for a reason a resume would meet again: the checkpoint goes.
+        checkpoints.discard();
         if let Some(bar) = stage_bar.get() {
             bar.finish_and_clear();
             self.bars.remove(bar);

@@ -25,7 +25,7 @@ use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::transient::contact::Solver as ContactSolver;
 use squeal_stages::transient::scheme::{Settings, integrate};
 use squeal_stages::transient::{kick, structure_of};
-use squeal_stages::{Params, Stage, Value};
+use squeal_stages::{NoCheckpoints, Params, Stage, Value};
 
 /// Peak resident memory of this process (MiB), from /proc.
 fn peak_memory_mib() -> f64 {
@@ -124,8 +124,16 @@ fn main() {
         snapshot_steps: Vec::new(),
     };
     let clock = Instant::now();
-    let run = integrate(&structure, &contact_state, &settings, u0, v0, |_| {})
-        .unwrap_or_else(|failure| panic!("the run failed: {failure:?}"));
+    let run = integrate(
+        &structure,
+        &contact_state,
+        &settings,
+        u0,
+        v0,
+        &NoCheckpoints,
+        |_| {},
+    )
+    .unwrap_or_else(|failure| panic!("the run failed: {failure:?}"));
     let wall = clock.elapsed().as_secs_f64();
     let timings = &run.timings;
     let per_step = |seconds: f64| 1e3 * seconds / n_steps as f64;

@@ -33,8 +33,8 @@ use std::sync::Arc;
 
 pub use artifact::{Artifact, ArtifactType, Document, Figure};
 pub use stage::{
-    Arity, Coords, Input, Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Progress, Stage,
-    StageError, Value,
+    Arity, Checkpoints, Coords, Input, Inputs, NoCheckpoints, Outputs, ParamSpec, ParamType,
+    Params, PortSpec, Progress, RunContext, Stage, StageError, Value,
 };
 pub use table::{Column, ColumnData, Table};
 

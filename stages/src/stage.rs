@@ -380,6 +380,51 @@ impl fmt::Debug for Progress {
     }
 }
 
+/// Where a long stage keeps its state so that a run killed part-way resumes on the next
+/// `squeal run`. The engine keeps the latest checkpoint of a stage instance in the cache, under
+/// its cache key (same parameters, inputs and version), verified like every entry, and
+/// discards it once the stage has finished. A stage must resume to the very bytes an
+/// uninterrupted run gives: it saves its whole state, and what it does not save it recomputes
+/// exactly.
+pub trait Checkpoints: Send + Sync {
+    /// The latest checkpoint of this stage instance, if any.
+    fn load(&self) -> Option<Vec<u8>>;
+    /// Whether a checkpoint is due (the store sets the cadence).
+    fn due(&self) -> bool;
+    /// Keeps `state` as the latest checkpoint; a failure to keep it only loses the resume.
+    fn save(&self, state: &[u8]);
+}
+
+/// No checkpoints: nothing to resume from, none due.
+pub struct NoCheckpoints;
+
+impl Checkpoints for NoCheckpoints {
+    fn load(&self) -> Option<Vec<u8>> {
+        None
+    }
+    fn due(&self) -> bool {
+        false
+    }
+    fn save(&self, _state: &[u8]) {}
+}
+
+/// What the engine gives a running stage besides its parameters and inputs.
+pub struct RunContext<'a> {
+    pub progress: &'a Progress,
+    pub checkpoints: &'a dyn Checkpoints,
+}
+
+impl RunContext<'_> {
+    /// No progress shown, no checkpoints.
+    pub fn detached() -> RunContext<'static> {
+        static NONE: Progress = Progress { sink: None };
+        RunContext {
+            progress: &NONE,
+            checkpoints: &NoCheckpoints,
+        }
+    }
+}
+
 /// A kind of stage. Implementations are pure: `run` is a deterministic function of the
 /// parameters and inputs. A stage that is not (reads the clock, a file outside the study)
 /// returns `false` from [`Stage::pure`] and is never cached.
@@ -404,15 +449,15 @@ pub trait Stage: Send + Sync {
         Ok(())
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError>;
-    /// [`Stage::run`], reporting progress; what the engine calls. Long stages override it (and
-    /// implement `run` as this with [`Progress::none`]).
-    fn run_with_progress(
+    /// [`Stage::run`] with progress reports and checkpoints; what the engine calls. Long
+    /// stages override it (and implement `run` as this with [`RunContext::detached`]).
+    fn run_with(
         &self,
         params: &Params,
         inputs: &Inputs,
-        progress: &Progress,
+        context: &RunContext,
     ) -> Result<Outputs, StageError> {
-        let _ = progress;
+        let _ = context;
         self.run(params, inputs)
     }
 }

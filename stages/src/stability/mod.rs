@@ -53,7 +53,9 @@ use faer::{Mat, Par, c64};
 use crate::artifact::Equilibrium;
 use crate::artifact::Model;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, Stage, StageError};
+use crate::stage::{
+    Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, RunContext, Stage, StageError,
+};
 use crate::table::Table;
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::ldlt::ShiftedPencil;
@@ -473,13 +475,13 @@ impl Stage for Stability {
         params.typed::<StabilityParams>().map(drop)
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        self.run_with_progress(params, inputs, &Progress::none())
+        self.run_with(params, inputs, &RunContext::detached())
     }
-    fn run_with_progress(
+    fn run_with(
         &self,
         params: &Params,
         inputs: &Inputs,
-        progress: &Progress,
+        context: &RunContext,
     ) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
@@ -501,7 +503,7 @@ impl Stage for Stability {
             },
             dense_limit: DENSE_LIMIT,
         };
-        let solution = solve_with_progress(model, equilibrium, &settings, progress)?;
+        let solution = solve_with_progress(model, equilibrium, &settings, context.progress)?;
         let shapes: Vec<Vec<c64>> = solution
             .pairs
             .iter()

@@ -26,7 +26,7 @@
 //! small vibration.
 
 /// Accumulated energies and works (J) at one time.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Totals {
     pub kinetic: f64,
     pub strain: f64,
@@ -40,6 +40,7 @@ pub struct Totals {
 }
 
 /// The running audit.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Audit {
     initial: f64,
     /// `τ Σ (r − r_e)·w^θ`, the contact terms' sum without their cancellation.

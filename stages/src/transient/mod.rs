@@ -75,7 +75,7 @@ use faer::c64;
 use serde::Deserialize;
 
 use crate::artifact::{Artifact, ArtifactType, Equilibrium, Model};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, RunContext, Stage, StageError};
 use crate::table::{ColumnData, Table};
 use contact::Solver;
 use scheme::{ContactState, Failure, Run, Settings, Structure};
@@ -318,13 +318,13 @@ impl Stage for Transient {
         params.typed::<TransientParams>().map(drop)
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        self.run_with_progress(params, inputs, &Progress::none())
+        self.run_with(params, inputs, &RunContext::detached())
     }
-    fn run_with_progress(
+    fn run_with(
         &self,
         params: &Params,
         inputs: &Inputs,
-        progress: &Progress,
+        context: &RunContext,
     ) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
@@ -349,7 +349,7 @@ impl Stage for Transient {
             &settings,
             (u0, v0),
             &params,
-            progress,
+            context,
         )?;
         outputs(model, &settings, &run)
     }
@@ -552,13 +552,13 @@ fn integrate(
     settings: &Settings,
     (u0, v0): (Vec<f64>, Vec<f64>),
     params: &TransientParams,
-    progress: &Progress,
+    context: &RunContext,
 ) -> Result<Run, StageError> {
     let n_steps = settings.n_steps;
     let report_every = (n_steps / PROGRESS_REPORTS).max(1);
     let on_step = |step: usize| {
         if step.is_multiple_of(report_every) {
-            progress.report(
+            context.progress.report(
                 step as f64 / n_steps as f64,
                 &format!(
                     "step {step} of {n_steps}, t = {:.4e} s",
@@ -567,7 +567,16 @@ fn integrate(
             );
         }
     };
-    scheme::integrate(structure, contact_state, settings, u0, v0, on_step).map_err(|failure| {
+    scheme::integrate(
+        structure,
+        contact_state,
+        settings,
+        u0,
+        v0,
+        context.checkpoints,
+        on_step,
+    )
+    .map_err(|failure| {
         match failure {
             Failure::Linear(err) => StageError::new(format!("transient: J = M/tau + theta (C + tau theta K): {err}")),
             Failure::Contact {

@@ -16,11 +16,13 @@
 
 use faer::{MatMut, Par};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use squeal_linalg::CscMatrix;
 use squeal_linalg::cholesky::{Cholesky, InterfaceSolve};
 
 use super::contact::{self, Solver};
 use super::energy::{Audit, StepWork};
+use crate::stage::Checkpoints;
 
 /// Rows of each fixed chunk of the fused products (independent of the thread count).
 const PRODUCT_CHUNK: usize = 4096;
@@ -72,7 +74,7 @@ pub enum PairState {
 }
 
 /// One row of the history, at time `t`.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct HistoryRow {
     pub t: f64,
     /// Contact-zone averages of the relative displacement (from the equilibrium) and velocity.
@@ -91,6 +93,7 @@ pub struct HistoryRow {
 }
 
 /// A kept snapshot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Snapshot {
     pub t: f64,
     pub u: Vec<f64>,
@@ -138,6 +141,26 @@ pub enum Failure {
         step: usize,
         t: f64,
     },
+}
+
+/// Everything a step changes: what a checkpoint holds. `M v`, `C v`, `K v` are recomputed from
+/// `v` (the same bytes: the fused products are deterministic); `K u` is carried by its own
+/// recursion, so it is kept.
+#[derive(Serialize, Deserialize)]
+struct Checkpoint {
+    step: usize,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    K_u: Vec<f64>,
+    delta: Vec<f64>,
+    w: Vec<f64>,
+    r: Vec<f64>,
+    audit: Audit,
+    history: Vec<HistoryRow>,
+    snapshots: Vec<Snapshot>,
+    worst_contact_residual: f64,
+    most_contact_iterations: usize,
+    peak_penetration: f64,
 }
 
 /// `M x`, `C x` and `K x` in one pass over the union of their patterns.
@@ -209,14 +232,16 @@ fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Integrates from the departure `(u, v)` (from the equilibrium); `on_step(step)` is called
-/// after each step (progress).
+/// Integrates from the departure `(u, v)` (from the equilibrium), or from the latest of
+/// `checkpoints` if it holds one of this run; `on_step(step)` is called after each step
+/// (progress).
 pub fn integrate(
     structure: &Structure,
     contact_state: &ContactState,
     settings: &Settings,
     mut u: Vec<f64>,
     mut v: Vec<f64>,
+    checkpoints: &dyn Checkpoints,
     mut on_step: impl FnMut(usize),
 ) -> Result<Run, Failure> {
     let Settings { theta, tau, .. } = *settings;
@@ -345,9 +370,32 @@ pub fn integrate(
         });
         next_snapshot = 1;
     }
+    let mut first_step = 1;
+    if let Some(saved) = checkpoints
+        .load()
+        .and_then(|bytes| postcard::from_bytes::<Checkpoint>(&bytes).ok())
+        .filter(|saved| {
+            saved.step <= settings.n_steps
+                && saved.u.len() == n
+                && saved.v.len() == n
+                && saved.K_u.len() == n
+                && saved.r.len() == m
+        })
+    {
+        first_step = saved.step + 1;
+        (u, v, K_u, delta, w, r) = (saved.u, saved.v, saved.K_u, saved.delta, saved.w, saved.r);
+        (audit, history, snapshots) = (saved.audit, saved.history, saved.snapshots);
+        worst_contact_residual = saved.worst_contact_residual;
+        most_contact_iterations = saved.most_contact_iterations;
+        peak_penetration = saved.peak_penetration;
+        next_snapshot = settings
+            .snapshot_steps
+            .partition_point(|&kept| kept <= saved.step);
+        products.apply(&v, &mut MCK_v);
+    }
 
     let steps_clock = std::time::Instant::now();
-    for step in 1..=settings.n_steps {
+    for step in first_step..=settings.n_steps {
         let t = step as f64 * tau;
         // F_MTD for the departure, in elimination order.
         let a = 1.0 / tau;
@@ -456,6 +504,26 @@ pub fn integrate(
                 v: v.clone(),
             });
             next_snapshot += 1;
+        }
+        if step < settings.n_steps && checkpoints.due() {
+            let checkpoint = Checkpoint {
+                step,
+                u: u.clone(),
+                v: v.clone(),
+                K_u: K_u.clone(),
+                delta: delta.clone(),
+                w: w.clone(),
+                r: r.clone(),
+                audit: audit.clone(),
+                history: history.clone(),
+                snapshots: snapshots.clone(),
+                worst_contact_residual,
+                most_contact_iterations,
+                peak_penetration,
+            };
+            if let Ok(bytes) = postcard::to_stdvec(&checkpoint) {
+                checkpoints.save(&bytes);
+            }
         }
         on_step(step);
     }

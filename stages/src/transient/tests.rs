@@ -17,7 +17,7 @@ use crate::contact::lcp::LcpSettings;
 use crate::equilibrium::{self, Load};
 use crate::mesh::brake::{BrakeGeometry, brake};
 use crate::stability::Stability;
-use crate::stage::{Input, Value};
+use crate::stage::{Input, NoCheckpoints, Value};
 
 fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
     Settings {
@@ -100,6 +100,7 @@ fn run_chain(theta: f64, tau: f64, duration: f64) -> (Vec<f64>, scheme::Run) {
         &settings,
         vec![1.0, 0.0, -0.5],
         vec![0.0, 0.3, 0.0],
+        &NoCheckpoints,
         |_| {},
     )
     .unwrap();
@@ -206,6 +207,7 @@ fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
             &settings,
             vec![0.0; 3],
             vec![0.0, 0.0, -1.0],
+            &NoCheckpoints,
             |_| {},
         )
         .unwrap();
@@ -282,6 +284,7 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
         &settings,
         vec![0.0, -x_e, 0.0],
         vec![0.0; 3],
+        &NoCheckpoints,
         |_| {},
     )
     .unwrap();
@@ -575,7 +578,16 @@ fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
     let tau = period / steps_per_period as f64;
     let n_periods = 90;
     let settings = settings(0.5, tau, n_periods * steps_per_period);
-    let run = integrate(&structure, &contact_state, &settings, u0, v0, |_| {}).unwrap();
+    let run = integrate(
+        &structure,
+        &contact_state,
+        &settings,
+        u0,
+        v0,
+        &NoCheckpoints,
+        |_| {},
+    )
+    .unwrap();
     let peaks: Vec<(f64, f64)> = run
         .history
         .chunks(steps_per_period)
@@ -655,4 +667,90 @@ fn stage_outputs_do_not_depend_on_the_thread_count() {
             "outputs differ on {threads} threads"
         );
     }
+}
+
+/// Checkpoints kept in memory, one due every `every` steps.
+struct MemoryCheckpoints {
+    saved: std::sync::Mutex<Option<Vec<u8>>>,
+    calls: std::sync::atomic::AtomicUsize,
+    every: usize,
+}
+
+impl crate::stage::Checkpoints for MemoryCheckpoints {
+    fn load(&self) -> Option<Vec<u8>> {
+        self.saved.lock().unwrap().clone()
+    }
+    fn due(&self) -> bool {
+        let calls = self.calls.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+        calls.is_multiple_of(self.every)
+    }
+    fn save(&self, state: &[u8]) {
+        *self.saved.lock().unwrap() = Some(state.to_vec());
+    }
+}
+
+#[test]
+fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
+    let inputs = brake_inputs();
+    let params = stage_params(&[
+        ("tau", Value::Float(2e-6)),
+        ("duration", Value::Float(6e-4)),
+        ("amplitude", Value::Float(1e-6)),
+        ("output_every", Value::Int(3)),
+        ("n_snapshots", Value::Int(40)),
+    ]);
+    let encode = |outputs: Outputs| -> Vec<(String, Vec<u8>)> {
+        outputs
+            .iter()
+            .map(|(name, artifact)| (name.clone(), artifact.encode()))
+            .collect()
+    };
+    let uninterrupted = encode(Transient.run(&params, &inputs).unwrap());
+    let checkpoints = MemoryCheckpoints {
+        saved: std::sync::Mutex::new(None),
+        calls: std::sync::atomic::AtomicUsize::new(0),
+        every: 37,
+    };
+    // Stopped at 70 % (a panic out of the progress report, as a kill would stop it).
+    let stopping = crate::stage::Progress::new(|fraction, _| {
+        if fraction >= 0.7 {
+            panic!("stopped");
+        }
+    });
+    let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        Transient.run_with(
+            &params,
+            &inputs,
+            &RunContext {
+                progress: &stopping,
+                checkpoints: &checkpoints,
+            },
+        )
+    }));
+    assert!(stopped.is_err(), "the first run was stopped");
+    assert!(
+        checkpoints.saved.lock().unwrap().is_some(),
+        "a checkpoint was kept"
+    );
+    // The resumed run starts where the checkpoint was taken: its first report is past half-way.
+    let first_report = std::sync::Arc::new(std::sync::Mutex::new(None));
+    let recording = {
+        let first_report = first_report.clone();
+        crate::stage::Progress::new(move |fraction, _| {
+            first_report.lock().unwrap().get_or_insert(fraction);
+        })
+    };
+    let resumed = Transient
+        .run_with(
+            &params,
+            &inputs,
+            &RunContext {
+                progress: &recording,
+                checkpoints: &checkpoints,
+            },
+        )
+        .unwrap();
+    let first = first_report.lock().unwrap().expect("progress was reported");
+    assert!(first > 0.5, "the resumed run started at {first}");
+    assert!(encode(resumed) == uninterrupted, "the resumed run differs");
 }
