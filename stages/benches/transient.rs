@@ -8,7 +8,7 @@
 //! (`gauss_seidel` or `fixed_point`) override the run.
 //!
 //! With `SQUEAL_EXPORT_DIR=<dir>`, M, C, K (Matrix Market), the rows of H, the pairs' data and
-//! the initial velocity are written there for `benches/transient_scipy.py`, the same scheme
+//! the initial velocity are written there for `transient_scipy.py`, the same scheme
 //! written with scipy.
 
 use std::collections::BTreeMap;

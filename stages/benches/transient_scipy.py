@@ -2,7 +2,7 @@
 `cargo bench -p squeal-stages --bench transient` is compared with.
 
     SQUEAL_EXPORT_DIR=transient-data cargo bench -p squeal-stages --bench transient
-    python3 benches/transient_scipy.py transient-data [steps]
+    python3 stages/benches/transient_scipy.py transient-data [steps]
 
 Same data (M, C, K, the rows of H, the pairs, the kick), same scheme (θ = 1/2, τ = 1e-6 s):
 J = M/τ + θ(C + τθK) factorised once with SuperLU (`splu`), Z = J⁻¹ Hᵀ and W = H Z formed
