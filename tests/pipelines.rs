@@ -186,3 +186,50 @@ fn the_readme_example_is_a_valid_study() {
         "{stdout}"
     );
 }
+
+#[test]
+fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
+    let workspace = Workspace::new();
+    let study = pipeline("transient.yaml");
+    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
+    let out = workspace.path().join("out");
+    let history = read_parquet(&out.join("transient/history.parquet"));
+    let kinetic = floats(&history, "kinetic");
+    let peak = kinetic.iter().copied().fold(0.0, f64::max);
+    assert!(
+        peak > 1e6 * kinetic[1],
+        "growth from {} to {peak} J",
+        kinetic[1]
+    );
+    // Bounded: the last quarter stays within a factor 3 of the peak, far below what the
+    // exponential growth would reach.
+    let last_quarter = &kinetic[3 * kinetic.len() / 4..];
+    assert!(last_quarter.iter().all(|k| *k <= peak && *k > 1e-6 * peak));
+    assert!(
+        floats(&history, "stick")
+            .iter()
+            .any(|fraction| *fraction > 0.0)
+    );
+    let summary = read_parquet(&out.join("transient/summary.parquet"));
+    let quantities = strings(&summary, "quantity");
+    let values = floats(&summary, "value");
+    let value = |name: &str| values[quantities.iter().position(|q| q == name).unwrap()];
+    assert!(
+        value("relative_balance_error") < 1e-8,
+        "{}",
+        value("relative_balance_error")
+    );
+    assert!(
+        value("peak_penetration") < 1e-9,
+        "{}",
+        value("peak_penetration")
+    );
+    // The signal stages read the transient's tables.
+    for output in [
+        "spectrum/peaks.parquet",
+        "wavelet/power.parquet",
+        "projection/projection.parquet",
+    ] {
+        assert!(out.join(output).exists(), "{output}");
+    }
+}
