@@ -1,5 +1,8 @@
 //! Cache keys: blake3 of a canonical encoding of what determines a stage's outputs —
-//! kind, implementation version, every declared parameter, and the digests of its inputs.
+//! kind, implementation version, every declared parameter, the digests of its inputs, and the
+//! numeric platform (architecture and vector instruction set: results are bit-identical on any
+//! thread count, but not across instruction sets, so machines that share a cache and differ
+//! there keep their own entries).
 //!
 //! Inputs enter by the digest of the upstream *output* bytes, not the upstream key, so a rerun
 //! that reproduces identical bytes leaves every dependent's key unchanged (early cutoff).
@@ -47,14 +50,33 @@ impl Canonical {
     }
 }
 
+/// The key of a stage instance on this machine.
 pub fn cache_key(
     kind: &str,
     version: u32,
     params: &BTreeMap<String, Value>,
     inputs: &InputDigests,
 ) -> Digest {
+    cache_key_on(
+        squeal_stages::numeric_platform(),
+        kind,
+        version,
+        params,
+        inputs,
+    )
+}
+
+/// The key of a stage instance on the numeric platform `platform`.
+pub fn cache_key_on(
+    platform: &str,
+    kind: &str,
+    version: u32,
+    params: &BTreeMap<String, Value>,
+    inputs: &InputDigests,
+) -> Digest {
     let mut canonical = Canonical(blake3::Hasher::new());
-    canonical.str("squeal cache key v1");
+    canonical.str("squeal cache key v2");
+    canonical.str(platform);
     canonical.str(kind);
     canonical.0.update(&version.to_le_bytes());
     canonical.count(params.len());
@@ -100,6 +122,21 @@ mod tests {
             cache_key("stability", 1, &base_params.clone(), &inputs.clone())
         );
         assert_ne!(base, cache_key("modes", 1, &base_params, &inputs));
+        let platform = squeal_stages::numeric_platform();
+        assert_eq!(
+            base,
+            cache_key_on(platform, "stability", 1, &base_params, &inputs)
+        );
+        let elsewhere = if platform == "x86_64+avx2" {
+            "x86_64+avx512"
+        } else {
+            "x86_64+avx2"
+        };
+        assert_ne!(
+            base,
+            cache_key_on(elsewhere, "stability", 1, &base_params, &inputs),
+            "machines whose results may differ keep their own entries"
+        );
         assert_ne!(base, cache_key("stability", 2, &base_params, &inputs));
         let other_mu = params(&[("mu", Value::Float(0.3)), ("n", Value::Int(3))]);
         assert_ne!(base, cache_key("stability", 1, &other_mu, &inputs));

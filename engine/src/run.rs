@@ -112,6 +112,8 @@ pub fn run(
     record_path: &Path,
 ) -> std::io::Result<RunReport> {
     let started = Instant::now();
+    // Results must not depend on the thread count: the cache keys downstream work by them.
+    squeal_stages::fix_global_parallelism();
     let n_instances = context.instances.list.len();
     let mut dependents = vec![Vec::new(); n_instances];
     let mut pending = vec![0; n_instances];

@@ -97,7 +97,7 @@ mod tests {
     fn gram_schmidt_twice_leaves_a_remainder_orthogonal_to_a_tall_basis() {
         let (rows, rank, b) = (5000, 40, 8);
         let mut random = SplitMix64::new(7);
-        let mut half = HalfBasis::new(rows, rank, Par::rayon(0));
+        let mut half = HalfBasis::new(rows, rank, crate::par());
         half.extend(random.complex_block(rows, rank));
         assert_eq!(half.rank(), rank);
         let basis = half.basis();
@@ -105,7 +105,7 @@ mod tests {
         let mixture = random.complex_block(rank, b);
         let W = Q * &mixture + random.complex_block(rows, b) * faer::Scale(c64::new(1e-6, 0.0));
         let mut remainder = W.clone();
-        let coefficients = project_out(Q, &mut remainder, Par::rayon(0));
+        let coefficients = project_out(Q, &mut remainder, crate::par());
         let leak = (Q.adjoint() * &remainder).norm_max() / remainder.norm_max();
         assert!(
             leak < 1e-13,

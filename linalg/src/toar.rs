@@ -225,7 +225,7 @@ mod tests {
         let (rows, b) = (3000, 8);
         let mut random = SplitMix64::new(11);
         for (remainder, folded) in [(1e-6, true), (1e-11, false)] {
-            let mut half = HalfBasis::new(rows, 40 + 3 * b, Par::rayon(0));
+            let mut half = HalfBasis::new(rows, 40 + 3 * b, crate::par());
             half.extend(random.complex_block(rows, 40));
             for _ in 0..3 {
                 let basis = half.basis();

@@ -32,6 +32,7 @@ pub mod vtu;
 use std::sync::Arc;
 
 pub use artifact::{Artifact, ArtifactType, Document, Figure};
+pub use squeal_linalg::{fix_global_parallelism, numeric_platform};
 pub use stage::{
     Arity, Checkpoints, Coords, Input, Inputs, NoCheckpoints, Outputs, ParamSpec, ParamType,
     Params, PortSpec, Progress, RunContext, Stage, StageError, Value,

@@ -41,48 +41,56 @@ fn chunk_rows(width: usize) -> usize {
     ((256 << 10) / (16 * width.max(1))).clamp(128, 4096)
 }
 
-/// `Qᴴ W`, the rows shared among the threads of `par`.
+/// `Qᴴ W`: the partial products of fixed row chunks, on the threads of `par`, added in
+/// chunk order.
 pub fn adjoint_times(Q: MatRef<'_, c64>, W: MatRef<'_, c64>, par: Par) -> Mat<c64> {
     let (rows, depth, width) = (Q.nrows(), Q.ncols(), W.ncols());
     assert_eq!(rows, W.nrows());
-    parts(rows, width, par)
-        .into_par_iter()
-        .map(|(start, len)| {
-            let mut partial = Mat::<c64>::zeros(depth, width);
-            add_adjoint_times(
-                partial.as_mut(),
-                Q.subrows(start, len),
-                W.subrows(start, len),
-            );
-            partial
-        })
-        .reduce(|| Mat::<c64>::zeros(depth, width), |a, b| a + b)
+    let partial = |(start, len): (usize, usize)| {
+        let mut partial = Mat::<c64>::zeros(depth, width);
+        add_adjoint_times(
+            partial.as_mut(),
+            Q.subrows(start, len),
+            W.subrows(start, len),
+        );
+        partial
+    };
+    sum_in_order(in_parts(parts(rows, width), par, partial), depth, width)
 }
 
-/// Contiguous row ranges, one per thread of `par`: whole chunks each, or an even split of
-/// fewer rows (the Arnoldi coordinates, a few thousand), down to 64 rows a thread.
-fn parts(rows: usize, width: usize, par: Par) -> Vec<(usize, usize)> {
-    let threads = match par {
-        Par::Seq => 1,
-        Par::Rayon(threads) => threads.get(),
-    };
+/// Contiguous ranges of [`chunk_rows`] rows. They depend on the shape only, never on the
+/// number of threads, so that every sum over rows is made in the same order whatever the
+/// pool: results are bit-identical on any thread count (the engine caches by content).
+fn parts(rows: usize, width: usize) -> Vec<(usize, usize)> {
     let chunk = chunk_rows(width);
-    let per_part = if rows >= threads * chunk {
-        rows.div_ceil(chunk).div_ceil(threads) * chunk
-    } else {
-        rows.div_ceil(threads).max(64)
-    };
     (0..rows)
-        .step_by(per_part.max(1))
-        .map(|start| (start, per_part.min(rows - start)))
+        .step_by(chunk)
+        .map(|start| (start, chunk.min(rows - start)))
         .collect()
 }
 
+/// `f` of every part, in order, on the threads of `par`.
+fn in_parts<T: Send, P: Send>(parts: Vec<P>, par: Par, f: impl Fn(P) -> T + Sync + Send) -> Vec<T> {
+    match par {
+        Par::Seq => parts.into_iter().map(f).collect(),
+        Par::Rayon(_) => parts.into_par_iter().map(f).collect(),
+    }
+}
+
+/// The sum of `partials`, added in their order.
+fn sum_in_order(partials: Vec<Mat<c64>>, depth: usize, width: usize) -> Mat<c64> {
+    let mut total = Mat::<c64>::zeros(depth, width);
+    for partial in &partials {
+        total += partial;
+    }
+    total
+}
+
 /// `X` cut into the row ranges of [`parts`], each with its first row.
-fn row_pieces(X: MatMut<'_, c64>, width: usize, par: Par) -> Vec<(usize, MatMut<'_, c64>)> {
+fn row_pieces(X: MatMut<'_, c64>, width: usize) -> Vec<(usize, MatMut<'_, c64>)> {
     let mut pieces = Vec::new();
     let mut rest = X;
-    for (start, len) in parts(rest.nrows(), width, par) {
+    for (start, len) in parts(rest.nrows(), width) {
         let (head, tail) = rest.split_at_row_mut(len);
         pieces.push((start, head));
         rest = tail;
@@ -142,20 +150,27 @@ fn add_adjoint_times(mut H: MatMut<'_, c64>, Q: MatRef<'_, c64>, W: MatRef<'_, c
     }
 }
 
-/// `X += Q C`, the rows shared among the threads of `par`. Wider `C` (eigenvectors by the
-/// hundred) go to faer, whose packed copy of `Q` then serves many columns.
+/// `X += Q C`, fixed row chunks on the threads of `par`. Wider `C` (eigenvectors by the
+/// hundred) go to faer's sequential product per chunk, whose packed copy of `Q` then serves
+/// many columns.
 pub fn add_times(X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>, par: Par) {
     assert_eq!(X.nrows(), Q.nrows());
-    if C.ncols() > MAX_KERNEL_WIDTH {
-        matmul(X, Accum::Add, Q, C, c64::new(1.0, 0.0), par);
-        return;
-    }
-    row_pieces(X, C.ncols(), par)
-        .into_par_iter()
-        .for_each(|(start, piece)| {
-            let len = piece.nrows();
+    let update = |(start, piece): (usize, MatMut<'_, c64>)| {
+        let len = piece.nrows();
+        if C.ncols() > MAX_KERNEL_WIDTH {
+            matmul(
+                piece,
+                Accum::Add,
+                Q.subrows(start, len),
+                C,
+                c64::new(1.0, 0.0),
+                Par::Seq,
+            );
+        } else {
             add_times_one_thread(piece, Q.subrows(start, len), C)
-        });
+        }
+    };
+    in_parts(row_pieces(X, C.ncols()), par, update);
 }
 
 /// `Z −= Q C`, then `Qᴴ Z` of the result: a Gram–Schmidt update and the next pass's
@@ -174,21 +189,23 @@ pub fn subtract_then_adjoint_times(
     let (rows, depth, width) = (Q.nrows(), Q.ncols(), Z.ncols());
     assert_eq!((Z.nrows(), C.nrows(), C.ncols()), (rows, depth, width));
     let negated = -C;
-    row_pieces(Z, width, par)
-        .into_par_iter()
-        .map(|(start, mut piece)| {
-            let mut partial = Mat::<c64>::zeros(depth, width);
-            let len = piece.nrows();
-            for first in (0..len).step_by(STRIP_ROWS) {
-                let strip = STRIP_ROWS.min(len - first);
-                let q = Q.subrows(start + first, strip);
-                let mut z = piece.rb_mut().subrows_mut(first, strip);
-                add_times_one_thread(z.rb_mut(), q, negated.as_ref());
-                add_adjoint_times(partial.as_mut(), q, z.rb());
-            }
-            partial
-        })
-        .reduce(|| Mat::<c64>::zeros(depth, width), |a, b| a + b)
+    let update_then_project = |(start, mut piece): (usize, MatMut<'_, c64>)| {
+        let mut partial = Mat::<c64>::zeros(depth, width);
+        let len = piece.nrows();
+        for first in (0..len).step_by(STRIP_ROWS) {
+            let strip = STRIP_ROWS.min(len - first);
+            let q = Q.subrows(start + first, strip);
+            let mut z = piece.rb_mut().subrows_mut(first, strip);
+            add_times_one_thread(z.rb_mut(), q, negated.as_ref());
+            add_adjoint_times(partial.as_mut(), q, z.rb());
+        }
+        partial
+    };
+    sum_in_order(
+        in_parts(row_pieces(Z, width), par, update_then_project),
+        depth,
+        width,
+    )
 }
 
 /// Rows per strip of [`subtract_then_adjoint_times`]: 128 rows of a thousand columns (2 MiB
@@ -494,6 +511,77 @@ mod tests {
             }
         }
         worst
+    }
+
+    /// The result does not depend on the thread count: the rows are cut the same way and the
+    /// partial sums added in the same order on any pool.
+    #[test]
+    fn products_are_bit_identical_on_any_thread_count() {
+        let mut rng = SplitMix64::new(11);
+        let (rows, depth, width) = (9_000, 40, 8);
+        let Q = random(rows, depth, &mut rng);
+        let W = random(rows, width, &mut rng);
+        let C = random(depth, width, &mut rng);
+        let products = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    let par = Par::rayon(threads);
+                    let H = adjoint_times(Q.as_ref(), W.as_ref(), par);
+                    let mut X = W.clone();
+                    add_times(X.as_mut(), Q.as_ref(), C.as_ref(), par);
+                    let mut Z = W.clone();
+                    let P = subtract_then_adjoint_times(Z.as_mut(), Q.as_ref(), C.as_ref(), par);
+                    (H, X, Z, P)
+                })
+        };
+        let sequential = {
+            let H = adjoint_times(Q.as_ref(), W.as_ref(), Par::Seq);
+            let mut X = W.clone();
+            add_times(X.as_mut(), Q.as_ref(), C.as_ref(), Par::Seq);
+            let mut Z = W.clone();
+            let P = subtract_then_adjoint_times(Z.as_mut(), Q.as_ref(), C.as_ref(), Par::Seq);
+            (H, X, Z, P)
+        };
+        for threads in [1, 2, 3] {
+            assert!(products(threads) == sequential, "{threads} threads");
+        }
+    }
+
+    /// The wide tiles (AVX-512) and the narrow ones (AVX2) sum every entry in the same order:
+    /// their results are bit-identical, so the choice of tile never changes a result.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn wide_and_narrow_tiles_give_the_same_bits() {
+        if !(is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl")) {
+            return;
+        }
+        let mut rng = SplitMix64::new(5);
+        for &(rows, depth, width) in &[(257usize, 9usize, 8usize), (1031, 64, 16), (33, 5, 3)] {
+            let Q = random(rows, depth, &mut rng);
+            let W = random(rows, width, &mut rng);
+            let C = random(depth, width, &mut rng);
+            let (mut narrow, mut wide) = (
+                Mat::<c64>::zeros(depth, width),
+                Mat::<c64>::zeros(depth, width),
+            );
+            // SAFETY: AVX-512F, VL (and with them AVX2 and FMA) were detected; `Mat` views have
+            // unit row strides.
+            unsafe {
+                avx::add_adjoint_times(narrow.as_mut(), Q.as_ref(), W.as_ref());
+                avx::add_adjoint_times_wide(wide.as_mut(), Q.as_ref(), W.as_ref());
+            }
+            assert!(narrow == wide, "Q^H W, {rows} x {depth} x {width}");
+            let (mut narrow, mut wide) = (W.clone(), W.clone());
+            // SAFETY: as above.
+            unsafe {
+                avx::add_times(narrow.as_mut(), Q.as_ref(), C.as_ref());
+                avx::add_times_wide(wide.as_mut(), Q.as_ref(), C.as_ref());
+            }
+            assert!(narrow == wide, "Q C, {rows} x {depth} x {width}");
+        }
     }
 
     /// Every tile shape and remainder (odd rows, depths and widths around the tile size of

@@ -62,7 +62,7 @@
 mod figure;
 pub mod floating;
 
-use faer::{Mat, Par};
+use faer::Mat;
 
 use crate::artifact::{Artifact, ArtifactType, Equilibrium};
 use crate::artifact::{CscMatrix, Model};
@@ -216,7 +216,7 @@ pub fn solve(
     };
     let pencil = ShiftedPencil::new(K_factored, &model.M, &model.dof_of_node)?;
     let factor = pencil
-        .factor(0.0, Par::rayon(0))
+        .factor(0.0, squeal_linalg::par())
         .map_err(|err| match &floating {
             None => StageError::from(err),
             Some(floating) => StageError::new(format!(
@@ -261,7 +261,7 @@ pub fn solve(
             Z.row_mut(dof).fill(0.0);
         }
     }
-    factor.solve_in_place(Z.as_mut(), Par::rayon(0));
+    factor.solve_in_place(Z.as_mut(), squeal_linalg::par());
     if let Some(floating) = &floating {
         for &dof in &floating.pinned {
             Z.row_mut(dof).fill(0.0);

@@ -48,7 +48,7 @@ mod tests;
 
 use std::f64::consts::PI;
 
-use faer::{Mat, Par, c64};
+use faer::{Mat, c64};
 
 use crate::artifact::Equilibrium;
 use crate::artifact::Model;
@@ -236,7 +236,7 @@ fn pair_with_residual(system: &SlidingSystem, lambda: c64, q: Vec<c64>) -> Eigen
 /// Eigenvalues of `Tᴺᵀ K Tᴺ − ω² Tᴺᵀ M Tᴺ` below `lambda` (negative pivots of its LDLᵀ).
 fn conservative_count(system: &SlidingSystem, lambda: f64) -> Result<usize, StageError> {
     let pencil = ShiftedPencil::new(&system.K_sym, &system.M_sym, &system.dof_of_node)?;
-    Ok(pencil.factor(lambda, Par::rayon(0))?.negative_pivots)
+    Ok(pencil.factor(lambda, squeal_linalg::par())?.negative_pivots)
 }
 
 /// The real-mode projection: Galerkin on the lowest real modes of the μ = 0 structure, tested

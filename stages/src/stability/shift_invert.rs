@@ -391,7 +391,12 @@ impl<'a> ShiftedSolver<'a> {
                     .sum()
             });
             let c = capacitance.solve(&VtX);
-            add_times(X.as_mut(), self.Y.as_ref(), (-&c).as_ref(), Par::rayon(0));
+            add_times(
+                X.as_mut(),
+                self.Y.as_ref(),
+                (-&c).as_ref(),
+                squeal_linalg::par(),
+            );
         }
         X
     }

@@ -600,3 +600,55 @@ fn mac_pairs_modes_one_to_one() {
     assert_eq!(pairing[0].map(|p| p.0), Some(1));
     assert_eq!(pairing[1].map(|p| p.0), Some(0));
 }
+
+/// The engine keys downstream stages by output bytes: the eigenvalues and shapes must not
+/// depend on how many threads computed them.
+#[test]
+fn stability_results_do_not_depend_on_the_thread_count() {
+    squeal_linalg::fix_global_parallelism();
+    // Large enough for the Krylov solver (beyond the dense limit) and for several row chunks
+    // of its tall products.
+    let mesh = brake(&BrakeGeometry::coarse()).unwrap();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let equilibrium = equilibrium_of(&model, 0.6);
+    let inputs = Inputs(BTreeMap::from([
+        (
+            "model".to_string(),
+            Input::One(Arc::new(Artifact::Model(Box::new(model)))),
+        ),
+        (
+            "equilibrium".to_string(),
+            Input::One(Arc::new(Artifact::Equilibrium(Box::new(equilibrium)))),
+        ),
+    ]));
+    let params = Params(
+        Stability
+            .params()
+            .into_iter()
+            .map(|spec| {
+                let value = match spec.name {
+                    "f_max_hz" => Value::Float(8000.0),
+                    _ => spec.default.unwrap(),
+                };
+                (spec.name.to_string(), value)
+            })
+            .collect(),
+    );
+    let encoded = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| Stability.run(&params, &inputs).unwrap())
+            .iter()
+            .map(|(name, artifact)| (name.clone(), artifact.encode()))
+            .collect::<Vec<_>>()
+    };
+    let one = encoded(1);
+    for threads in [2, 3] {
+        assert!(
+            one == encoded(threads),
+            "outputs differ on {threads} threads"
+        );
+    }
+}

@@ -92,7 +92,7 @@ impl Default for KrylovOptions {
             per_shift: 320,
             arnoldi_tolerance: 1e-10,
             residual_tolerance: 1e-8,
-            par: Par::rayon(0),
+            par: squeal_linalg::par(),
         }
     }
 }
