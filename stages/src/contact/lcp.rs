@@ -17,7 +17,7 @@
 //! r ≥ 0,   g = q + A r + B a ≥ 0,   rᵀ g = 0,   Cᵀ r = d      (a free)
 //! ```
 //!
-//! - [`fixed_point`]: the seed paper's augmented-Lagrangian iteration
+//! - [`fixed_point`]: the augmented-Lagrangian iteration of Loyer et al. (2011)
 //!   r ← proj_{R+}(r − ρ ∘ g(r)) with ρᵢ = ω / Aᵢᵢ (the diagonal approximation of the
 //!   condensed operator for the augmentation parameters). With a balance, a is chosen at
 //!   each sweep so that the updated reactions balance the load exactly: with
@@ -199,7 +199,7 @@ fn check_diagonal(a: &Mat<f64>, solver: &'static str) -> Result<(), LcpError> {
     Ok(())
 }
 
-/// The seed paper's projected fixed point (Jacobi form).
+/// The projected fixed point of Loyer et al. (2011), in Jacobi form.
 pub fn fixed_point(
     a: &Mat<f64>,
     q: &[f64],

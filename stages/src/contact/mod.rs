@@ -1,4 +1,4 @@
-//! Frictional contact between the disc and the pads (DESIGN §3.2–3.3).
+//! Frictional contact between the disc and the pads (`docs/science.md` §2–3).
 //!
 //! Conventions, used everywhere in squeal:
 //! - A pair is (disc node d, pad node p), coincident at rest. Its normal n is the disc's

@@ -1,4 +1,4 @@
-//! `equilibrium`: the static sliding equilibrium of the brake (DESIGN §3.3).
+//! `equilibrium`: the static sliding equilibrium of the brake (`docs/science.md` §3).
 //!
 //! Find (u, r) with K u = F + Hᵀ r, every closed pair sliding (r_t = μ r_n, r_b = 0) and
 //! Signorini's conditions on the normal gaps (conventions in [`crate::contact`]). With
@@ -17,7 +17,7 @@
 //! ```
 //!
 //! a small dense linear complementarity problem ([`crate::contact::lcp`]), solved by the
-//! seed's fixed point or by semi-smooth Newton (the default: a few iterations where the fixed
+//! paper's fixed point or by semi-smooth Newton (the default: a few iterations where the fixed
 //! point needs hundreds). Then u = Z r_n. The load the pads then carry is the sum of the
 //! support reactions at their backs, which [`back_reactions`] recovers from the element
 //! stiffnesses as a balance check.
@@ -533,7 +533,7 @@ impl Stage for SlidingEquilibrium {
                 "solver",
                 &["newton", "fixed_point"],
                 "newton",
-                "semi-smooth Newton, or the seed's fixed point",
+                "semi-smooth Newton, or the paper's fixed point",
             ),
             ParamSpec::float(
                 "tolerance",

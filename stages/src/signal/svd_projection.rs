@@ -1,5 +1,5 @@
 //! `svd_projection`: principal shapes of a set of snapshots in the mass inner product, and their
-//! projection on the complex modes (which modes a limit cycle is made of; figure 5 of the seed).
+//! projection on the complex modes (which modes a limit cycle is made of; `docs/science.md` §7).
 //!
 //! # Mass-weighted SVD
 //!

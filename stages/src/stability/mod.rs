@@ -1,5 +1,5 @@
 //! `stability`: complex eigenvalues of the brake linearised about its sliding equilibrium
-//! (DESIGN §3.4).
+//! (`docs/science.md` §4).
 //!
 //! Perturbations keep every closed pair in contact and sliding ([`sliding`]):
 //!

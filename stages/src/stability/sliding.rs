@@ -1,4 +1,4 @@
-//! The sliding-perturbation problem linearised about an equilibrium (DESIGN §3.4).
+//! The sliding-perturbation problem linearised about an equilibrium (`docs/science.md` §4).
 //!
 //! On every closed pair the perturbation keeps the pad on the disc, `n·(u_p − u_d) = 0`: one
 //! DOF per pair, the *slave* (the pad node's free DOF along the largest component of n), is a
@@ -20,7 +20,7 @@
 //!
 //! where `h_b` is the pair's cross-slip row of H: linearising the friction direction
 //! `(v_g − δ̇)/|v_g − δ̇|` gives the pad a force `−μ r_n (b·δ̇)/|v_g|` along b, a damping
-//! (stabilising; DESIGN writes it with the paper's sign r_n ≤ 0).
+//! (stabilising; the paper writes it with its sign r_n ≤ 0).
 //!
 //! Structure the solvers use: `Tᵘ = Tᴺ + Δ` with Δ nonzero on the slave rows only, so
 //!

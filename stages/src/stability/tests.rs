@@ -1,4 +1,4 @@
-//! Verification of the stability stage (DESIGN §5): Hoffmann's two-DOF model, the
+//! Verification of the stability stage (`docs/science.md` §8): Hoffmann's two-DOF model, the
 //! friction-direction damping of one sliding point, Krylov against the dense solve on a coarse brake,
 //! μ = 0 against the real modes, and the real-mode projection's error.
 
