@@ -17,10 +17,8 @@
 //! each entry of L is read once per sweep and multiplies eight contiguous values, four columns
 //! of L at a time, with AVX2 and FMA chosen at run time. The threads share the supernodal tree
 //! ([`TreeSplit`]): each sweeps whole subtrees, with all eight columns, on a private copy of x,
-//! and one thread sweeps the supernodes above them. On the default brake's factor (26 M
-//! entries) a block of eight takes 57–64 ms, against 75–87 ms with four columns per thread and
-//! 97–123 ms by faer (`SQUEAL_BENCH_SOLVE=1`). L streams at 15–22 GB/s on one thread here,
-//! so reading it is not the limit: the time goes to the scattered rows of x.
+//! and one thread sweeps the supernodes above them. Reading L is not the limit: the time goes
+//! to the scattered rows of x (timings: `docs/PERFORMANCE.md`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
@@ -96,10 +94,8 @@ impl Lblt {
     /// `A X = R` for the columns of `R`, in place, with the symbolic analysis that
     /// [`Self::factorize`] was given. A Krylov block (up to eight columns) shares the tree among
     /// the threads; wider ones share out their columns, each thread sweeping the whole factor
-    /// sixteen columns at a time, which reads L less often per column (the contact correction's
-    /// 288 columns on the default brake: 1.06–1.18 s per shift against 1.23–1.24 s with eight),
-    /// and the forward sweep of sparse columns visits only their reach
-    /// ([`SupernodeTree::reach`]: 0.63–0.65 s per shift for the same columns).
+    /// sixteen columns at a time, which reads L less often per column, and the forward sweep
+    /// of sparse columns visits only their reach ([`SupernodeTree::reach`]).
     /// faer's own solve runs where the row-major kernels do not apply: a simplicial factor
     /// (small problems) or a processor without AVX2 and FMA.
     pub fn solve_in_place(&self, symbolic: &SymbolicCholesky<usize>, mut rhs: MatMut<'_, f64>) {

@@ -7,8 +7,8 @@
 //! ```
 //!
 //! A general matrix product packs `Q` into panels before multiplying; with so few columns on
-//! the other side, that copy of `Q` costs about as much as the arithmetic, and faer reaches
-//! 9–16 GFLOP/s per thread on these shapes. These kernels read `Q` in place, once, each
+//! the other side, that copy of `Q` costs about as much as the arithmetic. These kernels read
+//! `Q` in place, once, each
 //! complex product split into two real FMAs (`q · re c` and `q · im c`, or the `re·re, im·im`
 //! and `re·im, im·re` lanes), combined once per tile rather than per product:
 //!
@@ -22,13 +22,10 @@
 //!
 //! The wider tiles need 16 accumulators, which only the 32 vector registers of AVX-512 hold
 //! (the vectors stay 256 bits wide); they read each operand from the second-level cache half
-//! as often, which is what bounds the narrow tiles. On an AMD EPYC (Zen 4, 2 cores), for 28 k
-//! rows, 960 columns and blocks of eight on both threads: `Qᴴ W` 28 ms with the wide tiles,
-//! 32 ms with the narrow ones, 34 ms by faer; `Q C` 24, 33 and 29 ms (`cargo bench -p
-//! squeal-stages --bench tall`). On an earlier processor without AVX-512 the narrow tiles
-//! reached 13–18 GFLOP/s per thread, 1.15–1.7× faer on `Qᴴ W` and 1.1–1.5× on `Q C`. AVX2 and
-//! FMA, and AVX-512, are chosen at run time; elsewhere, for views whose rows are not
-//! contiguous, and for `C` wider than 32 columns, faer's product is used.
+//! as often, which is what bounds the narrow tiles. Both sum every entry in the same order:
+//! their results are bit-identical. AVX2 and FMA, and AVX-512, are chosen at run time;
+//! elsewhere, for views whose rows are not contiguous, and for `C` wider than 32 columns,
+//! faer's product is used. Timings: `docs/PERFORMANCE.md`.
 
 use faer::linalg::matmul::matmul;
 use faer::reborrow::{Reborrow, ReborrowMut};
@@ -36,7 +33,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
 use rayon::prelude::*;
 
 /// Rows per chunk: a chunk of a block of eight columns fills 256 KiB, half the second-level
-/// cache (2048 rows: 1.3× faster than 128, which keeps it in the first level).
+/// cache.
 fn chunk_rows(width: usize) -> usize {
     ((256 << 10) / (16 * width.max(1))).clamp(128, 4096)
 }
@@ -175,11 +172,8 @@ pub fn add_times(X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>, par
 
 /// `Z −= Q C`, then `Qᴴ Z` of the result: a Gram–Schmidt update and the next pass's
 /// projection in one sweep over `Q` from memory. Each strip of [`STRIP_ROWS`] rows is updated,
-/// then projected while its part of `Q` is still in cache. With two threads the products with
-/// blocks of eight are bound by memory traffic more than those with sixteen, so the second
-/// read, from cache, costs less than a sweep: for 28 k rows, blocks of eight and both threads,
-/// 43 ms fused against 52–54 ms apart with 960 columns, 20 against 25 ms with 480
-/// (`cargo bench -p squeal-stages --bench tall`; strips of 64 and 256 rows did no better).
+/// then projected while its part of `Q` is still in cache. The products with blocks of eight
+/// are bound by memory traffic, so the second read, from cache, costs less than a sweep.
 pub fn subtract_then_adjoint_times(
     Z: MatMut<'_, c64>,
     Q: MatRef<'_, c64>,

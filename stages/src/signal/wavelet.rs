@@ -115,8 +115,7 @@ pub fn e_folding_time(scale: f64) -> f64 {
 /// Blocks no shorter than this: below it, per-block overheads outweigh the FFT savings.
 const MIN_BLOCK_LEN: usize = 1024;
 /// Blocks no longer than this: past it the FFT no longer fits in cache and one transform of
-/// the whole record is as cheap per output sample (measured: 0.21–0.33 ns per point and
-/// butterfly level for 2–16 k points, 0.46 ns at 110 k).
+/// the whole record is as cheap per output sample (`docs/PERFORMANCE.md`).
 const MAX_BLOCK_LEN: usize = 16_384;
 /// The power goes through the sampled envelope when its `Λ` samples are at most this fraction
 /// of the transform length: a real inverse transform of length `N` costs half a complex one,
@@ -516,7 +515,7 @@ impl MorletCwt {
 
 /// Asks Linux to back the 2 MiB-aligned part of a fresh, untouched buffer with transparent
 /// huge pages. Filling hundreds of megabytes of output otherwise costs one page fault per
-/// 4 KiB, a quarter of the transform's time (measured); with huge pages, one per 2 MiB.
+/// 4 KiB; with huge pages, one per 2 MiB.
 /// Advice only: where the kernel declines, or elsewhere than Linux, nothing changes.
 fn advise_huge_pages(buffer: &mut [f64]) {
     #[cfg(target_os = "linux")]
@@ -798,8 +797,7 @@ impl BlockGroup {
     }
 }
 
-/// Smallest `n ≥ min_len` of the form `2^p 3^q`: the FFT sizes rustfft is fastest on
-/// (measured: 110 592 = 2^12 3^3 beats both 108 864 = 2^6 3^5 7 and 131 072 = 2^17).
+/// Smallest `n ≥ min_len` of the form `2^p 3^q`: the FFT sizes rustfft is fastest on.
 pub fn next_fast_len(min_len: usize) -> usize {
     let min_len = min_len.max(1);
     let mut best = min_len.next_power_of_two();

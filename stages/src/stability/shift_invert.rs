@@ -20,10 +20,8 @@
 //!
 //! `Y` costs one block solve with as many right-hand sides as closed pairs, per shift. `U`'s
 //! columns have a few nonzeros each, so their forward sweep visits only the supernodes on the
-//! paths from those rows to the root ([`squeal_linalg::lblt`]: 20–26 of 3,183 for sixteen columns on
-//! the default brake): with 288 pairs, 0.63–0.65 s against 1.1–1.2 s for full sweeps, and
-//! 1.0–1.3 s for the factorisation itself (2 cores); faer's kernels, built for wide
-//! right-hand sides, took as long as the row-major ones. The split is logged at debug level.
+//! paths from those rows to the root ([`squeal_linalg::lblt`]), a small part of the tree. The
+//! split is logged at debug level.
 
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::perm::PermRef;

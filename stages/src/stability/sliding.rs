@@ -468,9 +468,7 @@ fn mul_rows(A: &CscMatrix, X: &[c64], width: usize) -> Vec<c64> {
 /// `A X + B Y` reads the pattern once. Consecutive rows with the same pattern (a node's three
 /// DOFs) form a group that stores its column indices (`u32`) once and, per entry, both values
 /// of each of its rows: each row of `X` and `Y` the group points to is read once for all of
-/// its rows. On the default brake a block of eight took 7.7 ms, against 9.4 ms ungrouped and
-/// 12.6–14.3 ms for the two products taken apart by [`gather_rows`] (two threads,
-/// `SQUEAL_BENCH_SOLVE=1`).
+/// its rows.
 struct PairedRows {
     /// Group g: rows `row_start[g]..row_start[g + 1]`, pattern `cols[col_start[g]..col_start[g
     /// + 1]]`, values from `value_start[g]`, entry by entry, row by row within each entry.
@@ -604,8 +602,7 @@ impl PairedRows {
 /// column r, since M, Ĉ and K are symmetric, so each row of the result is a sum of rows of U
 /// read where its entries point. Gathering reads scattered rows but writes each result row
 /// once, and the rows can be shared among threads; scattering column by column reads and
-/// writes scattered rows of the result. On the default brake a block of eight took 10–12 ms
-/// gathered by rows on two threads, 14 ms scattered (four columns per thread).
+/// writes scattered rows of the result.
 fn gather_rows(A: &CscMatrix, U: &[c64], width: usize, first: usize, Y: &mut [c64]) {
     for (offset, row) in Y.chunks_exact_mut(width).enumerate() {
         let r = first + offset;
