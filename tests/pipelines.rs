@@ -233,3 +233,34 @@ fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
         assert!(out.join(output).exists(), "{output}");
     }
 }
+
+/// The headline figures of `pipelines/tgv_brake.yaml` (its comment gives them): every complex
+/// mode below 17 kHz of the default brake. About two minutes on two cores, so `.ci/run` runs it
+/// on its own.
+#[test]
+#[ignore = "slow: about two minutes; .ci/run runs it"]
+fn the_tgv_brake_has_1305_modes_below_17_khz_and_57_unstable() {
+    let workspace = Workspace::new();
+    let study = pipeline("tgv_brake.yaml");
+    workspace.run_ok(&[
+        "run",
+        &study,
+        "--out",
+        "out",
+        "--cache",
+        "cache",
+        "--target",
+        "stability",
+    ]);
+    let summary = read_parquet(&workspace.path().join("out/stability/summary.parquet"));
+    let quantities = strings(&summary, "quantity");
+    let values = floats(&summary, "value");
+    let value = |name: &str| values[quantities.iter().position(|q| q == name).unwrap()];
+    assert_eq!(value("eigenvalues"), 1305.0);
+    assert_eq!(value("unstable"), 57.0);
+    assert!(
+        value("worst_residual") < 1e-12,
+        "{}",
+        value("worst_residual")
+    );
+}
