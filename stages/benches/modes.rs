@@ -14,7 +14,6 @@
 #![allow(non_snake_case)] // matrices are named as in the equations
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
@@ -49,23 +48,11 @@ fn best_assembly_seconds(counts: [usize; 3], runs: usize) -> (Model, f64) {
     (model, best)
 }
 
+/// `A` as Matrix Market text, by the writer squeal's `matrix_market` stage uses.
 fn write_matrix_market(path: &Path, A: &CscMatrix) -> std::io::Result<()> {
-    let mut lower = Vec::new();
-    for col in 0..A.n_cols {
-        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-            let row = A.row_idx[entry];
-            if row >= col && A.values[entry] != 0.0 {
-                lower.push((row, col, A.values[entry]));
-            }
-        }
-    }
-    let mut file = std::io::BufWriter::new(std::fs::File::create(path)?);
-    writeln!(file, "%%MatrixMarket matrix coordinate real symmetric")?;
-    writeln!(file, "{} {} {}", A.n_rows, A.n_cols, lower.len())?;
-    for (row, col, value) in lower {
-        writeln!(file, "{} {} {:.17e}", row + 1, col + 1, value)?;
-    }
-    file.flush()
+    let text = squeal_linalg::matrix_market::write_matrix_market(A, "modes benchmark")
+        .map_err(std::io::Error::other)?;
+    std::fs::write(path, text)
 }
 
 fn main() {
