@@ -50,6 +50,13 @@ impl Stage for MeshVtu {
 /// `vtu.modes`: the model's mesh with one displacement array per real mode.
 pub struct ModesVtu;
 
+/// The parameters of `vtu.modes`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModesVtuParams {
+    max_modes: i64,
+}
+
 impl Stage for ModesVtu {
     fn kind(&self) -> &'static str {
         "vtu.modes"
@@ -91,10 +98,14 @@ impl Stage for ModesVtu {
             "vtu.vtu: point data `mode_0001_<f>Hz`, ... (vectors, zero at clamped DOFs)",
         )]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<ModesVtuParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model = inputs.get::<Model>("model")?;
         let modes = inputs.get::<RealModes>("modes")?;
-        let max_modes = usize::try_from(params.int("max_modes")).unwrap_or(0);
+        let ModesVtuParams { max_modes } = params.typed()?;
+        let max_modes = usize::try_from(max_modes).unwrap_or(0);
         let text = modes_vtu(model, modes, max_modes)?;
         Ok(Outputs::from([(
             "vtu".to_string(),

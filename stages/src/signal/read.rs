@@ -36,6 +36,16 @@ const FORMATS: &[&str] = &["auto", "csv", "parquet"];
 /// `signal.read`: a signal table from a Parquet or CSV file (impure, never cached).
 pub struct Read;
 
+/// The parameters of `signal.read`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ReadParams {
+    path: String,
+    time_column: String,
+    columns: String,
+    format: String,
+}
+
 impl Stage for Read {
     fn kind(&self) -> &'static str {
         "signal.read"
@@ -83,18 +93,22 @@ impl Stage for Read {
     fn pure(&self) -> bool {
         false
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<ReadParams>().map(drop)
+    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        let params: ReadParams = params.typed()?;
         let request = ReadRequest {
-            path: Path::new(params.str("path")),
-            time_column: params.str("time_column"),
+            path: Path::new(&params.path),
+            time_column: &params.time_column,
             columns: params
-                .str("columns")
+                .columns
                 .split(',')
                 .map(str::trim)
                 .filter(|name| !name.is_empty())
                 .collect(),
         };
-        let format = match params.str("format") {
+        let format = match params.format.as_str() {
             "auto" => Format::from_extension(request.path)?,
             "csv" => Format::Csv,
             _ => Format::Parquet,

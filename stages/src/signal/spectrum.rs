@@ -180,6 +180,18 @@ pub fn find_peaks(power: &[f64], threshold_db: f64, n_peaks: usize) -> Vec<usize
 /// `spectrum`: power spectrum, peaks and a figure of one column.
 pub struct Spectrum;
 
+/// The parameters of `spectrum`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpectrumParams {
+    column: String,
+    window_s: f64,
+    window: String,
+    detrend: String,
+    n_peaks: i64,
+    threshold_db: f64,
+}
+
 impl Stage for Spectrum {
     fn kind(&self) -> &'static str {
         "spectrum"
@@ -237,16 +249,20 @@ impl Stage for Spectrum {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<SpectrumParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let column = params.str("column");
+        let params: SpectrumParams = params.typed()?;
+        let column = params.column.as_str();
         let series = uniform_series(inputs.table("signal")?, column)?;
-        let threshold_db = params.float("threshold_db");
+        let threshold_db = params.threshold_db;
         if threshold_db > 0.0 {
             return Err(StageError::new(format!(
                 "threshold_db = {threshold_db} dB must be <= 0 (below the highest peak)"
             )));
         }
-        let window_s = params.float("window_s");
+        let window_s = params.window_s;
         let record_s = series.len() as f64 * series.dt;
         let n_window = if window_s == 0.0 {
             series.len()
@@ -265,19 +281,15 @@ impl Stage for Spectrum {
                 series.dt
             )));
         }
-        let window = Window::from_name(params.str("window")).expect("validated choice");
-        let detrend = Detrend::from_name(params.str("detrend")).expect("validated choice");
+        let window = Window::from_name(&params.window).expect("validated choice");
+        let detrend = Detrend::from_name(&params.detrend).expect("validated choice");
         let samples = &series.values[series.len() - n_window..];
         let spectrum = power_spectrum(samples, series.dt, window, detrend);
-        let peaks = find_peaks(
-            &spectrum.power,
-            threshold_db,
-            params.int("n_peaks") as usize,
-        );
+        let peaks = find_peaks(&spectrum.power, threshold_db, params.n_peaks as usize);
 
         let plot = SpectrumPlot {
             column,
-            window_name: params.str("window"),
+            window_name: &params.window,
             window_s: n_window as f64 * series.dt,
             spectrum: &spectrum,
             peaks: &peaks,

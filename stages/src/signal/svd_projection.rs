@@ -435,6 +435,14 @@ impl ComplexModes {
 /// `svd_projection`: principal shapes of the last snapshots, projected on the complex modes.
 pub struct SvdProjection;
 
+/// The parameters of `svd_projection`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProjectionParams {
+    n_last_snapshots: i64,
+    n_shapes: i64,
+}
+
 impl Stage for SvdProjection {
     fn kind(&self) -> &'static str {
         "svd_projection"
@@ -504,7 +512,11 @@ impl Stage for SvdProjection {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<ProjectionParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let params: ProjectionParams = params.typed()?;
         let snapshot_table = inputs.table("snapshots")?;
         let mut snapshot_columns: Vec<(&str, &[f64])> = snapshot_table
             .columns()
@@ -514,7 +526,7 @@ impl Stage for SvdProjection {
                 _ => None,
             })
             .collect();
-        let n_last = params.int("n_last_snapshots") as usize;
+        let n_last = params.n_last_snapshots as usize;
         if n_last > 0 && n_last < snapshot_columns.len() {
             snapshot_columns.drain(..snapshot_columns.len() - n_last);
         }
@@ -547,7 +559,7 @@ impl Stage for SvdProjection {
 
         let x = Mat::from_fn(n_dofs, n_snapshots, |row, col| snapshot_columns[col].1[row]);
         let svd = mass_svd(&x, &mass)?;
-        let n_shapes = (params.int("n_shapes") as usize).min(n_snapshots);
+        let n_shapes = (params.n_shapes as usize).min(n_snapshots);
         let shapes = svd.shapes.subcols(0, n_shapes).to_owned();
         let coefficients = modes.coefficients(&shapes, &mass)?;
 

@@ -89,6 +89,17 @@ pub fn solve_matrices(
 /// `stability.matrices`.
 pub struct StabilityMatrices;
 
+/// The parameters of `stability.matrices`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MatricesParams {
+    m_path: String,
+    c_path: String,
+    k_path: String,
+    f_max_hz: f64,
+    mu: f64,
+}
+
 impl Stage for StabilityMatrices {
     fn kind(&self) -> &'static str {
         "stability.matrices"
@@ -141,16 +152,23 @@ impl Stage for StabilityMatrices {
     fn pure(&self) -> bool {
         false
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<MatricesParams>().map(drop)
+    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let read = |name: &str| -> Result<CscMatrix, StageError> {
-            let path = params.str(name);
+        let params: MatricesParams = params.typed()?;
+        let read = |path: &str| -> Result<CscMatrix, StageError> {
             let text = std::fs::read_to_string(path)
                 .map_err(|err| StageError::new(format!("{path}: {err}")))?;
             read_matrix_market(&text).map_err(|err| StageError::new(format!("{path}: {err}")))
         };
-        let (M, C, K) = (read("m_path")?, read("c_path")?, read("k_path")?);
-        let pairs = solve_matrices(&M, &C, &K, params.float("f_max_hz"), 1e-8)?;
-        let diagram = stability_diagram(&pairs, params.float("mu"))?;
+        let (M, C, K) = (
+            read(&params.m_path)?,
+            read(&params.c_path)?,
+            read(&params.k_path)?,
+        );
+        let pairs = solve_matrices(&M, &C, &K, params.f_max_hz, 1e-8)?;
+        let diagram = stability_diagram(&pairs, params.mu)?;
         Ok(Outputs::from([
             (
                 "eigenvalues".to_string(),

@@ -117,6 +117,14 @@ pub fn pair_modes(mac: &Mat<f64>, min_mac: f64) -> Vec<Option<(usize, f64)>> {
 /// `stability.track`.
 pub struct Track;
 
+/// The parameters of `stability.track`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TrackParams {
+    axis: String,
+    min_mac: f64,
+}
+
 impl Stage for Track {
     fn kind(&self) -> &'static str {
         "stability.track"
@@ -167,9 +175,11 @@ impl Stage for Track {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<TrackParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let axis = params.str("axis").to_string();
-        let min_mac = params.float("min_mac");
+        let TrackParams { axis, min_mac } = params.typed()?;
         let eigenvalues = inputs.many("eigenvalues")?;
         let shapes = inputs.many("shapes")?;
         let axis_value = |coords: &crate::stage::Coords| -> Result<f64, StageError> {
