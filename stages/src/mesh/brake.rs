@@ -23,7 +23,9 @@ use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageErr
 use crate::table::Table;
 
 /// Geometry and resolution of the brake, in SI units.
-#[derive(Debug, Clone, PartialEq)]
+/// Its fields are the parameters of `mesh.brake`, read by [`Params::typed`].
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BrakeGeometry {
     pub r_inner: f64,
     pub r_outer: f64,
@@ -339,23 +341,11 @@ impl Stage for MeshBrake {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<BrakeGeometry>().map(drop)
+    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let count = |name: &str| params.int(name) as usize;
-        let geometry = BrakeGeometry {
-            r_inner: params.float("r_inner"),
-            r_outer: params.float("r_outer"),
-            thickness: params.float("thickness"),
-            n_radial: count("n_radial"),
-            n_theta: count("n_theta"),
-            n_thick: count("n_thick"),
-            pad_center_deg: params.float("pad_center_deg"),
-            pucks_radial: count("pucks_radial"),
-            pucks_angular: count("pucks_angular"),
-            puck_cells: count("puck_cells"),
-            puck_gap_cells: count("puck_gap_cells"),
-            puck_height: params.float("puck_height"),
-            puck_layers: count("puck_layers"),
-        };
+        let geometry: BrakeGeometry = params.typed()?;
         let mesh = brake(&geometry).map_err(StageError::new)?;
         let summary = Table::new()
             .with(

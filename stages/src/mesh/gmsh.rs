@@ -104,6 +104,16 @@ impl fmt::Display for MshError {
 /// gives identical bytes, which leaves downstream stages cached).
 pub struct GmshImport;
 
+/// The parameters of `mesh.gmsh`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GmshParams {
+    path: String,
+    contact_disc: String,
+    contact_pad: String,
+    contact_tolerance: f64,
+}
+
 impl Stage for GmshImport {
     fn kind(&self) -> &'static str {
         "mesh.gmsh"
@@ -155,12 +165,16 @@ impl Stage for GmshImport {
     fn pure(&self) -> bool {
         false
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<GmshParams>().map(drop)
+    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let path = params.str("path");
+        let params: GmshParams = params.typed()?;
+        let path = params.path.as_str();
         if path.is_empty() {
             return Err(StageError::new("path is empty: name the .msh file to read"));
         }
-        let contact = match (params.str("contact_disc"), params.str("contact_pad")) {
+        let contact = match (params.contact_disc.as_str(), params.contact_pad.as_str()) {
             ("", "") => None,
             ("", _) | (_, "") => {
                 return Err(StageError::new(
@@ -170,7 +184,7 @@ impl Stage for GmshImport {
             (disc, pad) => Some(ContactGroups {
                 disc: disc.to_string(),
                 pad: pad.to_string(),
-                relative_tolerance: params.float("contact_tolerance"),
+                relative_tolerance: params.contact_tolerance,
             }),
         };
         let bytes = std::fs::read(path).map_err(|err| StageError::new(format!("{path}: {err}")))?;
