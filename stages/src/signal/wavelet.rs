@@ -816,6 +816,19 @@ pub fn next_fast_len(min_len: usize) -> usize {
 /// `wavelet`: Morlet CWT power of one column on a log-spaced frequency grid.
 pub struct Wavelet;
 
+/// The parameters of `wavelet`, as declared.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WaveletParams {
+    column: String,
+    k0: f64,
+    f_min_hz: f64,
+    f_max_hz: f64,
+    n_freqs: i64,
+    dt_out_s: f64,
+    map_range_db: f64,
+}
+
 impl Stage for Wavelet {
     fn kind(&self) -> &'static str {
         "wavelet"
@@ -874,10 +887,14 @@ impl Stage for Wavelet {
             ),
         ]
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<WaveletParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let column = params.str("column");
+        let params: WaveletParams = params.typed()?;
+        let column = params.column.as_str();
         let series = uniform_series(inputs.table("signal")?, column)?;
-        let grid = TransformGrid::from_params(params, &series)?;
+        let grid = TransformGrid::from_params(&params, &series)?;
         let scales: Vec<f64> = grid
             .freqs_hz
             .iter()
@@ -896,7 +913,7 @@ impl Stage for Wavelet {
             k0: grid.k0,
             t_first: series.t_first,
             t_last: series.t_last(),
-            range_db: params.float("map_range_db"),
+            range_db: params.map_range_db,
         };
         let figure = plot::render(&map, plot::DEFAULT_SIZE)?;
         let table = power_table(&times, &grid.freqs_hz, &scales, power, &series);
@@ -915,10 +932,10 @@ struct TransformGrid {
 }
 
 impl TransformGrid {
-    fn from_params(params: &Params, series: &UniformSeries) -> Result<Self, StageError> {
-        let k0 = params.float("k0");
-        let (f_min, f_max) = (params.float("f_min_hz"), params.float("f_max_hz"));
-        let n_freqs = params.int("n_freqs") as usize;
+    fn from_params(params: &WaveletParams, series: &UniformSeries) -> Result<Self, StageError> {
+        let k0 = params.k0;
+        let (f_min, f_max) = (params.f_min_hz, params.f_max_hz);
+        let n_freqs = params.n_freqs as usize;
         let nyquist = 0.5 / series.dt;
         if k0 <= 0.0 {
             return Err(StageError::new(format!("k0 = {k0} must be positive")));
@@ -940,7 +957,7 @@ impl TransformGrid {
             )));
         }
         let decimation =
-            ((params.float("dt_out_s") / series.dt).round().max(1.0) as usize).min(series.len());
+            ((params.dt_out_s / series.dt).round().max(1.0) as usize).min(series.len());
         let n_times = (series.len() - 1) / decimation + 1;
         let n_rows = n_times.saturating_mul(n_freqs);
         if n_rows > MAX_POWER_ROWS {
