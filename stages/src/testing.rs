@@ -69,11 +69,12 @@ impl Stage for Constant {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<ConstantParams>().map(drop)
+    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        Ok(x_table(vec![
-            params.float("value");
-            params.int("rows") as usize
-        ]))
+        let ConstantParams { value, rows } = params.typed()?;
+        Ok(x_table(vec![value; rows as usize]))
     }
 }
 
@@ -101,8 +102,11 @@ impl Stage for Affine {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<AffineParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let (scale, offset) = (params.float("scale"), params.float("offset"));
+        let AffineParams { scale, offset } = params.typed()?;
         Ok(x_table(
             column_x(inputs)?
                 .iter()
@@ -133,8 +137,12 @@ impl Stage for Round {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<RoundParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let factor = 10f64.powi(params.int("decimals") as i32);
+        let RoundParams { decimals } = params.typed()?;
+        let factor = 10f64.powi(decimals as i32);
         Ok(x_table(
             column_x(inputs)?
                 .iter()
@@ -165,8 +173,12 @@ impl Stage for Sleep {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<SleepParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        std::thread::sleep(std::time::Duration::from_secs_f64(params.float("seconds")));
+        let SleepParams { seconds } = params.typed()?;
+        std::thread::sleep(std::time::Duration::from_secs_f64(seconds));
         Ok(single_output("table", inputs.table("table")?.clone()))
     }
 }
@@ -196,7 +208,44 @@ impl Stage for Fail {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        Err(StageError::new(params.str("message")))
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<FailParams>().map(drop)
     }
+    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        let FailParams { message } = params.typed()?;
+        Err(StageError::new(message))
+    }
+}
+
+/// The parameters of the test kinds, as declared.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ConstantParams {
+    value: f64,
+    rows: i64,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AffineParams {
+    scale: f64,
+    offset: f64,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RoundParams {
+    decimals: i64,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SleepParams {
+    seconds: f64,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FailParams {
+    message: String,
 }
