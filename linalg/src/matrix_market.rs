@@ -209,20 +209,14 @@ fn read_text(text: &str) -> Result<CscMatrix, String> {
             col + 1
         ));
     }
-    let mut col_ptr = vec![0; n_cols + 1];
-    for &(col, ..) in &triplets {
-        col_ptr[col + 1] += 1;
-    }
-    for col in 0..n_cols {
-        col_ptr[col + 1] += col_ptr[col];
-    }
-    Ok(CscMatrix {
+    Ok(CscMatrix::from_triplets(
         n_rows,
         n_cols,
-        col_ptr,
-        row_idx: triplets.iter().map(|triplet| triplet.1).collect(),
-        values: triplets.iter().map(|triplet| triplet.2).collect(),
-    })
+        triplets
+            .into_iter()
+            .map(|(col, row, value, _)| (row, col, value))
+            .collect(),
+    ))
 }
 
 /// Parses `%%MatrixMarket matrix coordinate real symmetric`; returns whether it is symmetric.
