@@ -29,16 +29,16 @@
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
-use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatMut, MatRef, Par};
 
 use crate::Error;
 use crate::csc::CscMatrix;
 use crate::csc::symmetric_mul;
 use crate::dense::{select_columns, symmetric_eigen, symmetrised};
+use crate::gram_schmidt::{Orthonormal, Orthonormalized, orthonormalize_block};
 use crate::ldlt::Factor;
 use crate::rng::SplitMix64;
-use crate::tall::{add_product, times, transpose_times};
+use crate::tall::times;
 
 /// `Op = (K − σ M)⁻¹ M`, applied to blocks of vectors; counts the vectors solved for.
 pub struct ShiftInvert<'a> {
@@ -119,230 +119,9 @@ pub struct RitzPairs {
     pub ritz_seconds: f64,
 }
 
-/// A column whose norm falls below this fraction of its norm on entry, after projection on
-/// the basis, lies in the span of the basis (to roundoff): the Krylov space is invariant there.
-const DEPENDENT_NORM_DROP: f64 = 1e-13;
-/// Daniel–Gragg–Kaufman–Stewart: project again where a pass left less than this fraction.
-const REORTHOGONALIZE_BELOW: f64 = std::f64::consts::FRAC_1_SQRT_2;
-
-/// `M`-orthonormal vectors `Q` with their products `M Q`.
-#[derive(Clone, Copy)]
-struct Orthonormal<'a> {
-    vectors: MatRef<'a, f64>,
-    M_vectors: MatRef<'a, f64>,
-}
-
-/// `W ← W − Q ((M Q)ᵀ W)`; returns the coefficients `(M Q)ᵀ W`.
-fn project(W: &mut Mat<f64>, basis: Orthonormal<'_>) -> Mat<f64> {
-    let coefficients = transpose_times(basis.M_vectors, W.as_ref());
-    if basis.vectors.ncols() > 0 {
-        add_product(W.as_mut(), basis.vectors, coefficients.as_ref(), -1.0);
-    }
-    coefficients
-}
-
-fn column_norms(W: &Mat<f64>) -> Vec<f64> {
-    (0..W.ncols()).map(|j| W.col(j).norm_l2()).collect()
-}
-
-/// Projects `W` out of `others` and of `basis` (whose coefficients are returned, for the
-/// projected operator), with passes repeated per the DGKS test. `local` (the last blocks of
-/// `basis`) goes first.
-fn reorthogonalize(
-    W: &mut Mat<f64>,
-    others: &[Orthonormal<'_>],
-    basis: Orthonormal<'_>,
-    local_start: usize,
-) -> Mat<f64> {
-    let p = W.ncols();
-    let m = basis.vectors.ncols();
-    let mut coefficients = Mat::<f64>::zeros(m, p);
-    if m > local_start {
-        let local = Orthonormal {
-            vectors: basis.vectors.subcols(local_start, m - local_start),
-            M_vectors: basis.M_vectors.subcols(local_start, m - local_start),
-        };
-        let H = project(W, local);
-        coefficients
-            .as_mut()
-            .subrows_mut(local_start, m - local_start)
-            .copy_from(&H);
-    }
-    for _ in 0..3 {
-        let before = column_norms(W);
-        for other in others {
-            if other.vectors.ncols() > 0 {
-                project(W, *other);
-            }
-        }
-        if m > 0 {
-            coefficients += project(W, basis);
-        }
-        let after = column_norms(W);
-        let repeat = before
-            .iter()
-            .zip(&after)
-            .any(|(before, after)| *after < REORTHOGONALIZE_BELOW * before);
-        if !repeat {
-            break;
-        }
-    }
-    coefficients
-}
-
-/// `M`-orthonormal QR `W = Q R` by Cholesky QR, twice, from `M W`; updates both in place.
-/// `None` if the columns are (nearly) dependent on each other.
-fn cholesky_qr2(W: &mut Mat<f64>, MW: &mut Mat<f64>, par: Par) -> Option<Mat<f64>> {
-    let p = W.ncols();
-    let mut R = Mat::<f64>::identity(p, p);
-    for _ in 0..2 {
-        let G = symmetrised(transpose_times(W.as_ref(), MW.as_ref()).as_ref());
-        let norms: Vec<f64> = (0..p).map(|j| G[(j, j)].max(0.0).sqrt()).collect();
-        if norms.iter().any(|norm| !(*norm > 0.0)) {
-            return None;
-        }
-        // Cholesky of the scaled Gram matrix: its pivots measure the columns' independence.
-        let G_scaled = Mat::from_fn(p, p, |i, j| G[(i, j)] / (norms[i] * norms[j]));
-        let L_scaled = G_scaled.as_ref().llt(faer::Side::Lower).ok()?;
-        let L_scaled = L_scaled.L();
-        if (0..p).any(|j| !(L_scaled[(j, j)] * L_scaled[(j, j)] > 1e-10)) {
-            return None;
-        }
-        // G = N Ĝ N with N = diag(norms), so L = N L̂; then W ← W L⁻ᵀ and M W ← M W L⁻ᵀ.
-        let L = Mat::from_fn(p, p, |i, j| norms[i] * L_scaled[(i, j)]);
-        let mut L_inverse = Mat::<f64>::identity(p, p);
-        solve_lower_triangular_in_place(L.as_ref(), L_inverse.as_mut(), par);
-        *W = times(W.as_ref(), L_inverse.as_ref().transpose());
-        *MW = times(MW.as_ref(), L_inverse.as_ref().transpose());
-        R = L.transpose() * &R;
-    }
-    Some(R)
-}
-
-/// Column-by-column `M`-orthonormalisation that replaces dependent columns by random vectors
-/// orthogonal to everything (their column of `R` is zero on the diagonal): the rare path when
-/// the Krylov space has (nearly) become invariant. Returns `M W` and `R`.
-fn orthonormalize_columnwise(
-    W: &mut Mat<f64>,
-    bases: &[Orthonormal<'_>],
-    M: &CscMatrix,
-    entry_norms: &[f64],
-    random: &mut SplitMix64,
-) -> Result<(Mat<f64>, Mat<f64>), Error> {
-    let (n, p) = (W.nrows(), W.ncols());
-    let mut R = Mat::<f64>::zeros(p, p);
-    let mut MW = Mat::<f64>::zeros(n, p);
-    for c in 0..p {
-        let mut column = select_columns(W.as_ref(), &[c]);
-        let previous = Orthonormal {
-            vectors: W.as_ref().subcols(0, c),
-            M_vectors: MW.as_ref().subcols(0, c),
-        };
-        for _ in 0..2 {
-            let H = project(&mut column, previous);
-            for r in 0..c {
-                R[(r, c)] += H[(r, 0)];
-            }
-        }
-        let mut M_column = symmetric_mul(M, column.as_ref());
-        let mut norm = dot(column.col(0), M_column.col(0)).max(0.0).sqrt();
-        if norm > DEPENDENT_NORM_DROP * entry_norms[c] && norm > 0.0 {
-            R[(c, c)] = norm;
-        } else {
-            // Dependent: continue the recursion in a fresh direction.
-            column = random.block(n, 1);
-            for _ in 0..2 {
-                for basis in bases.iter().chain([&previous]) {
-                    if basis.vectors.ncols() > 0 {
-                        project(&mut column, *basis);
-                    }
-                }
-            }
-            M_column = symmetric_mul(M, column.as_ref());
-            norm = dot(column.col(0), M_column.col(0)).max(0.0).sqrt();
-            if !(norm > 1e-8 * column.col(0).norm_l2()) {
-                return Err(Error::NotConverged(format!(
-                    "Lanczos: the Krylov space is exhausted ({n} DOFs): no new direction is M-orthogonal to the basis"
-                )));
-            }
-            R[(c, c)] = 0.0;
-        }
-        for i in 0..n {
-            W[(i, c)] = column[(i, 0)] / norm;
-            MW[(i, c)] = M_column[(i, 0)] / norm;
-        }
-    }
-    Ok((MW, R))
-}
-
-/// What [`orthonormalize_block`] gives besides the orthonormal block `W_out`:
-/// `W_in = others · (…) + basis · coefficients + W_out R`.
-struct Orthonormalized {
-    M_vectors: Mat<f64>,
-    coefficients: Mat<f64>,
-    R: Mat<f64>,
-}
-
-/// Makes `W` `M`-orthonormal and `M`-orthogonal to `others` and `basis`.
-fn orthonormalize_block(
-    W: &mut Mat<f64>,
-    others: &[Orthonormal<'_>],
-    basis: Orthonormal<'_>,
-    local_start: usize,
-    M: &CscMatrix,
-    random: &mut SplitMix64,
-    par: Par,
-) -> Result<Orthonormalized, Error> {
-    let entry_norms = column_norms(W);
-    let coefficients = reorthogonalize(W, others, basis, local_start);
-    let remaining = column_norms(W);
-    let independent = remaining
-        .iter()
-        .zip(&entry_norms)
-        .all(|(after, before)| *after > DEPENDENT_NORM_DROP * before);
-    if independent {
-        let saved = W.clone();
-        let mut MW = symmetric_mul(M, W.as_ref());
-        if let Some(R) = cholesky_qr2(W, &mut MW, par) {
-            return Ok(Orthonormalized {
-                M_vectors: MW,
-                coefficients,
-                R,
-            });
-        }
-        *W = saved;
-    }
-    let mut all: Vec<Orthonormal<'_>> = others.to_vec();
-    all.push(basis);
-    let M_entry = symmetric_mul(M, W.as_ref());
-    let entry_M_norms: Vec<f64> = (0..W.ncols())
-        .map(|j| {
-            dot(W.col(j), M_entry.col(j))
-                .max(0.0)
-                .sqrt()
-                .max(f64::MIN_POSITIVE)
-        })
-        .zip(&entry_norms)
-        .zip(&remaining)
-        // Scale the reference so the dependence test compares against the norm on entry.
-        .map(|((m_norm, entry), after)| m_norm * entry / after.max(f64::MIN_POSITIVE))
-        .collect();
-    let (MW, R) = orthonormalize_columnwise(W, &all, M, &entry_M_norms, random)?;
-    Ok(Orthonormalized {
-        M_vectors: MW,
-        coefficients,
-        R,
-    })
-}
-
 /// Copies `block` into the columns `first..first + block.ncols()` of `target`.
 fn set_columns(target: MatMut<'_, f64>, first: usize, block: MatRef<'_, f64>) {
     target.subcols_mut(first, block.ncols()).copy_from(block);
-}
-
-/// `xᵀ y` of two columns.
-fn dot(x: faer::ColRef<'_, f64>, y: faer::ColRef<'_, f64>) -> f64 {
-    x.iter().zip(y.iter()).map(|(a, b)| a * b).sum()
 }
 
 /// Appends `extra` columns to `target`.
