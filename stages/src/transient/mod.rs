@@ -18,8 +18,9 @@
 //! F_MTD = θ F¹ + (1−θ) F⁰ + (M/τ − (1−θ) C − τθ(1−θ) K) V⁰ − K U⁰
 //! ```
 //!
-//! (the `V⁰` factor carries `−τθ(1−θ) K`; the test
-//! `undamped_scheme_without_contact_conserves_energy_exactly` would fail with any other).
+//! (the `V⁰` factor carries `−τθ(1−θ) K`, where the paper prints `+τθ K`: only this form
+//! conserves energy exactly, which `undamped_scheme_without_contact_conserves_energy_exactly`
+//! checks).
 //! `J` is symmetric positive definite and constant: factorised once (sparse Cholesky,
 //! [`squeal_linalg::cholesky`]). For θ = ½ the scheme is the trapezoidal rule: second order and
 //! conserving `½VᵀMV + ½UᵀKU` exactly without damping and contact; for θ > ½ it is first order
