@@ -1326,6 +1326,50 @@ mod tests {
         assert!(err.message.contains("last residuals:"), "{}", err.message);
     }
 
+    /// The engine keys downstream stages by output bytes: the equilibrium must not depend on
+    /// how many threads computed it, under either load.
+    #[test]
+    fn equilibrium_results_do_not_depend_on_the_thread_count() {
+        use crate::stage::Input;
+        use std::sync::Arc;
+        squeal_linalg::fix_global_parallelism();
+        let mesh = coarse_brake();
+        for (clamped, load) in [
+            ("hub, pad_backs", "interference"),
+            ("hub, pad_backs:xy", "pressure"),
+        ] {
+            let model = model(&mesh, clamped, &[]);
+            let mut values: BTreeMap<String, Value> = SlidingEquilibrium
+                .params()
+                .into_iter()
+                .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
+                .collect();
+            values.insert("load".into(), Value::Str(load.into()));
+            let params = Params(values);
+            let inputs = Inputs(BTreeMap::from([(
+                "model".to_string(),
+                Input::One(Arc::new(Artifact::Model(Box::new(model)))),
+            )]));
+            let encoded = |threads: usize| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| SlidingEquilibrium.run(&params, &inputs).unwrap())
+                    .iter()
+                    .map(|(name, artifact)| (name.clone(), artifact.encode()))
+                    .collect::<Vec<_>>()
+            };
+            let one = encoded(1);
+            for threads in [2, 3] {
+                assert!(
+                    one == encoded(threads),
+                    "{load}: outputs differ on {threads} threads"
+                );
+            }
+        }
+    }
+
     /// The stage itself with `load: pressure` (the two lines a study adds: `clamped: "hub,
     /// pad_backs:xy"` on `assemble`, `load: pressure` on `equilibrium`).
     #[test]
