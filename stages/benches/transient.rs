@@ -5,7 +5,7 @@
 //! with its wall time and peak memory.
 //! Run with `cargo bench -p squeal-stages --bench transient`. `SQUEAL_BENCH_STEPS` (20,000),
 //! `SQUEAL_BENCH_TAU` (1e-6 s), `SQUEAL_BENCH_KICK` (1e-3 m/s) and `SQUEAL_BENCH_SOLVER`
-//! (`gauss_seidel` or `fixed_point`) override the run.
+//! (`active_set`, `gauss_seidel` or `fixed_point`) override the run.
 //!
 //! With `SQUEAL_EXPORT_DIR=<dir>`, M, C, K (Matrix Market), the rows of H, the pairs' data and
 //! the initial velocity are written there for `transient_scipy.py`, the same scheme
@@ -115,7 +115,8 @@ fn main() {
         n_steps,
         solver: match std::env::var("SQUEAL_BENCH_SOLVER").as_deref() {
             Ok("fixed_point") => ContactSolver::FixedPoint,
-            _ => ContactSolver::GaussSeidel,
+            Ok("gauss_seidel") => ContactSolver::GaussSeidel,
+            _ => ContactSolver::ActiveSet,
         },
         tolerance: 1e-10,
         max_iterations: 2000,
@@ -151,8 +152,14 @@ fn main() {
     );
     let last = run.history.last().expect("rows");
     println!(
-        "run {wall:.1} s wall, peak memory {:.0} MiB; most contact iterations {}, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; final kinetic energy {:.6e} J; balance error {:.2e} J of peak {:.2e} J",
+        "run {wall:.1} s wall, peak memory {:.0} MiB; contact iterations {:.1} on average, {} at most, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; final kinetic energy {:.6e} J; balance error {:.2e} J of peak {:.2e} J",
         peak_memory_mib(),
+        run.history
+            .iter()
+            .skip(1)
+            .map(|row| row.contact_iterations as f64)
+            .sum::<f64>()
+            / (run.history.len() - 1).max(1) as f64,
         run.most_contact_iterations,
         run.worst_contact_residual,
         last.open,

@@ -10,7 +10,7 @@
 //! s = (w_t − v_g, w_b),   ‖r_T‖ ≤ μ r_n,   s ≠ 0 ⇒ r_T = −μ r_n s/‖s‖
 //! ```
 //!
-//! Both solvers iterate the projection form of the laws, for any ρ > 0,
+//! The iterative solvers iterate the projection form of the laws, for any ρ > 0,
 //!
 //! ```text
 //! r_n ← max(0, r_n − ρ_n (w_n − w_n,min)),    r_T ← proj_{‖·‖ ≤ μ r_n}(r_T − ρ_T s)
@@ -21,25 +21,92 @@
 //! fixed points are exactly the solutions:
 //! - [`Solver::FixedPoint`], the classic algorithm of the method: every pair at once from the
 //!   previous iterate (a Jacobi sweep), `w = w_free + W r` once per iteration;
-//! - [`Solver::GaussSeidel`] (projected Gauss–Seidel, the default): pair after pair, each using
-//!   the reactions already updated in the sweep, iterated locally until its 3 × 3 block settles,
+//! - [`Solver::GaussSeidel`] (projected Gauss–Seidel): pair after pair, each using the
+//!   reactions already updated in the sweep, iterated locally until its 3 × 3 block settles,
 //!   `w` kept current by rank-3 updates. It needs fewer sweeps and does not depend on
-//!   diagonal dominance of `W` to converge.
+//!   diagonal dominance of `W` to converge, but it converges linearly, at a rate set by the
+//!   coupling of neighbouring pairs through `W` (about 0.45 per sweep on the default brake).
+//!
+//! [`Solver::ActiveSet`] (the default) uses that from one step to the next the pairs mostly
+//! keep their state. Once a step's solution has the same *active set* as the step before
+//! (each pair open, sticking or sliding), it factorises the laws of that set, which are
+//! linear but for the sliding directions:
+//!
+//! ```text
+//! sliding pair:   w_n = w_n,min,                       r_T = μ r_n d,  d = −s/‖s‖
+//! sticking pair:  w_n = w_n,min,  w_t = v_g,  w_b = 0
+//! open pair:      r = 0
+//! ```
+//!
+//! The unknowns `x` are `r_n` per sliding pair and `r` per sticking pair, `r = E(d) x`, and the
+//! equations `G (w_free + W E(d) x) = G c` pick the rows above. With `A = G W E(d₀)`
+//! factorised (LU) for the directions `d₀` of the step it was built on, each later step runs
+//! the chord iteration
+//!
+//! ```text
+//! x ← x + A⁻¹ G (c − w),   d ← −s/‖s‖ from the new w,   r = E(d) x,   w = w_free + W r
+//! ```
+//!
+//! whose error contracts by `‖I − A⁻¹ G W E(d)‖`, the small drift of the directions: two or
+//! three passes over `W` where Gauss–Seidel needs fifteen. A step is accepted only on the same
+//! natural residual as the iterative solvers; when the set changes the chord fails to meet
+//! it, the step is solved by Gauss–Seidel from its warm start, and the factorisation is
+//! dropped until a set holds for two steps again.
 //!
 //! Convergence is measured by the natural residual `max_p ‖r_p − proj(r_p)‖ / R`, `R` the
 //! force scale (the largest equilibrium reaction, or the largest reaction found).
 
-use faer::MatRef;
+use faer::linalg::solvers::{PartialPivLu, Solve};
+use faer::{Mat, MatRef};
+use serde::{Deserialize, Serialize};
 
 /// Sweeps of the local projection on one pair within a Gauss–Seidel sweep.
 const LOCAL_ITERATIONS: usize = 16;
+/// Chord iterations tried before a step falls back to Gauss–Seidel.
+const CHORD_ITERATIONS: usize = 6;
+/// A chord that needed more iterations than this refactorises for the next step: its
+/// directions have drifted.
+const REFACTORISE_AFTER: usize = 3;
 /// Residuals kept for an error message.
 const HISTORY_KEPT: usize = 12;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Solver {
+    ActiveSet,
     GaussSeidel,
     FixedPoint,
+}
+
+/// Contact state of a pair at the end of a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PairState {
+    Open,
+    Stick,
+    Slide,
+}
+
+/// Open (no reaction), sticking (no slip) or sliding, from the end-of-step reaction and
+/// velocity; a slip below 1e-9 of the sliding speed counts as sticking.
+pub fn classify(r: &[f64], w: &[f64], p: usize, sliding_speed: f64) -> PairState {
+    if r[3 * p] <= 0.0 {
+        return PairState::Open;
+    }
+    if slip(w, p, sliding_speed).0 <= 1e-9 * sliding_speed {
+        PairState::Stick
+    } else {
+        PairState::Slide
+    }
+}
+
+/// The slip speed `‖s‖` of pair `p` and the friction direction `d = −s/‖s‖` (zero without slip).
+fn slip(w: &[f64], p: usize, sliding_speed: f64) -> (f64, [f64; 2]) {
+    let s = [w[3 * p + 1] - sliding_speed, w[3 * p + 2]];
+    let length = s[0].hypot(s[1]);
+    if length > 0.0 {
+        (length, [-s[0] / length, -s[1] / length])
+    } else {
+        (0.0, [0.0; 2])
+    }
 }
 
 /// The data of one step's problem.
@@ -134,45 +201,52 @@ fn pair(values: &[f64], p: usize) -> [f64; 3] {
     [values[3 * p], values[3 * p + 1], values[3 * p + 2]]
 }
 
-/// `w = w_free + W r`.
+/// Column `k` of `W` as a slice (`W` is stored column-major).
+fn column<'a>(W: MatRef<'a, f64>, k: usize) -> &'a [f64] {
+    W.col(k)
+        .try_as_col_major()
+        .expect("the Delassus operator is stored column-major")
+        .as_slice()
+}
+
+/// `w = w_free + W r`, column by column (contiguous reads).
 fn velocities(problem: &Problem, r: &[f64], w: &mut [f64]) {
-    let W = problem.W;
-    for (row, slot) in w.iter_mut().enumerate() {
-        let mut sum = problem.w_free[row];
-        for (col, value) in r.iter().enumerate() {
-            sum += W[(row, col)] * value;
+    w.copy_from_slice(problem.w_free);
+    for (k, &r_k) in r.iter().enumerate() {
+        if r_k != 0.0 {
+            for (slot, W_ik) in w.iter_mut().zip(column(problem.W, k)) {
+                *slot += W_ik * r_k;
+            }
         }
-        *slot = sum;
     }
 }
 
-/// Solves the step's problem from the reactions `r` (a warm start, overwritten with the
-/// solution); `w` receives the matching velocities.
-pub fn solve(
+/// Solves the step's problem with an iterative solver from the reactions `r` (a warm start,
+/// overwritten with the solution); `w` receives the matching velocities.
+fn iterate(
     problem: &Problem,
-    solver: Solver,
+    step: &Step,
+    gauss_seidel: bool,
     tolerance: f64,
     max_iterations: usize,
     r: &mut [f64],
     w: &mut [f64],
 ) -> Result<Report, NotConverged> {
-    let step = problem.step_lengths();
     velocities(problem, r, w);
     let mut history = Vec::new();
     let mut next = vec![0.0; r.len()];
     for iteration in 1..=max_iterations {
-        match solver {
-            Solver::FixedPoint => {
-                for p in 0..problem.n_pairs() {
-                    let projected = problem.project(p, &step, pair(r, p), pair(w, p));
-                    next[3 * p..3 * p + 3].copy_from_slice(&projected);
-                }
-                r.copy_from_slice(&next);
-                velocities(problem, r, w);
+        if gauss_seidel {
+            gauss_seidel_sweep(problem, step, r, w);
+        } else {
+            for p in 0..problem.n_pairs() {
+                let projected = problem.project(p, step, pair(r, p), pair(w, p));
+                next[3 * p..3 * p + 3].copy_from_slice(&projected);
             }
-            Solver::GaussSeidel => gauss_seidel_sweep(problem, &step, r, w),
+            r.copy_from_slice(&next);
+            velocities(problem, r, w);
         }
-        let residual = problem.residual(&step, r, w);
+        let residual = problem.residual(step, r, w);
         history.push(residual);
         if history.len() > HISTORY_KEPT {
             history.remove(0);
@@ -191,6 +265,273 @@ pub fn solve(
         iterations: max_iterations,
         history,
     })
+}
+
+/// The active set a factorisation is built for, with the sliding pairs' reactions and
+/// velocities it linearises at: what a checkpoint keeps of the active-set solver (the
+/// factorisation is rebuilt from it, to the same bits).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Basis {
+    states: Vec<PairState>,
+    r: Vec<f64>,
+    w: Vec<f64>,
+}
+
+/// The memory of a [`ContactSolver`] between steps.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Memory {
+    factorised: Option<Basis>,
+    previous: Option<Vec<PairState>>,
+}
+
+/// The laws of one active set, linearised and factorised.
+struct Factorisation {
+    states: Vec<PairState>,
+    /// First unknown of each pair (three per closed pair, none for an open one).
+    offsets: Vec<usize>,
+    lu: PartialPivLu<f64>,
+}
+
+impl Factorisation {
+    fn new(problem: &Problem, step: &Step, basis: &Basis) -> Option<Factorisation> {
+        let W = problem.W;
+        let states = &basis.states;
+        let mut offsets = Vec::with_capacity(states.len() + 1);
+        let mut columns = Vec::new();
+        for (p, state) in states.iter().enumerate() {
+            offsets.push(columns.len());
+            if *state != PairState::Open {
+                columns.extend([3 * p, 3 * p + 1, 3 * p + 2]);
+            }
+        }
+        offsets.push(columns.len());
+        if columns.is_empty() {
+            return None;
+        }
+        // Row i of W restricted to the unknowns (W is symmetric: its column).
+        let W_row = |row: usize, out: &mut [f64]| {
+            for (slot, &col) in out.iter_mut().zip(&columns) {
+                *slot = W[(col, row)];
+            }
+        };
+        let mut A = Mat::<f64>::zeros(columns.len(), columns.len());
+        let mut row = vec![0.0; columns.len()];
+        for (p, state) in states.iter().enumerate() {
+            let (k, i) = (3 * p, offsets[p]);
+            match state {
+                PairState::Open => {}
+                PairState::Stick => {
+                    for (d, rho) in [step.rho_n[p], step.rho_T[p], step.rho_T[p]]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        W_row(k + d, &mut row);
+                        for (j, value) in row.iter().enumerate() {
+                            A[(i + d, j)] = rho * value;
+                        }
+                    }
+                }
+                PairState::Slide => {
+                    W_row(k, &mut row);
+                    for (j, value) in row.iter().enumerate() {
+                        A[(i, j)] = step.rho_n[p] * value;
+                    }
+                    // F_T = r_T − μ r_n d(s): ∂F_T = Δr_T − μ d Δr_n + κ (I − ŝŝᵀ) Δw_T,
+                    // κ = μ r_n/‖s‖.
+                    let (length, d) = slip(&basis.w, p, problem.sliding_speed[p]);
+                    let kappa = problem.mu * basis.r[k] / length;
+                    let projector = [
+                        [1.0 - d[0] * d[0], -d[0] * d[1]],
+                        [-d[1] * d[0], 1.0 - d[1] * d[1]],
+                    ];
+                    let mut rows = [vec![0.0; columns.len()], vec![0.0; columns.len()]];
+                    W_row(k + 1, &mut rows[0]);
+                    W_row(k + 2, &mut rows[1]);
+                    for e in 0..2 {
+                        for j in 0..columns.len() {
+                            A[(i + 1 + e, j)] = kappa
+                                * (projector[e][0] * rows[0][j] + projector[e][1] * rows[1][j]);
+                        }
+                        A[(i + 1 + e, i + 1 + e)] += 1.0;
+                        A[(i + 1 + e, i)] -= problem.mu * d[e];
+                    }
+                }
+            }
+        }
+        Some(Factorisation {
+            states: states.clone(),
+            offsets,
+            lu: A.partial_piv_lu(),
+        })
+    }
+
+    /// The residual `F` of the set's laws at `r`, `w` (velocity rows scaled by ρ: forces).
+    fn laws(&self, problem: &Problem, step: &Step, r: &[f64], w: &[f64], F: &mut Mat<f64>) {
+        for (p, state) in self.states.iter().enumerate() {
+            let (k, i) = (3 * p, self.offsets[p]);
+            let normal = step.rho_n[p] * (w[k] - problem.w_n_min[p]);
+            match state {
+                PairState::Open => {}
+                PairState::Stick => {
+                    F[(i, 0)] = normal;
+                    F[(i + 1, 0)] = step.rho_T[p] * (w[k + 1] - problem.sliding_speed[p]);
+                    F[(i + 2, 0)] = step.rho_T[p] * w[k + 2];
+                }
+                PairState::Slide => {
+                    let d = slip(w, p, problem.sliding_speed[p]).1;
+                    F[(i, 0)] = normal;
+                    F[(i + 1, 0)] = r[k + 1] - problem.mu * r[k] * d[0];
+                    F[(i + 2, 0)] = r[k + 2] - problem.mu * r[k] * d[1];
+                }
+            }
+        }
+    }
+
+    /// The chord iteration `r ← r − A⁻¹ F(r)` from the reactions `r` and their velocities `w`;
+    /// `None` when it does not reach the tolerance (`r` and `w` are then left anywhere).
+    fn chord(
+        &self,
+        problem: &Problem,
+        step: &Step,
+        tolerance: f64,
+        r: &mut [f64],
+        w: &mut [f64],
+    ) -> Option<Report> {
+        let mut F = Mat::<f64>::zeros(self.offsets[self.states.len()], 1);
+        for iteration in 1..=CHORD_ITERATIONS {
+            self.laws(problem, step, r, w, &mut F);
+            let correction = self.lu.solve(&F);
+            for (p, state) in self.states.iter().enumerate() {
+                let (k, i) = (3 * p, self.offsets[p]);
+                match state {
+                    PairState::Open => r[k..k + 3].fill(0.0),
+                    _ => (0..3).for_each(|d| r[k + d] -= correction[(i + d, 0)]),
+                }
+            }
+            velocities(problem, r, w);
+            let residual = problem.residual(step, r, w);
+            if residual <= tolerance {
+                return Some(Report {
+                    iterations: iteration,
+                    residual,
+                });
+            }
+            if !residual.is_finite() {
+                return None;
+            }
+        }
+        None
+    }
+}
+
+/// A contact solver with what it keeps from step to step.
+pub struct ContactSolver {
+    solver: Solver,
+    factorisation: Option<(Basis, Factorisation)>,
+    previous: Option<Vec<PairState>>,
+}
+
+impl ContactSolver {
+    pub fn new(solver: Solver) -> ContactSolver {
+        ContactSolver {
+            solver,
+            factorisation: None,
+            previous: None,
+        }
+    }
+
+    /// What a checkpoint keeps.
+    pub fn memory(&self) -> Memory {
+        Memory {
+            factorised: self.factorisation.as_ref().map(|(basis, _)| basis.clone()),
+            previous: self.previous.clone(),
+        }
+    }
+
+    /// Takes back a checkpoint's memory, for a problem of the same run.
+    pub fn restore(&mut self, memory: Memory, problem: &Problem) {
+        self.factorisation = memory.factorised.and_then(|basis| {
+            let factorisation = Factorisation::new(problem, &problem.step_lengths(), &basis);
+            factorisation.map(|f| (basis, f))
+        });
+        self.previous = memory.previous;
+    }
+
+    /// Solves the step's problem from the reactions `r` (a warm start, overwritten with the
+    /// solution); `w` receives the matching velocities.
+    pub fn solve(
+        &mut self,
+        problem: &Problem,
+        tolerance: f64,
+        max_iterations: usize,
+        r: &mut [f64],
+        w: &mut [f64],
+    ) -> Result<Report, NotConverged> {
+        let step = problem.step_lengths();
+        match self.solver {
+            Solver::GaussSeidel | Solver::FixedPoint => iterate(
+                problem,
+                &step,
+                self.solver == Solver::GaussSeidel,
+                tolerance,
+                max_iterations,
+                r,
+                w,
+            ),
+            Solver::ActiveSet => {
+                self.solve_active_set(problem, &step, tolerance, max_iterations, r, w)
+            }
+        }
+    }
+
+    fn solve_active_set(
+        &mut self,
+        problem: &Problem,
+        step: &Step,
+        tolerance: f64,
+        max_iterations: usize,
+        r: &mut [f64],
+        w: &mut [f64],
+    ) -> Result<Report, NotConverged> {
+        let warm_start = r.to_vec();
+        if let Some((_, factorisation)) = &self.factorisation {
+            velocities(problem, r, w);
+            if let Some(report) = factorisation.chord(problem, step, tolerance, r, w) {
+                let basis = basis_of(problem, r, w);
+                self.previous = Some(basis.states.clone());
+                if report.iterations > REFACTORISE_AFTER {
+                    self.factorise(problem, step, basis);
+                }
+                return Ok(report);
+            }
+            self.factorisation = None;
+            r.copy_from_slice(&warm_start);
+        }
+        let report = iterate(problem, step, true, tolerance, max_iterations, r, w)?;
+        let basis = basis_of(problem, r, w);
+        if self.previous.as_ref() == Some(&basis.states) {
+            self.factorise(problem, step, basis);
+        } else {
+            self.previous = Some(basis.states);
+        }
+        Ok(report)
+    }
+
+    fn factorise(&mut self, problem: &Problem, step: &Step, basis: Basis) {
+        self.factorisation =
+            Factorisation::new(problem, step, &basis).map(|factorisation| (basis, factorisation));
+    }
+}
+
+/// The active set of a solution, with the reactions and velocities to linearise at.
+fn basis_of(problem: &Problem, r: &[f64], w: &[f64]) -> Basis {
+    Basis {
+        states: (0..problem.n_pairs())
+            .map(|p| classify(r, w, p, problem.sliding_speed[p]))
+            .collect(),
+        r: r.to_vec(),
+        w: w.to_vec(),
+    }
 }
 
 /// One Gauss–Seidel sweep over the pairs; `w` is kept equal to `w_free + W r`.
@@ -218,10 +559,9 @@ fn gauss_seidel_sweep(problem: &Problem, step: &Step, r: &mut [f64], w: &mut [f6
         }
         let delta = [r_p[0] - start[0], r_p[1] - start[1], r_p[2] - start[2]];
         if delta != [0.0; 3] {
+            let (c0, c1, c2) = (column(W, k), column(W, k + 1), column(W, k + 2));
             for (row, slot) in w.iter_mut().enumerate() {
-                *slot += W[(row, k)] * delta[0]
-                    + W[(row, k + 1)] * delta[1]
-                    + W[(row, k + 2)] * delta[2];
+                *slot += c0[row] * delta[0] + c1[row] * delta[1] + c2[row] * delta[2];
             }
             r[k..k + 3].copy_from_slice(&r_p);
         }
@@ -273,7 +613,9 @@ mod tests {
         };
         let mut r = vec![0.0; 3 * n_pairs];
         let mut w = vec![0.0; 3 * n_pairs];
-        let report = solve(&problem, solver, 1e-13, 20_000, &mut r, &mut w).unwrap();
+        let report = ContactSolver::new(solver)
+            .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
+            .unwrap();
         (r, w, report)
     }
 
@@ -325,6 +667,69 @@ mod tests {
     }
 
     #[test]
+    fn the_active_set_solver_reuses_its_factorisation_and_agrees_with_gauss_seidel() {
+        let n_pairs = 6;
+        let (W, w_free, w_n_min, sliding) = problem_data(n_pairs);
+        for mu in [0.0, 0.38, 1.2] {
+            let (r_gs, _, _) = solve_with(Solver::GaussSeidel, mu);
+            let mut solver = ContactSolver::new(Solver::ActiveSet);
+            let mut r = vec![0.0; 3 * n_pairs];
+            let mut w = vec![0.0; 3 * n_pairs];
+            // A slowly drifting problem: the set holds, the sliding directions turn.
+            for step in 0..6 {
+                let drifted: Vec<f64> = w_free
+                    .iter()
+                    .enumerate()
+                    .map(|(i, value)| value + 1e-5 * step as f64 * ((i % 5) as f64 - 2.0))
+                    .collect();
+                let problem = Problem {
+                    W: W.as_ref(),
+                    w_free: &drifted,
+                    w_n_min: &w_n_min,
+                    sliding_speed: &sliding,
+                    mu,
+                    force_scale: 0.0,
+                };
+                let report = solver
+                    .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
+                    .unwrap();
+                check_laws(&r, &w, mu, 1e-10);
+                if step == 0 {
+                    for (a, b) in r.iter().zip(&r_gs) {
+                        assert!((a - b).abs() < 1e-9, "mu = {mu}: {a} vs {b}");
+                    }
+                }
+                // Gauss–Seidel on the first two steps, then the chord on the factorisation.
+                if step >= 2 {
+                    assert!(
+                        solver.factorisation.is_some() && report.iterations <= REFACTORISE_AFTER,
+                        "mu = {mu}, step {step}: {} iterations",
+                        report.iterations
+                    );
+                }
+            }
+            // A jump that changes the set: solved all the same, by the fallback.
+            let reversed: Vec<f64> = w_free.iter().map(|value| -value).collect();
+            let problem = Problem {
+                W: W.as_ref(),
+                w_free: &reversed,
+                w_n_min: &w_n_min,
+                sliding_speed: &sliding,
+                mu,
+                force_scale: 0.0,
+            };
+            solver
+                .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
+                .unwrap();
+            check_laws(&r, &w, mu, 1e-10);
+            // The memory a checkpoint keeps rebuilds the same solver.
+            let mut restored = ContactSolver::new(Solver::ActiveSet);
+            restored.restore(solver.memory(), &problem);
+            assert_eq!(restored.memory(), solver.memory());
+        }
+    }
+
+    #[test]
     fn a_pressed_single_pair_sticks_or_slides_as_coulomb_says() {
         // W = I: w = w_free + r. Pressed (w_free,n = −1) ⇒ r_n = 1. Free slip w_t − v_g =
         // −0.5: sticking needs r_t = 0.5, allowed when μ ≥ 0.5.
@@ -339,7 +744,9 @@ mod tests {
                 force_scale: 1.0,
             };
             let (mut r, mut w) = (vec![0.0; 3], vec![0.0; 3]);
-            solve(&problem, Solver::GaussSeidel, 1e-14, 100, &mut r, &mut w).unwrap();
+            ContactSolver::new(Solver::GaussSeidel)
+                .solve(&problem, 1e-14, 100, &mut r, &mut w)
+                .unwrap();
             assert!((r[0] - 1.0).abs() < 1e-14);
             assert!((r[1] - expected_r_t).abs() < 1e-14, "mu = {mu}: {r:?}");
             assert!(r[2].abs() < 1e-14);
@@ -358,7 +765,9 @@ mod tests {
             force_scale: 0.0,
         };
         let (mut r, mut w) = (vec![0.0; 18], vec![0.0; 18]);
-        let failure = solve(&problem, Solver::FixedPoint, 1e-15, 2, &mut r, &mut w).unwrap_err();
+        let failure = ContactSolver::new(Solver::FixedPoint)
+            .solve(&problem, 1e-15, 2, &mut r, &mut w)
+            .unwrap_err();
         assert_eq!(failure.iterations, 2);
         assert_eq!(failure.history.len(), 2);
         assert!(failure.history.iter().all(|residual| *residual > 1e-15));

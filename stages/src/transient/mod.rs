@@ -151,7 +151,8 @@ impl TransientParams {
     fn solver(&self) -> Solver {
         match self.solver.as_str() {
             "fixed_point" => Solver::FixedPoint,
-            _ => Solver::GaussSeidel,
+            "gauss_seidel" => Solver::GaussSeidel,
+            _ => Solver::ActiveSet,
         }
     }
 }
@@ -161,7 +162,7 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
@@ -203,9 +204,9 @@ impl Stage for Transient {
             ),
             ParamSpec::choice(
                 "solver",
-                &["gauss_seidel", "fixed_point"],
-                "gauss_seidel",
-                "contact solver: projected Gauss-Seidel, or the Jacobi fixed point of the projection laws",
+                &["active_set", "gauss_seidel", "fixed_point"],
+                "active_set",
+                "contact solver: a chord Newton on the pairs' active set with a kept factorisation, falling back to projected Gauss-Seidel; projected Gauss-Seidel alone; or the Jacobi fixed point of the projection laws",
             ),
             ParamSpec::float(
                 "tolerance",

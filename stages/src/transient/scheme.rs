@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use squeal_linalg::CscMatrix;
 use squeal_linalg::cholesky::{Cholesky, InterfaceSolve};
 
-use super::contact::{self, Solver};
+use super::contact::{self, ContactSolver, PairState, Solver, classify};
 use super::energy::{Audit, StepWork};
 use crate::stage::Checkpoints;
 
@@ -63,14 +63,6 @@ pub struct Settings {
     pub record_pairs: Vec<usize>,
     /// Steps at which a snapshot of `u`, `v` is kept (ascending).
     pub snapshot_steps: Vec<usize>,
-}
-
-/// Contact state of a pair at the end of a step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PairState {
-    Open,
-    Stick,
-    Slide,
 }
 
 /// One row of the history, at time `t`.
@@ -155,6 +147,7 @@ struct Checkpoint {
     delta: Vec<f64>,
     w: Vec<f64>,
     r: Vec<f64>,
+    contact: contact::Memory,
     audit: Audit,
     history: Vec<HistoryRow>,
     snapshots: Vec<Snapshot>,
@@ -312,6 +305,7 @@ pub fn integrate(
     let mut v_new = vec![0.0; n];
     let mut MCK_v_new = vec![[0.0; 3]; n];
     let mut states = vec![PairState::Open; n_pairs];
+    let mut contact_solver = ContactSolver::new(settings.solver);
     let mut history = Vec::new();
     let mut snapshots = Vec::new();
     let mut worst_contact_residual: f64 = 0.0;
@@ -359,7 +353,7 @@ pub fn integrate(
         }
     };
     for (p, state) in states.iter_mut().enumerate() {
-        *state = classify(&r, &w, p, contact_state);
+        *state = classify(&r, &w, p, contact_state.sliding_speed[p]);
     }
     history.push(record(0, &states, &delta, &w, &audit, 0));
     if settings.snapshot_steps.first() == Some(&0) {
@@ -384,6 +378,17 @@ pub fn integrate(
     {
         first_step = saved.step + 1;
         (u, v, K_u, delta, w, r) = (saved.u, saved.v, saved.K_u, saved.delta, saved.w, saved.r);
+        contact_solver.restore(
+            saved.contact,
+            &contact::Problem {
+                W: interface_solve.W.as_ref(),
+                w_free: &w_free,
+                w_n_min: &w_n_min,
+                sliding_speed: &contact_state.sliding_speed,
+                mu: contact_state.mu,
+                force_scale,
+            },
+        );
         (audit, history, snapshots) = (saved.audit, saved.history, saved.snapshots);
         worst_contact_residual = saved.worst_contact_residual;
         most_contact_iterations = saved.most_contact_iterations;
@@ -431,20 +436,20 @@ pub fn integrate(
                 residual: 0.0,
             }
         } else {
-            contact::solve(
-                &problem,
-                settings.solver,
-                settings.tolerance,
-                settings.max_iterations,
-                &mut r,
-                &mut w_new,
-            )
-            .map_err(|failure| Failure::Contact {
-                step,
-                t,
-                history: failure.history,
-                iterations: failure.iterations,
-            })?
+            contact_solver
+                .solve(
+                    &problem,
+                    settings.tolerance,
+                    settings.max_iterations,
+                    &mut r,
+                    &mut w_new,
+                )
+                .map_err(|failure| Failure::Contact {
+                    step,
+                    t,
+                    history: failure.history,
+                    iterations: failure.iterations,
+                })?
         };
         timings.contact += clock.elapsed().as_secs_f64();
         worst_contact_residual = worst_contact_residual.max(report.residual);
@@ -491,7 +496,7 @@ pub fn integrate(
         std::mem::swap(&mut MCK_v, &mut MCK_v_new);
         std::mem::swap(&mut w, &mut w_new);
         for p in 0..n_pairs {
-            states[p] = classify(&r, &w, p, contact_state);
+            states[p] = classify(&r, &w, p, contact_state.sliding_speed[p]);
             peak_penetration = peak_penetration.max(-(contact_state.gap[p] + delta[3 * p]));
         }
         if step.is_multiple_of(settings.output_every) || step == settings.n_steps {
@@ -514,6 +519,7 @@ pub fn integrate(
                 delta: delta.clone(),
                 w: w.clone(),
                 r: r.clone(),
+                contact: contact_solver.memory(),
                 audit: audit.clone(),
                 history: history.clone(),
                 snapshots: snapshots.clone(),
@@ -538,19 +544,4 @@ pub fn integrate(
         most_contact_iterations,
         peak_penetration,
     })
-}
-
-/// Open (no reaction), sticking (no slip) or sliding, from the end-of-step reaction and
-/// velocity; a slip below 1e-9 of the sliding speed counts as sticking.
-fn classify(r: &[f64], w: &[f64], p: usize, contact_state: &ContactState) -> PairState {
-    if r[3 * p] <= 0.0 {
-        return PairState::Open;
-    }
-    let speed = contact_state.sliding_speed[p];
-    let slip = (w[3 * p + 1] - speed).hypot(w[3 * p + 2]);
-    if slip <= 1e-9 * speed {
-        PairState::Stick
-    } else {
-        PairState::Slide
-    }
 }

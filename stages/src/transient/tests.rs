@@ -24,7 +24,7 @@ fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
         theta,
         tau,
         n_steps,
-        solver: Solver::GaussSeidel,
+        solver: Solver::ActiveSet,
         tolerance: 1e-12,
         max_iterations: 5000,
         output_every: 1,
