@@ -28,7 +28,7 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, supernodal::SupernodalLltRef,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
+use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use crate::Error;
 use crate::csc::CscMatrix;
@@ -271,14 +271,38 @@ impl Cholesky {
     }
 }
 
-/// `Y = L⁻¹ Pᵀ Gᵀ` stored by its nonzero rows, and the Delassus operator `W = Yᵀ Y = G A⁻¹ Gᵀ`.
+/// `Y = L⁻¹ Pᵀ Gᵀ` on its nonzero rows, and the Delassus operator `W = Yᵀ Y = G A⁻¹ Gᵀ`.
+///
+/// `Y` is mostly zero even there: the parts a contact joins share no node, so their
+/// unknowns fall in separate blocks of `L`, and within a block `L⁻¹` fills a column only
+/// below its first nonzero. Each column is kept as its runs of consecutive nonzero rows.
 pub struct InterfaceSolve {
     /// Rows (in elimination order) where `Y` is nonzero, ascending.
     pub rows: Vec<usize>,
-    /// Those rows of `Y` (`rows.len()` × number of rows of `G`).
-    pub Y: Mat<f64>,
+    /// Per column of `Y`, its runs: first position in `rows`, then the values.
+    columns: Vec<Vec<(usize, Vec<f64>)>>,
     /// `G A⁻¹ Gᵀ`, symmetric positive semi-definite.
     pub W: Mat<f64>,
+}
+
+/// Zeros inside a column kept rather than starting a new run.
+const RUN_GAP: usize = 8;
+
+/// The runs of nonzero entries of `column`, joined across gaps of at most [`RUN_GAP`] zeros.
+fn runs_of(column: &[f64]) -> Vec<(usize, Vec<f64>)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (i, value) in column.iter().enumerate() {
+        if *value == 0.0 {
+            continue;
+        }
+        match runs.last_mut() {
+            Some((_, end)) if i - *end <= RUN_GAP => *end = i + 1,
+            _ => runs.push((i, i + 1)),
+        }
+    }
+    runs.into_iter()
+        .map(|(start, end)| (start, column[start..end].to_vec()))
+        .collect()
 }
 
 impl InterfaceSolve {
@@ -329,38 +353,53 @@ impl InterfaceSolve {
             1.0,
             Par::Seq,
         );
-        InterfaceSolve { rows, Y, W }
+        let columns = (0..m)
+            .map(|col| {
+                let column = Y.col(col).try_as_col_major().expect("a dense column");
+                runs_of(column.as_slice())
+            })
+            .collect();
+        InterfaceSolve { rows, columns, W }
+    }
+
+    /// Entries of `Y` stored, zeros inside runs included.
+    pub fn stored_len(&self) -> usize {
+        self.columns
+            .iter()
+            .flat_map(|runs| runs.iter().map(|(_, values)| values.len()))
+            .sum()
     }
 
     /// `Yᵀ y` for `y` in elimination order: `G A⁻¹ b` when `y = L⁻¹ Pᵀ b`.
     pub fn project(&self, y: &[f64], out: &mut [f64]) {
         let gathered: Vec<f64> = self.rows.iter().map(|&row| y[row]).collect();
-        let gathered = MatRef::from_column_major_slice(&gathered, self.rows.len(), 1);
-        let out = MatMut::from_column_major_slice_mut(out, self.Y.ncols(), 1);
-        matmul(
-            out,
-            Accum::Replace,
-            self.Y.transpose(),
-            gathered,
-            1.0,
-            Par::Seq,
-        );
+        for (slot, runs) in out.iter_mut().zip(&self.columns) {
+            *slot = runs
+                .iter()
+                .map(|(first, values)| {
+                    let y = &gathered[*first..*first + values.len()];
+                    values.iter().zip(y).map(|(a, b)| a * b).sum::<f64>()
+                })
+                .sum();
+        }
     }
 
     /// `y += Y r`.
     pub fn lift(&self, r: &[f64], y: &mut [f64]) {
-        let r = MatRef::from_column_major_slice(r, self.Y.ncols(), 1);
-        let mut product = Mat::<f64>::zeros(self.rows.len(), 1);
-        matmul(
-            product.as_mut(),
-            Accum::Replace,
-            self.Y.as_ref(),
-            r,
-            1.0,
-            Par::Seq,
-        );
-        for (compact, &row) in self.rows.iter().enumerate() {
-            y[row] += product[(compact, 0)];
+        let mut product = vec![0.0; self.rows.len()];
+        for (&r_j, runs) in r.iter().zip(&self.columns) {
+            if r_j == 0.0 {
+                continue;
+            }
+            for (first, values) in runs {
+                let slots = &mut product[*first..*first + values.len()];
+                for (slot, value) in slots.iter_mut().zip(values) {
+                    *slot += value * r_j;
+                }
+            }
+        }
+        for (value, &row) in product.iter().zip(&self.rows) {
+            y[row] += value;
         }
     }
 }

@@ -1,8 +1,9 @@
 //! The nonlinear transient of the default brake (`mesh.brake` defaults, μ = 0.38, ω = 4 rad/s,
 //! interference 0.1 mm), started by a normal velocity kick of the pads' contact nodes: the
 //! factorisation of J and the Delassus set-up, the cost of a step split into the sparse sweeps,
-//! the contact solve and the rest, against one plain solve with J's factor, then the whole run
-//! with its wall time and peak memory.
+//! the contact solve and the rest, against one plain solve with J's factor (repeated, and after
+//! a cache flush, the state a step's solve meets), then the whole run with its wall time and
+//! peak memory.
 //! Run with `cargo bench -p squeal-stages --bench transient`. `SQUEAL_BENCH_STEPS` (20,000),
 //! `SQUEAL_BENCH_TAU` (1e-6 s), `SQUEAL_BENCH_KICK` (1e-3 m/s) and `SQUEAL_BENCH_SOLVER`
 //! (`active_set`, `gauss_seidel` or `fixed_point`) override the run.
@@ -107,7 +108,23 @@ fn main() {
         cholesky.solve_in_place(rhs.as_mut(), Par::Seq);
     }
     let solve_ms = 1e3 * clock.elapsed().as_secs_f64() / repeats as f64;
-    drop(cholesky);
+    // Within a step the factor meets a cold cache: the step's other work (the products, W)
+    // streams more than the last-level cache between two sweeps. The same solve after a
+    // 64 MiB flush is the like-for-like reference.
+    let flush: Vec<f64> = (0..8 << 20).map(|i| i as f64).collect();
+    let mut cold_seconds = 0.0;
+    let mut checksum = 0.0;
+    for _ in 0..repeats {
+        checksum += flush.iter().sum::<f64>();
+        let clock = Instant::now();
+        cholesky.solve_in_place(rhs.as_mut(), Par::Seq);
+        cold_seconds += clock.elapsed().as_secs_f64();
+    }
+    std::hint::black_box(checksum);
+    let cold_solve_ms = 1e3 * cold_seconds / repeats as f64;
+    drop((cholesky, flush));
+    // The peak memory reported is the run's: reset the high-water mark (Linux).
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
 
     let settings = Settings {
         theta,
@@ -144,11 +161,12 @@ fn main() {
         timings.factor, run.factor_len, timings.delassus, run.interface_rows
     );
     println!(
-        "per step {step_ms:.3} ms: sweeps {:.3} ms, contact {:.3} ms, the rest {:.3} ms; one plain solve {solve_ms:.3} ms; step / solve = {:.2}",
+        "per step {step_ms:.3} ms: sweeps {:.3} ms, contact {:.3} ms, the rest {:.3} ms; one plain solve {solve_ms:.3} ms repeated, {cold_solve_ms:.3} ms after a cache flush; step / solve = {:.2} (repeated), {:.2} (flushed)",
         per_step(timings.sweeps),
         per_step(timings.contact),
         per_step(timings.steps - timings.sweeps - timings.contact),
-        step_ms / solve_ms
+        step_ms / solve_ms,
+        step_ms / cold_solve_ms
     );
     let last = run.history.last().expect("rows");
     println!(

@@ -222,7 +222,7 @@ fn velocities(problem: &Problem, r: &[f64], w: &mut [f64]) {
 }
 
 /// Solves the step's problem with an iterative solver from the reactions `r` (a warm start,
-/// overwritten with the solution); `w` receives the matching velocities.
+/// overwritten with the solution), `w` its velocities on entry, the solution's on return.
 fn iterate(
     problem: &Problem,
     step: &Step,
@@ -232,7 +232,6 @@ fn iterate(
     r: &mut [f64],
     w: &mut [f64],
 ) -> Result<Report, NotConverged> {
-    velocities(problem, r, w);
     let mut history = Vec::new();
     let mut next = vec![0.0; r.len()];
     for iteration in 1..=max_iterations {
@@ -282,6 +281,15 @@ pub struct Basis {
 pub struct Memory {
     factorised: Option<Basis>,
     previous: Option<Vec<PairState>>,
+    last: Option<LastSolution>,
+}
+
+/// The last solution's reactions and `W r`: the next step starts from those reactions, and
+/// its `w = w_free + W r` then costs no pass over `W`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct LastSolution {
+    r: Vec<f64>,
+    W_r: Vec<f64>,
 }
 
 /// The laws of one active set, linearised and factorised.
@@ -429,6 +437,7 @@ pub struct ContactSolver {
     solver: Solver,
     factorisation: Option<(Basis, Factorisation)>,
     previous: Option<Vec<PairState>>,
+    last: Option<LastSolution>,
 }
 
 impl ContactSolver {
@@ -437,6 +446,7 @@ impl ContactSolver {
             solver,
             factorisation: None,
             previous: None,
+            last: None,
         }
     }
 
@@ -445,6 +455,7 @@ impl ContactSolver {
         Memory {
             factorised: self.factorisation.as_ref().map(|(basis, _)| basis.clone()),
             previous: self.previous.clone(),
+            last: self.last.clone(),
         }
     }
 
@@ -455,6 +466,7 @@ impl ContactSolver {
             factorisation.map(|f| (basis, f))
         });
         self.previous = memory.previous;
+        self.last = memory.last;
     }
 
     /// Solves the step's problem from the reactions `r` (a warm start, overwritten with the
@@ -468,7 +480,15 @@ impl ContactSolver {
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
         let step = problem.step_lengths();
-        match self.solver {
+        match &self.last {
+            Some(last) if last.r == r => {
+                for ((slot, w_free), W_r) in w.iter_mut().zip(problem.w_free).zip(&last.W_r) {
+                    *slot = w_free + W_r;
+                }
+            }
+            _ => velocities(problem, r, w),
+        }
+        let report = match self.solver {
             Solver::GaussSeidel | Solver::FixedPoint => iterate(
                 problem,
                 &step,
@@ -481,7 +501,16 @@ impl ContactSolver {
             Solver::ActiveSet => {
                 self.solve_active_set(problem, &step, tolerance, max_iterations, r, w)
             }
-        }
+        }?;
+        self.last = Some(LastSolution {
+            r: r.to_vec(),
+            W_r: w
+                .iter()
+                .zip(problem.w_free)
+                .map(|(w, w_free)| w - w_free)
+                .collect(),
+        });
+        Ok(report)
     }
 
     fn solve_active_set(
@@ -493,9 +522,8 @@ impl ContactSolver {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
-        let warm_start = r.to_vec();
+        let warm_start = (r.to_vec(), w.to_vec());
         if let Some((_, factorisation)) = &self.factorisation {
-            velocities(problem, r, w);
             if let Some(report) = factorisation.chord(problem, step, tolerance, r, w) {
                 let basis = basis_of(problem, r, w);
                 self.previous = Some(basis.states.clone());
@@ -505,7 +533,8 @@ impl ContactSolver {
                 return Ok(report);
             }
             self.factorisation = None;
-            r.copy_from_slice(&warm_start);
+            r.copy_from_slice(&warm_start.0);
+            w.copy_from_slice(&warm_start.1);
         }
         let report = iterate(problem, step, true, tolerance, max_iterations, r, w)?;
         let basis = basis_of(problem, r, w);

@@ -10,9 +10,16 @@
 //! ```
 //!
 //! solved as in [`squeal_linalg::cholesky`]: one forward sweep, the contact problem on the
-//! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep. `M v`, `C v`, `K v` come from one pass over
-//! their union pattern; `K u` is carried by its own recursion `K u¹ = K u⁰ + τ K v^θ`, so a
-//! step costs one solve and one fused product.
+//! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep. `C v` and `K v` come from one pass over
+//! their union pattern; `M v` from the step's own equation,
+//!
+//! ```text
+//! M v¹ = τ (J v¹ − θ C v¹ − τθ² K v¹),   J v¹ = F_MTD + Hᵀ r  (the right-hand side just solved)
+//! ```
+//!
+//! and `K u` by its recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one
+//! product with two matrices. (The solve's backward error, ε‖J‖‖v‖ per step, is all that
+//! separates the derived `M v` from the product.)
 
 use faer::{MatMut, Par};
 use rayon::prelude::*;
@@ -135,15 +142,16 @@ pub enum Failure {
     },
 }
 
-/// Everything a step changes: what a checkpoint holds. `M v`, `C v`, `K v` are recomputed from
-/// `v` (the same bytes: the fused products are deterministic); `K u` is carried by its own
-/// recursion, so it is kept.
+/// Everything a step changes: what a checkpoint holds. `C v`, `K v` are recomputed from `v`
+/// (the same bytes: the fused product is deterministic); `M v` and `K u` are carried by
+/// recursions, so they are kept.
 #[derive(Serialize, Deserialize)]
 struct Checkpoint {
     step: usize,
     u: Vec<f64>,
     v: Vec<f64>,
     K_u: Vec<f64>,
+    M_v: Vec<f64>,
     delta: Vec<f64>,
     w: Vec<f64>,
     r: Vec<f64>,
@@ -156,19 +164,21 @@ struct Checkpoint {
     peak_penetration: f64,
 }
 
-/// `M x`, `C x` and `K x` in one pass over the union of their patterns.
+/// `C x` and `K x` in one pass over the union of their patterns.
 struct FusedProducts {
     col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    values: Vec<[f64; 3]>,
+    /// `u32` halves the index traffic: the product is bound by memory bandwidth.
+    row_idx: Vec<u32>,
+    values: Vec<[f64; 2]>,
 }
 
 impl FusedProducts {
-    fn new(matrices: [&CscMatrix; 3]) -> FusedProducts {
+    fn new(matrices: [&CscMatrix; 2]) -> FusedProducts {
         let n = matrices[0].n_cols;
+        assert!(n <= u32::MAX as usize, "more unknowns than u32 indices");
         let mut col_ptr = vec![0];
         let mut row_idx = Vec::new();
-        let mut values: Vec<[f64; 3]> = Vec::new();
+        let mut values: Vec<[f64; 2]> = Vec::new();
         let mut column: Vec<(usize, usize, f64)> = Vec::new();
         for col in 0..n {
             column.clear();
@@ -181,8 +191,8 @@ impl FusedProducts {
             let mut last = usize::MAX;
             for &(row, which, value) in &column {
                 if row != last {
-                    row_idx.push(row);
-                    values.push([0.0; 3]);
+                    row_idx.push(row as u32);
+                    values.push([0.0; 2]);
                     last = row;
                 }
                 values.last_mut().expect("an entry was pushed")[which] += value;
@@ -196,23 +206,24 @@ impl FusedProducts {
         }
     }
 
-    /// `(M x, C x, K x)`: the matrices are symmetric, so row `i` is read as column `i`; each
-    /// output entry is summed by one task in a fixed order.
+    /// `C x` and `K x` into the last two slots of `out`, laid out `(M x, C x, K x)` per row:
+    /// the matrices are symmetric, so row `i` is read as column `i`; each output entry is
+    /// summed by one task in a fixed order.
     fn apply(&self, x: &[f64], out: &mut [[f64; 3]]) {
         out.par_chunks_mut(PRODUCT_CHUNK)
             .enumerate()
             .for_each(|(chunk, slots)| {
                 for (offset, slot) in slots.iter_mut().enumerate() {
                     let i = chunk * PRODUCT_CHUNK + offset;
-                    let mut sum = [0.0; 3];
+                    let mut sum = [0.0; 2];
                     for entry in self.col_ptr[i]..self.col_ptr[i + 1] {
                         let value = self.values[entry];
-                        let x_j = x[self.row_idx[entry]];
+                        let x_j = x[self.row_idx[entry] as usize];
                         sum[0] += value[0] * x_j;
                         sum[1] += value[1] * x_j;
-                        sum[2] += value[2] * x_j;
                     }
-                    *slot = sum;
+                    slot[1] = sum[0];
+                    slot[2] = sum[1];
                 }
             });
     }
@@ -268,7 +279,7 @@ pub fn integrate(
     let clock = std::time::Instant::now();
     let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
     timings.delassus = clock.elapsed().as_secs_f64();
-    let products = FusedProducts::new([structure.M, structure.C, structure.K]);
+    let products = FusedProducts::new([structure.C, structure.K]);
 
     // Hᵀ r_e, the equilibrium's contact force.
     let mut equilibrium_force = vec![0.0; n];
@@ -284,10 +295,10 @@ pub fn integrate(
 
     let mut MCK_v = vec![[0.0; 3]; n];
     products.apply(&v, &mut MCK_v);
-    let mut MCK_u = vec![[0.0; 3]; n];
-    products.apply(&u, &mut MCK_u);
-    let mut K_u: Vec<f64> = MCK_u.iter().map(|p| p[2]).collect();
-    drop(MCK_u);
+    for (slot, M_v) in MCK_v.iter_mut().zip(structure.M.mul_vec(&v)) {
+        slot[0] = M_v;
+    }
+    let mut K_u = structure.K.mul_vec(&u);
     // Relative displacement (from the equilibrium) and velocity of the pairs.
     let mut delta = h_times(&structure.H_rows, &u);
     let mut w = h_times(&structure.H_rows, &v);
@@ -373,6 +384,7 @@ pub fn integrate(
                 && saved.u.len() == n
                 && saved.v.len() == n
                 && saved.K_u.len() == n
+                && saved.M_v.len() == n
                 && saved.r.len() == m
         })
     {
@@ -397,6 +409,9 @@ pub fn integrate(
             .snapshot_steps
             .partition_point(|&kept| kept <= saved.step);
         products.apply(&v, &mut MCK_v);
+        for (slot, M_v) in MCK_v.iter_mut().zip(&saved.M_v) {
+            slot[0] = *M_v;
+        }
     }
 
     let steps_clock = std::time::Instant::now();
@@ -465,6 +480,15 @@ pub fn integrate(
             return Err(Failure::NotFinite { step, t });
         }
         products.apply(&v_new, &mut MCK_v_new);
+        // M v¹ = τ (F_MTD + Hᵀ r − θ C v¹ − τθ² K v¹).
+        for (row, entries) in structure.H_rows.iter().enumerate() {
+            for &(dof, value) in entries {
+                rhs[dof] += value * r[row];
+            }
+        }
+        for (slot, J_v) in MCK_v_new.iter_mut().zip(&rhs) {
+            slot[0] = tau * (J_v - theta * slot[1] - tau * theta * theta * slot[2]);
+        }
         // u¹ = u⁰ + τ v^θ, K u¹ = K u⁰ + τ K v^θ, δ¹ = δ⁰ + τ w^θ.
         u_old.copy_from_slice(&u);
         K_u_old.copy_from_slice(&K_u);
@@ -516,6 +540,7 @@ pub fn integrate(
                 u: u.clone(),
                 v: v.clone(),
                 K_u: K_u.clone(),
+                M_v: MCK_v.iter().map(|p| p[0]).collect(),
                 delta: delta.clone(),
                 w: w.clone(),
                 r: r.clone(),
