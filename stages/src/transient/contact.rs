@@ -29,29 +29,31 @@
 //!
 //! [`Solver::ActiveSet`] (the default) uses that from one step to the next the pairs mostly
 //! keep their state. Once a step's solution has the same *active set* as the step before
-//! (each pair open, sticking or sliding), it factorises the laws of that set, which are
-//! linear but for the sliding directions:
+//! (each pair open, sticking or sliding), it linearises the laws of that set, with the
+//! velocity rows scaled by `ρ` so that every row is a force,
 //!
 //! ```text
-//! sliding pair:   w_n = w_n,min,                       r_T = μ r_n d,  d = −s/‖s‖
-//! sticking pair:  w_n = w_n,min,  w_t = v_g,  w_b = 0
+//! sliding pair:   ρ_n (w_n − w_n,min) = 0,          F_T = r_T − μ r_n d(s) = 0,  d = −s/‖s‖
+//! sticking pair:  ρ_n (w_n − w_n,min) = 0,  ρ_T (w_t − v_g) = 0,  ρ_T w_b = 0
 //! open pair:      r = 0
 //! ```
 //!
-//! The unknowns `x` are `r_n` per sliding pair and `r` per sticking pair, `r = E(d) x`, and the
-//! equations `G (w_free + W E(d) x) = G c` pick the rows above. With `A = G W E(d₀)`
-//! factorised (LU) for the directions `d₀` of the step it was built on, each later step runs
-//! the chord iteration
+//! with `w = w_free + W r`. The friction direction turns with the binormal slip, and its
+//! derivative must be kept (dropping it makes the iteration oscillate on `r_b`):
+//! `∂F_T = Δr_T − μ d Δr_n + (μ r_n/‖s‖)(I − ŝŝᵀ) Δw_T`. The Jacobian `A` (three unknowns per
+//! closed pair) is factorised (LU) at the solution it was built on, and later steps run the
+//! chord iteration
 //!
 //! ```text
-//! x ← x + A⁻¹ G (c − w),   d ← −s/‖s‖ from the new w,   r = E(d) x,   w = w_free + W r
+//! r ← r − A⁻¹ F(r),   w = w_free + W r
 //! ```
 //!
-//! whose error contracts by `‖I − A⁻¹ G W E(d)‖`, the small drift of the directions: two or
-//! three passes over `W` where Gauss–Seidel needs fifteen. A step is accepted only on the same
-//! natural residual as the iterative solvers; when the set changes the chord fails to meet
-//! it, the step is solved by Gauss–Seidel from its warm start, and the factorisation is
-//! dropped until a set holds for two steps again.
+//! which contracts by how far the set's linearisation has moved: two passes over `W` on
+//! average where Gauss–Seidel needs fifteen. A step is accepted only on the same natural
+//! residual as the iterative solvers. When the set changes the chord fails to meet it: the step
+//! is solved by Gauss–Seidel from its warm start, and the factorisation is dropped until a set
+//! holds for two steps again; a chord that needed more than three iterations
+//! refactorises at its solution.
 //!
 //! Convergence is measured by the natural residual `max_p ‖r_p − proj(r_p)‖ / R`, `R` the
 //! force scale (the largest equilibrium reaction, or the largest reaction found).
