@@ -260,8 +260,6 @@ pub fn read_msh(text: &str, options: &ReadOptions) -> Result<Mesh, MshError> {
     build_mesh(&nodes, elements, options)
 }
 
-/// Checks `$MeshFormat` / `4.1 0 8` at the top of the file.
-
 #[cfg(test)]
 mod tests {
     use std::collections::BTreeMap;

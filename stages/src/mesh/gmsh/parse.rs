@@ -5,6 +5,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::{GMSH_HEXAHEDRON, MshError};
 
+/// Checks `$MeshFormat` / `4.1 0 8` at the top of the file.
 pub(super) fn check_format_header(text: &str) -> Result<(), MshError> {
     let mut lines = text
         .lines()
