@@ -170,7 +170,7 @@ fn main() {
     );
     let last = run.history.last().expect("rows");
     println!(
-        "run {wall:.1} s wall, peak memory {:.0} MiB; contact iterations {:.1} on average, {} at most, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; final kinetic energy {:.6e} J; balance error {:.2e} J of peak {:.2e} J",
+        "run {wall:.1} s wall, peak memory {:.0} MiB; contact iterations {:.1} on average, {} at most, {} factorisations of the active set, worst residual {:.1e}; final open {:.2}, stick {:.2}, slide {:.2}; final kinetic energy {:.6e} J; balance error {:.2e} J of peak {:.2e} J",
         peak_memory_mib(),
         run.history
             .iter()
@@ -179,6 +179,7 @@ fn main() {
             .sum::<f64>()
             / (run.history.len() - 1).max(1) as f64,
         run.most_contact_iterations,
+        run.contact_factorisations,
         run.worst_contact_residual,
         last.open,
         last.stick,

@@ -109,6 +109,8 @@ pub struct Run {
     pub worst_contact_residual: f64,
     pub most_contact_iterations: usize,
     pub peak_penetration: f64,
+    /// Factorisations of the active-set contact solver (for benchmarks, like the timings).
+    pub contact_factorisations: usize,
     /// Where the time went (for benchmarks; never in an output: it is not reproducible).
     pub timings: Timings,
 }
@@ -568,5 +570,6 @@ pub fn integrate(
         worst_contact_residual,
         most_contact_iterations,
         peak_penetration,
+        contact_factorisations: contact_solver.factorisations,
     })
 }
