@@ -316,12 +316,15 @@ impl Default for Pacing {
     }
 }
 
-/// The last solution's reactions and `W r`: the next step starts from those reactions, and
-/// its `w = w_free + W r` then costs no pass over `W`.
+/// The last solution's reactions and `W r`, and the step's before. The next step starts from
+/// their linear extrapolation `2 r⁰ − r⁻¹` (reactions vary smoothly while the set holds: the
+/// chord then mostly needs one iteration instead of two), and since `w` is affine in `r`
+/// its `w = w_free + 2 W r⁰ − W r⁻¹` costs no pass over `W`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct LastSolution {
     r: Vec<f64>,
     W_r: Vec<f64>,
+    before: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 /// The laws of one active set, linearised and factorised.
@@ -510,8 +513,8 @@ impl ContactSolver {
         self.pacing = memory.pacing;
     }
 
-    /// Solves the step's problem from the reactions `r` (a warm start, overwritten with the
-    /// solution); `w` receives the matching velocities.
+    /// Solves the step's problem from the reactions `r` (the last solution, or any warm
+    /// start; overwritten with the solution); `w` receives the matching velocities.
     pub fn solve(
         &mut self,
         problem: &Problem,
@@ -522,6 +525,16 @@ impl ContactSolver {
     ) -> Result<Report, NotConverged> {
         let step = problem.step_lengths();
         match &self.last {
+            Some(LastSolution {
+                r: r_0,
+                W_r: W_r_0,
+                before: Some((r_1, W_r_1)),
+            }) if r_0 == r => {
+                for k in 0..r.len() {
+                    r[k] = 2.0 * r_0[k] - r_1[k];
+                    w[k] = problem.w_free[k] + (2.0 * W_r_0[k] - W_r_1[k]);
+                }
+            }
             Some(last) if last.r == r => {
                 for ((slot, w_free), W_r) in w.iter_mut().zip(problem.w_free).zip(&last.W_r) {
                     *slot = w_free + W_r;
@@ -543,7 +556,9 @@ impl ContactSolver {
                 self.solve_active_set(problem, &step, tolerance, max_iterations, r, w)
             }
         }?;
+        let before = self.last.take().map(|last| (last.r, last.W_r));
         self.last = Some(LastSolution {
+            before,
             r: r.to_vec(),
             W_r: w
                 .iter()
@@ -823,13 +838,19 @@ mod tests {
         for step in 0..steps {
             let problem = Problem {
                 W: W.as_ref(),
-                w_free: if (step / 3) % 2 == 0 { &w_free } else { &reversed },
+                w_free: if (step / 3) % 2 == 0 {
+                    &w_free
+                } else {
+                    &reversed
+                },
                 w_n_min: &w_n_min,
                 sliding_speed: &sliding,
                 mu: 0.38,
                 force_scale: 0.0,
             };
-            solver.solve(&problem, 1e-13, 20_000, &mut r, &mut w).unwrap();
+            solver
+                .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
+                .unwrap();
             check_laws(&r, &w, 0.38, 1e-10);
         }
         // Unpaced, one factorisation every three steps (200); paced, the waits 2, 4, …, 256
