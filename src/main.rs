@@ -51,7 +51,7 @@ enum Command {
     Run {
         #[command(flatten)]
         study: StudyArgs,
-        /// Output directory [default: out/<study file stem>].
+        /// Output directory [default: out/STEM, STEM the study file name without extension].
         #[arg(long)]
         out: Option<PathBuf>,
         /// Stages run at once [default: all cores].

@@ -1,6 +1,6 @@
 //! The planner: for each stage instance, cached or runs, and why.
 //!
-//! The same [`decide`] serves `squeal plan` (walking the instances in order, with the digests
+//! The same `decide` serves `squeal plan` (walking the instances in order, with the digests
 //! the cache already knows) and the scheduler (with the digests upstream stages just produced).
 //! A cached entry counts only if its record and every object it names verify.
 

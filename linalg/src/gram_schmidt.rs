@@ -7,7 +7,7 @@
 //!
 //! The real Lanczos basis is orthonormal in the `M` inner product, with `M V` kept beside `V`:
 //! its blocks are made orthonormal by Cholesky QR, twice, after the same projections
-//! ([`orthonormalize_block`]), column by column where the Krylov space has become invariant.
+//! (`orthonormalize_block`), column by column where the Krylov space has become invariant.
 
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatRef, Par, c64};

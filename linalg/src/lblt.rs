@@ -95,7 +95,7 @@ impl Lblt {
     /// [`Self::factorize`] was given. A Krylov block (up to eight columns) shares the tree among
     /// the threads; wider ones share out their columns, each thread sweeping the whole factor
     /// sixteen columns at a time, which reads L less often per column, and the forward sweep
-    /// of sparse columns visits only their reach ([`SupernodeTree::reach`]).
+    /// of sparse columns visits only their reach (`SupernodeTree::reach`).
     /// faer's own solve runs where the row-major kernels do not apply: a simplicial factor
     /// (small problems) or a processor without AVX2 and FMA.
     pub fn solve_in_place(&self, symbolic: &SymbolicCholesky<usize>, mut rhs: MatMut<'_, f64>) {

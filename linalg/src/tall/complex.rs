@@ -171,7 +171,7 @@ pub fn add_times(X: MatMut<'_, c64>, Q: MatRef<'_, c64>, C: MatRef<'_, c64>, par
 }
 
 /// `Z −= Q C`, then `Qᴴ Z` of the result: a Gram–Schmidt update and the next pass's
-/// projection in one sweep over `Q` from memory. Each strip of [`STRIP_ROWS`] rows is updated,
+/// projection in one sweep over `Q` from memory. Each strip of `STRIP_ROWS` rows is updated,
 /// then projected while its part of `Q` is still in cache. The products with blocks of eight
 /// are bound by memory traffic, so the second read, from cache, costs less than a sweep.
 pub fn subtract_then_adjoint_times(

@@ -6,7 +6,9 @@
 //! covers `puck_cells × puck_cells` disc face cells, separated by `puck_gap_cells`, and is
 //! `puck_height` high in `puck_layers` layers. Pucks use the disc's (r, θ) grid, so each puck
 //! node on the friction face coincides with a disc node: the two are distinct nodes (nothing
-//! ties them but contact), and each such pair is a node-to-node contact pair.
+//! ties them but contact), and each such pair is a node-to-node contact pair. A pair carries
+//! the disc's outward normal (±z) and the tributary area of its node, `∫ Nᵢ dA` over the puck's
+//! friction-face cells ([`super::contact_faces`], as `mesh.gmsh` does).
 //!
 //! Node sets: `hub` (disc inner cylinder, clamped by default), `pad_backs` (outer faces of
 //! the pucks: top of the upper ones, bottom of the lower ones), `pad_backs_upper`,
@@ -16,6 +18,7 @@
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
+use super::contact_faces::FaceIntegrals;
 use super::structured::annulus;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{ContactPair, Mesh};
@@ -202,16 +205,20 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
                         }
                     }
                 }
-                // Tributary areas: a quarter of each friction-face cell to each corner.
-                let mut area = vec![0.0; n_side * n_side];
+                // Tributary areas of the disc's friction-face nodes (its outward normal ±z is
+                // exact: the face is plane).
+                let mut integrals = FaceIntegrals::default();
                 for dj in 0..g.puck_cells {
                     for di in 0..g.puck_cells {
-                        let corners = [(di, dj), (di + 1, dj), (di + 1, dj + 1), (di, dj + 1)];
-                        let cell_area =
-                            quad_area(corners.map(|(a, b)| position(i0 + a, j0 + b, 0.0)));
-                        for (a, b) in corners {
-                            area[b * n_side + a] += cell_area / 4.0;
+                        // Radial then angular: counter-clockwise seen from +z.
+                        let mut corners = [(di, dj), (di + 1, dj), (di + 1, dj + 1), (di, dj + 1)];
+                        if !upper {
+                            corners.reverse();
                         }
+                        integrals.add(
+                            corners.map(|(a, b)| disc_node(i0 + a, j0 + b, disc_layer)),
+                            &corners.map(|(a, b)| position(i0 + a, j0 + b, friction_z)),
+                        );
                     }
                 }
                 let back_set = if upper {
@@ -227,7 +234,7 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
                             disc_node: disc,
                             pad_node,
                             normal,
-                            area: area[dj * n_side + di],
+                            area: integrals.area_sums[&disc],
                         });
                         sets.entry("contact_disc").or_default().push(disc);
                         sets.entry("contact_pad").or_default().push(pad_node);
@@ -253,16 +260,6 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
         mesh.node_sets.insert(name.into(), nodes);
     }
     Ok(mesh)
-}
-
-/// Area of a planar quadrilateral in the xy plane (shoelace formula).
-fn quad_area(corners: [[f64; 3]; 4]) -> f64 {
-    let mut twice_area = 0.0;
-    for idx in 0..4 {
-        let (a, b) = (corners[idx], corners[(idx + 1) % 4]);
-        twice_area += a[0] * b[1] - b[0] * a[1];
-    }
-    twice_area.abs() / 2.0
 }
 
 /// The `mesh.brake` stage.

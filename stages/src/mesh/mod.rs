@@ -2,5 +2,6 @@
 //! Gmsh files (`mesh.gmsh`). The [`Mesh`](crate::artifact::Mesh) type itself is an artifact.
 
 pub mod brake;
+pub mod contact_faces;
 pub mod gmsh;
 pub mod structured;

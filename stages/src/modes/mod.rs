@@ -9,7 +9,7 @@
 //! ```
 //!
 //! and the set is proved complete by Sylvester's law of inertia: the negative pivots of
-//! LDLᵀ(K − τ M) count the eigenvalues below τ ([`factor`]). A failed proof or an inaccurate
+//! LDLᵀ(K − τ M) count the eigenvalues below τ (`factor`). A failed proof or an inaccurate
 //! mode is an error with the figures, never a silently wrong answer. (A rigid-body mode, where
 //! `K φ = 0`, is measured by its backward error instead: see [`eigensolver`].) Results are
 //! bit-identical from run to run and whatever the number of threads.

@@ -2,7 +2,7 @@
 //! reduced problem of the real-mode projection, and lumped models.
 //!
 //! `(λ² M + λ C + K) q = 0` is linearised on `y = [q; λ q / s]`, `s = √(‖K‖₁/‖M‖₁)` (both
-//! halves of y on one scale), and solved densely ([`linearised_eigen`]):
+//! halves of y on one scale), and solved densely (`linearised_eigen`):
 //!
 //! ```text
 //! [ 0   s I ] y = λ [ I  0  ] y

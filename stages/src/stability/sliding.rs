@@ -352,7 +352,7 @@ impl SlidingSystem {
     }
 
     /// `Tᵘᵀ (M Tᴺ X + Ĉ Tᴺ Y)` for blocks `X`, `Y` of one width: the shift-invert operator's
-    /// product, by [`PairedRows`].
+    /// product, by `PairedRows`.
     pub fn apply_mass_damping(&self, X: MatRef<'_, c64>, Y: MatRef<'_, c64>) -> Mat<c64> {
         let width = X.ncols();
         assert_eq!(Y.ncols(), width, "blocks of one width");

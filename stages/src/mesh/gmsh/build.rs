@@ -5,8 +5,9 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::parse::{BoundaryGroup, Elements, GroupKey, Nodes, element_type_name};
 use super::{ContactGroups, MshError, ReadOptions};
-use crate::artifact::mesh::{ContactPair, Mesh, cross, dot, norm, sub};
+use crate::artifact::mesh::{ContactPair, Mesh, dot, norm, sub};
 use crate::fem::hex8::{NODE_REFERENCE, det_j_at};
+use crate::mesh::contact_faces::{FaceIntegrals, quad_tangents};
 
 pub(super) fn build_mesh(
     nodes: &Nodes,
@@ -184,11 +185,8 @@ pub(super) fn pair_contact_nodes(
         )));
     }
 
-    let FaceIntegrals {
-        normal_sums,
-        area_sums,
-        shortest_edge,
-    } = integrate_disc_faces(mesh, disc_group, &disc_nodes, index_of_tag, &contact.disc)?;
+    let (integrals, shortest_edge) =
+        integrate_disc_faces(mesh, disc_group, &disc_nodes, index_of_tag, &contact.disc)?;
 
     let tolerance = contact.relative_tolerance * shortest_edge;
     let pad_grid = PointGrid::new(&mesh.nodes, &pad_nodes, shortest_edge.max(tolerance));
@@ -230,24 +228,22 @@ pub(super) fn pair_contact_nodes(
                 contact.disc
             )));
         }
-        let Some(normal_sum) = normal_sums.get(&disc_node) else {
+        let Some((normal, area)) = integrals.normal_and_area(disc_node) else {
+            let reason = if integrals.normal_sums.contains_key(&disc_node) {
+                ": its faces' normals cancel out"
+            } else {
+                " is on none of its quadrangles"
+            };
             return Err(MshError::whole_file(format!(
-                "node {} of `{}` is on none of its quadrangles",
+                "node {} of `{}`{reason}",
                 tag_of_index[&disc_node], contact.disc
             )));
         };
-        let length = norm(*normal_sum);
-        if length <= 0.0 || !length.is_finite() {
-            return Err(MshError::whole_file(format!(
-                "node {} of `{}`: its faces' normals cancel out",
-                tag_of_index[&disc_node], contact.disc
-            )));
-        }
         pairs.push(ContactPair {
             disc_node,
             pad_node,
-            normal: normal_sum.map(|component| component / length),
-            area: area_sums[&disc_node],
+            normal,
+            area,
         });
     }
     if let Some(unmatched) = pad_nodes
@@ -268,21 +264,15 @@ pub(super) fn pair_contact_nodes(
     Ok(pairs)
 }
 
-/// Per disc contact node: Σ ∫ Nᵢ n dA and Σ ∫ Nᵢ dA over its faces; and the shortest edge.
-struct FaceIntegrals {
-    normal_sums: HashMap<u32, [f64; 3]>,
-    area_sums: HashMap<u32, f64>,
-    shortest_edge: f64,
-}
-
-/// Integrates the disc's contact faces, each oriented out of the hexahedron it bounds.
+/// Integrates the disc's contact faces, each oriented out of the hexahedron it bounds; and
+/// their shortest edge.
 fn integrate_disc_faces(
     mesh: &Mesh,
     disc_group: &BoundaryGroup,
     disc_nodes: &[u32],
     index_of_tag: &HashMap<u64, u32>,
     disc_name: &str,
-) -> Result<FaceIntegrals, MshError> {
+) -> Result<(FaceIntegrals, f64), MshError> {
     // Faces of hexahedra whose four nodes are all on the disc contact surface.
     let on_disc = |node: &u32| disc_nodes.binary_search(node).is_ok();
     let mut faces: HashMap<[u32; 4], Vec<usize>> = HashMap::new();
@@ -297,8 +287,7 @@ fn integrate_disc_faces(
         }
     }
 
-    let mut normal_sums: HashMap<u32, [f64; 3]> = HashMap::new();
-    let mut area_sums: HashMap<u32, f64> = HashMap::new();
+    let mut integrals = FaceIntegrals::default();
     let mut shortest_edge = f64::INFINITY;
     for (quad_tags, element_tag, line) in &disc_group.quads {
         let mut quad = quad_tags.map(|tag| index_of_tag[&tag]);
@@ -337,31 +326,10 @@ fn integrate_disc_faces(
         for edge in 0..4 {
             shortest_edge = shortest_edge.min(norm(sub(corners[(edge + 1) % 4], corners[edge])));
         }
-        // 2×2 Gauss points integrate Nᵢ (x_ξ × x_η) exactly on a bilinear quadrangle.
-        let gauss = 1.0 / 3f64.sqrt();
-        for (xi, eta) in [
-            (-gauss, -gauss),
-            (gauss, -gauss),
-            (gauss, gauss),
-            (-gauss, gauss),
-        ] {
-            let (shape, normal_da) = quad_tangents(&corners, xi, eta);
-            let da = norm(normal_da);
-            for (local, node) in quad.iter().enumerate() {
-                let sum = normal_sums.entry(*node).or_insert([0.0; 3]);
-                for axis in 0..3 {
-                    sum[axis] += shape[local] * normal_da[axis];
-                }
-                *area_sums.entry(*node).or_insert(0.0) += shape[local] * da;
-            }
-        }
+        integrals.add(quad, &corners);
     }
 
-    Ok(FaceIntegrals {
-        normal_sums,
-        area_sums,
-        shortest_edge,
-    })
+    Ok((integrals, shortest_edge))
 }
 
 fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
@@ -374,22 +342,6 @@ fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
         count += 1.0;
     }
     sum.map(|component| component / count)
-}
-
-/// Shape functions of a bilinear quadrangle at (ξ, η) and x_ξ × x_η (normal times dA/dξdη).
-fn quad_tangents(corners: &[[f64; 3]; 4], xi: f64, eta: f64) -> ([f64; 4], [f64; 3]) {
-    const REFERENCE: [[f64; 2]; 4] = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
-    let mut shape = [0.0; 4];
-    let mut d_xi = [0.0; 3];
-    let mut d_eta = [0.0; 3];
-    for (node, [xi_n, eta_n]) in REFERENCE.iter().enumerate() {
-        shape[node] = (1.0 + xi * xi_n) * (1.0 + eta * eta_n) / 4.0;
-        for axis in 0..3 {
-            d_xi[axis] += corners[node][axis] * xi_n * (1.0 + eta * eta_n) / 4.0;
-            d_eta[axis] += corners[node][axis] * eta_n * (1.0 + xi * xi_n) / 4.0;
-        }
-    }
-    (shape, cross(d_xi, d_eta))
 }
 
 /// Points bucketed in cubes of side `cell`, to find near neighbours without a quadratic search.

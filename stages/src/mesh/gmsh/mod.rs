@@ -35,7 +35,8 @@
 //!   nodes duplicated, one copy per side, and every node on either side must find exactly one
 //!   partner within `contact_tolerance` × the shortest edge of the disc's contact faces. Each
 //!   pair gets the disc's outward unit normal and its tributary area, integrated over the
-//!   bilinear quadrangle faces: nᵢ ∝ Σ_faces ∫ Nᵢ n dA, Aᵢ = Σ_faces ∫ Nᵢ dA.
+//!   bilinear quadrangle faces: nᵢ ∝ Σ_faces ∫ Nᵢ n dA, Aᵢ = Σ_faces ∫ Nᵢ dA
+//!   ([`super::contact_faces`]).
 //!
 //! What is refused, each with one line naming the file, the line and the element type or group:
 //! binary files, MSH 2.x and 4.0, partitioned meshes, tetrahedra, prisms, pyramids and

@@ -1,7 +1,7 @@
 //! Every eigenvalue of the sliding problem in a frequency band: shift-invert block Arnoldi at
 //! shifts placed along the imaginary axis until their trusted disks cover the band.
 //!
-//! # One shift ([`shift`])
+//! # One shift (`shift`)
 //!
 //! The quadratic problem is linearised on `y = [q; λ q / s]` (first companion form, with
 //! `s = √(‖K̃‖/‖M̃‖)` so that both halves of y have the same scale),
@@ -35,7 +35,7 @@
 //! ±d_max, far from any squeal mode, are not sought). Those damped eigenvalues still have to
 //! converge where they lie inside a disk, but they get no eigenvector.
 //!
-//! # Cost and spacing ([`band`])
+//! # Cost and spacing (`band`)
 //!
 //! A shift costs one factorisation plus a contact correction (a solve with one right-hand
 //! side per closed pair), then, per block of b Arnoldi vectors, one solve with b right-hand
@@ -70,7 +70,7 @@ use faer::c64;
 pub struct KrylovOptions {
     pub block_size: usize,
     /// Basis size at which a shift's Ritz values are first examined (at least
-    /// [`MIN_BLOCK_STEPS`] blocks), and the most it may grow to.
+    /// `MIN_BLOCK_STEPS` blocks), and the most it may grow to.
     pub basis: usize,
     pub max_basis: usize,
     /// Eigenvalues each shift's disk should hold: shifts are spaced by the density the previous
