@@ -144,28 +144,6 @@ pub enum Failure {
     },
 }
 
-/// Everything a step changes: what a checkpoint holds. `C v`, `K v` are recomputed from `v`
-/// (the same bytes: the fused product is deterministic); `M v` and `K u` are carried by
-/// recursions, so they are kept.
-#[derive(Serialize, Deserialize)]
-struct Checkpoint {
-    step: usize,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    K_u: Vec<f64>,
-    M_v: Vec<f64>,
-    delta: Vec<f64>,
-    w: Vec<f64>,
-    r: Vec<f64>,
-    contact: contact::Memory,
-    audit: Audit,
-    history: Vec<HistoryRow>,
-    snapshots: Vec<Snapshot>,
-    worst_contact_residual: f64,
-    most_contact_iterations: usize,
-    peak_penetration: f64,
-}
-
 /// `C x` and `K x` in one pass over the union of their patterns.
 struct FusedProducts {
     col_ptr: Vec<usize>,
@@ -238,214 +216,166 @@ fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Integrates from the departure `(u, v)` (from the equilibrium), or from the latest of
-/// `checkpoints` if it holds one of this run; `on_step(step)` is called after each step
-/// (progress).
-pub fn integrate(
-    structure: &Structure,
-    contact_state: &ContactState,
-    settings: &Settings,
-    mut u: Vec<f64>,
-    mut v: Vec<f64>,
-    checkpoints: &dyn Checkpoints,
-    mut on_step: impl FnMut(usize),
-) -> Result<Run, Failure> {
-    let Settings { theta, tau, .. } = *settings;
-    let n = structure.K.n_rows;
-    let n_pairs = contact_state.gap.len();
-    let m = 3 * n_pairs;
-    let mut timings = Timings::default();
-    let clock = std::time::Instant::now();
-    let interface: Vec<usize> = {
-        let mut dofs: Vec<usize> = structure
+/// What stays fixed through a run: J's factorisation, the Delassus operator, the products.
+struct Operators<'s> {
+    structure: &'s Structure<'s>,
+    contact_state: &'s ContactState,
+    settings: &'s Settings,
+    cholesky: Cholesky,
+    interface_solve: InterfaceSolve,
+    products: FusedProducts,
+    /// `Hᵀ r_e`, the equilibrium's contact force.
+    equilibrium_force: Vec<f64>,
+    /// The largest equilibrium reaction, the contact residual's force scale.
+    force_scale: f64,
+}
+
+impl<'s> Operators<'s> {
+    fn new(
+        structure: &'s Structure<'s>,
+        contact_state: &'s ContactState,
+        settings: &'s Settings,
+        timings: &mut Timings,
+    ) -> Result<Operators<'s>, Failure> {
+        let Settings { theta, tau, .. } = *settings;
+        let clock = std::time::Instant::now();
+        let mut interface: Vec<usize> = structure
             .H_rows
             .iter()
             .flat_map(|row| row.iter().map(|&(dof, _)| dof))
             .collect();
-        dofs.sort_unstable();
-        dofs.dedup();
-        dofs
-    };
-    let cholesky = Cholesky::new(
-        &[
-            (1.0 / tau, structure.M),
-            (theta, structure.C),
-            (tau * theta * theta, structure.K),
-        ],
-        structure.dof_of_node,
-        &interface,
-        Par::Seq,
-    )
-    .map_err(Failure::Linear)?;
-    timings.factor = clock.elapsed().as_secs_f64();
-    let clock = std::time::Instant::now();
-    let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
-    timings.delassus = clock.elapsed().as_secs_f64();
-    let products = FusedProducts::new([structure.C, structure.K]);
-
-    // Hᵀ r_e, the equilibrium's contact force.
-    let mut equilibrium_force = vec![0.0; n];
-    for (row, entries) in structure.H_rows.iter().enumerate() {
-        for &(dof, value) in entries {
-            equilibrium_force[dof] += value * contact_state.r_e[row];
-        }
-    }
-    let force_scale = contact_state
-        .r_e
-        .iter()
-        .fold(0.0_f64, |largest, r| largest.max(r.abs()));
-
-    let mut MCK_v = vec![[0.0; 3]; n];
-    products.apply(&v, &mut MCK_v);
-    for (slot, M_v) in MCK_v.iter_mut().zip(structure.M.mul_vec(&v)) {
-        slot[0] = M_v;
-    }
-    let mut K_u = structure.K.mul_vec(&u);
-    // Relative displacement (from the equilibrium) and velocity of the pairs.
-    let mut delta = h_times(&structure.H_rows, &u);
-    let mut w = h_times(&structure.H_rows, &v);
-    let mut r = contact_state.r_e.clone();
-    let mut audit = Audit::new(&u, &v, &MCK_v, &K_u);
-
-    let mut rhs = vec![0.0; n];
-    // The step's vector in elimination order, through both sweeps.
-    let mut y = vec![0.0; n];
-    let mut u_old = vec![0.0; n];
-    let mut K_u_old = vec![0.0; n];
-    let mut w_free = vec![0.0; m];
-    let mut w_new = vec![0.0; m];
-    let mut w_n_min = vec![0.0; n_pairs];
-    let mut v_new = vec![0.0; n];
-    let mut MCK_v_new = vec![[0.0; 3]; n];
-    let mut states = vec![PairState::Open; n_pairs];
-    let mut contact_solver = ContactSolver::new(settings.solver);
-    let mut history = Vec::new();
-    let mut snapshots = Vec::new();
-    let mut worst_contact_residual: f64 = 0.0;
-    let mut most_contact_iterations = 0;
-    let mut peak_penetration: f64 = 0.0;
-    let mut next_snapshot = 0;
-    let record = |step: usize,
-                  states: &[PairState],
-                  delta: &[f64],
-                  w: &[f64],
-                  audit: &Audit,
-                  iterations: usize|
-     -> HistoryRow {
-        let mean = |values: &[f64], d: usize| {
-            if n_pairs == 0 {
-                0.0
-            } else {
-                (0..n_pairs).map(|p| values[3 * p + d]).sum::<f64>() / n_pairs as f64
-            }
-        };
-        let fraction = |state: PairState| {
-            if n_pairs == 0 {
-                0.0
-            } else {
-                states.iter().filter(|s| **s == state).count() as f64 / n_pairs as f64
-            }
-        };
-        HistoryRow {
-            t: step as f64 * tau,
-            u_n: mean(delta, 0),
-            u_t: mean(delta, 1),
-            v_n: mean(w, 0),
-            v_t: mean(w, 1),
-            kinetic: audit.totals.kinetic,
-            open: fraction(PairState::Open),
-            stick: fraction(PairState::Stick),
-            slide: fraction(PairState::Slide),
-            points: settings
-                .record_pairs
+        interface.sort_unstable();
+        interface.dedup();
+        let cholesky = Cholesky::new(
+            &[
+                (1.0 / tau, structure.M),
+                (theta, structure.C),
+                (tau * theta * theta, structure.K),
+            ],
+            structure.dof_of_node,
+            &interface,
+            Par::Seq,
+        )
+        .map_err(Failure::Linear)?;
+        timings.factor = clock.elapsed().as_secs_f64();
+        let clock = std::time::Instant::now();
+        let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
+        timings.delassus = clock.elapsed().as_secs_f64();
+        let mut equilibrium_force = vec![0.0; structure.K.n_rows];
+        add_h_transpose_times(
+            &structure.H_rows,
+            &contact_state.r_e,
+            &mut equilibrium_force,
+        );
+        Ok(Operators {
+            structure,
+            contact_state,
+            settings,
+            cholesky,
+            interface_solve,
+            products: FusedProducts::new([structure.C, structure.K]),
+            equilibrium_force,
+            force_scale: contact_state
+                .r_e
                 .iter()
-                .map(|&p| (delta[3 * p], w[3 * p]))
-                .collect(),
-            energy: audit.totals.clone(),
-            contact_iterations: iterations,
+                .fold(0.0_f64, |largest, r| largest.max(r.abs())),
+        })
+    }
+
+    fn n_pairs(&self) -> usize {
+        self.contact_state.gap.len()
+    }
+
+    /// The contact problem of a step with these free velocities and least normal velocities.
+    fn contact_problem<'a>(
+        &'a self,
+        w_free: &'a [f64],
+        w_n_min: &'a [f64],
+    ) -> contact::Problem<'a> {
+        contact::Problem {
+            W: self.interface_solve.W.as_ref(),
+            w_free,
+            w_n_min,
+            sliding_speed: &self.contact_state.sliding_speed,
+            mu: self.contact_state.mu,
+            force_scale: self.force_scale,
         }
-    };
-    for (p, state) in states.iter_mut().enumerate() {
-        *state = classify(&r, &w, p, contact_state.sliding_speed[p]);
     }
-    history.push(record(0, &states, &delta, &w, &audit, 0));
-    if settings.snapshot_steps.first() == Some(&0) {
-        snapshots.push(Snapshot {
-            t: 0.0,
-            u: u.clone(),
-            v: v.clone(),
-        });
-        next_snapshot = 1;
+
+    /// The state at step 0, the departure `(u, v)`, with its history row and snapshot.
+    fn initial_state(&self, u: Vec<f64>, v: Vec<f64>) -> State {
+        let H_rows = &self.structure.H_rows;
+        let mut MCK_v = vec![[0.0; 3]; v.len()];
+        self.products.apply(&v, &mut MCK_v);
+        for (slot, M_v) in MCK_v.iter_mut().zip(self.structure.M.mul_vec(&v)) {
+            slot[0] = M_v;
+        }
+        let K_u = self.structure.K.mul_vec(&u);
+        let audit = Audit::new(&u, &v, &MCK_v, &K_u);
+        let mut state = State {
+            step: 0,
+            delta: h_times(H_rows, &u),
+            w: h_times(H_rows, &v),
+            r: self.contact_state.r_e.clone(),
+            u,
+            v,
+            MCK_v,
+            K_u,
+            contact: contact::Memory::default(),
+            audit,
+            history: Vec::new(),
+            snapshots: Vec::new(),
+            worst_contact_residual: 0.0,
+            most_contact_iterations: 0,
+            peak_penetration: 0.0,
+        };
+        self.record(&mut state, 0);
+        state
     }
-    let mut first_step = 1;
-    if let Some(saved) = checkpoints
-        .load()
-        .and_then(|bytes| postcard::from_bytes::<Checkpoint>(&bytes).ok())
-        .filter(|saved| {
-            saved.step <= settings.n_steps
+
+    /// A checkpoint of this run, if `bytes` hold one.
+    fn resume(&self, bytes: &[u8]) -> Option<State> {
+        let n = self.structure.K.n_rows;
+        postcard::from_bytes::<State>(bytes).ok().filter(|saved| {
+            saved.step <= self.settings.n_steps
                 && saved.u.len() == n
                 && saved.v.len() == n
+                && saved.MCK_v.len() == n
                 && saved.K_u.len() == n
-                && saved.M_v.len() == n
-                && saved.r.len() == m
+                && saved.r.len() == 3 * self.n_pairs()
         })
-    {
-        first_step = saved.step + 1;
-        (u, v, K_u, delta, w, r) = (saved.u, saved.v, saved.K_u, saved.delta, saved.w, saved.r);
-        contact_solver.restore(
-            saved.contact,
-            &contact::Problem {
-                W: interface_solve.W.as_ref(),
-                w_free: &w_free,
-                w_n_min: &w_n_min,
-                sliding_speed: &contact_state.sliding_speed,
-                mu: contact_state.mu,
-                force_scale,
-            },
-        );
-        (audit, history, snapshots) = (saved.audit, saved.history, saved.snapshots);
-        worst_contact_residual = saved.worst_contact_residual;
-        most_contact_iterations = saved.most_contact_iterations;
-        peak_penetration = saved.peak_penetration;
-        next_snapshot = settings
-            .snapshot_steps
-            .partition_point(|&kept| kept <= saved.step);
-        products.apply(&v, &mut MCK_v);
-        for (slot, M_v) in MCK_v.iter_mut().zip(&saved.M_v) {
-            slot[0] = *M_v;
-        }
     }
 
-    let steps_clock = std::time::Instant::now();
-    for step in first_step..=settings.n_steps {
+    /// One step of the scheme, from `state` at step `state.step`.
+    fn advance(
+        &self,
+        state: &mut State,
+        contact_solver: &mut ContactSolver,
+        work: &mut Work,
+        timings: &mut Timings,
+    ) -> Result<(), Failure> {
+        let Settings { theta, tau, .. } = *self.settings;
+        let step = state.step + 1;
         let t = step as f64 * tau;
+        let n_pairs = self.n_pairs();
         // F_MTD for the departure, in elimination order.
-        let a = 1.0 / tau;
-        let b = -(1.0 - theta);
-        let c = -tau * theta * (1.0 - theta);
-        for i in 0..n {
-            let [Mv, Cv, Kv] = MCK_v[i];
-            rhs[i] = a * Mv + b * Cv + c * Kv - K_u[i] - equilibrium_force[i];
+        let (a, b, c) = (1.0 / tau, -(1.0 - theta), -tau * theta * (1.0 - theta));
+        for (i, slot) in work.rhs.iter_mut().enumerate() {
+            let [Mv, Cv, Kv] = state.MCK_v[i];
+            *slot = a * Mv + b * Cv + c * Kv - state.K_u[i] - self.equilibrium_force[i];
         }
-        cholesky.permute(&rhs, &mut y);
+        self.cholesky.permute(&work.rhs, &mut work.y);
         let clock = std::time::Instant::now();
-        cholesky.forward_in_place(MatMut::from_column_major_slice_mut(&mut y, n, 1), Par::Seq);
+        let y = MatMut::from_column_major_slice_mut(&mut work.y, work.rhs.len(), 1);
+        self.cholesky.forward_in_place(y, Par::Seq);
         timings.sweeps += clock.elapsed().as_secs_f64();
-        interface_solve.project(&y, &mut w_free);
+        self.interface_solve.project(&work.y, &mut work.w_free);
         // The equivalent gap B̃ = g + τ(1−θ) w_n (Signorini on the end-of-step velocity).
         for p in 0..n_pairs {
-            let gap = contact_state.gap[p] + delta[3 * p];
-            let equivalent_gap = gap + tau * (1.0 - theta) * w[3 * p];
-            w_n_min[p] = -equivalent_gap / tau;
+            let gap = self.contact_state.gap[p] + state.delta[3 * p];
+            let equivalent_gap = gap + tau * (1.0 - theta) * state.w[3 * p];
+            work.w_n_min[p] = -equivalent_gap / tau;
         }
-        let problem = contact::Problem {
-            W: interface_solve.W.as_ref(),
-            w_free: &w_free,
-            w_n_min: &w_n_min,
-            sliding_speed: &contact_state.sliding_speed,
-            mu: contact_state.mu,
-            force_scale,
-        };
         let clock = std::time::Instant::now();
         let report = if n_pairs == 0 {
             contact::Report {
@@ -455,11 +385,11 @@ pub fn integrate(
         } else {
             contact_solver
                 .solve(
-                    &problem,
-                    settings.tolerance,
-                    settings.max_iterations,
-                    &mut r,
-                    &mut w_new,
+                    &self.contact_problem(&work.w_free, &work.w_n_min),
+                    self.settings.tolerance,
+                    self.settings.max_iterations,
+                    &mut state.r,
+                    &mut work.w_new,
                 )
                 .map_err(|failure| Failure::Contact {
                     step,
@@ -469,107 +399,238 @@ pub fn integrate(
                 })?
         };
         timings.contact += clock.elapsed().as_secs_f64();
-        worst_contact_residual = worst_contact_residual.max(report.residual);
-        most_contact_iterations = most_contact_iterations.max(report.iterations);
+        state.worst_contact_residual = state.worst_contact_residual.max(report.residual);
+        state.most_contact_iterations = state.most_contact_iterations.max(report.iterations);
         if n_pairs > 0 {
-            interface_solve.lift(&r, &mut y);
+            self.interface_solve.lift(&state.r, &mut work.y);
         }
         let clock = std::time::Instant::now();
-        cholesky.backward_in_place(MatMut::from_column_major_slice_mut(&mut y, n, 1), Par::Seq);
+        let y = MatMut::from_column_major_slice_mut(&mut work.y, work.rhs.len(), 1);
+        self.cholesky.backward_in_place(y, Par::Seq);
         timings.sweeps += clock.elapsed().as_secs_f64();
-        cholesky.unpermute(&y, &mut v_new);
-        if v_new.iter().any(|value| !value.is_finite()) {
+        self.cholesky.unpermute(&work.y, &mut work.v_new);
+        if work.v_new.iter().any(|value| !value.is_finite()) {
             return Err(Failure::NotFinite { step, t });
         }
-        products.apply(&v_new, &mut MCK_v_new);
+        self.products.apply(&work.v_new, &mut work.MCK_v_new);
         // M v¹ = τ (F_MTD + Hᵀ r − θ C v¹ − τθ² K v¹).
-        for (row, entries) in structure.H_rows.iter().enumerate() {
-            for &(dof, value) in entries {
-                rhs[dof] += value * r[row];
-            }
-        }
-        for (slot, J_v) in MCK_v_new.iter_mut().zip(&rhs) {
+        add_h_transpose_times(&self.structure.H_rows, &state.r, &mut work.rhs);
+        for (slot, J_v) in work.MCK_v_new.iter_mut().zip(&work.rhs) {
             slot[0] = tau * (J_v - theta * slot[1] - tau * theta * theta * slot[2]);
         }
         // u¹ = u⁰ + τ v^θ, K u¹ = K u⁰ + τ K v^θ, δ¹ = δ⁰ + τ w^θ.
-        u_old.copy_from_slice(&u);
-        K_u_old.copy_from_slice(&K_u);
-        for i in 0..n {
-            u[i] += tau * (theta * v_new[i] + (1.0 - theta) * v[i]);
-            K_u[i] += tau * (theta * MCK_v_new[i][2] + (1.0 - theta) * MCK_v[i][2]);
+        work.u_old.copy_from_slice(&state.u);
+        work.K_u_old.copy_from_slice(&state.K_u);
+        for i in 0..state.u.len() {
+            state.u[i] += tau * (theta * work.v_new[i] + (1.0 - theta) * state.v[i]);
+            state.K_u[i] +=
+                tau * (theta * work.MCK_v_new[i][2] + (1.0 - theta) * state.MCK_v[i][2]);
         }
-        for (k, slot) in delta.iter_mut().enumerate() {
-            *slot += tau * (theta * w_new[k] + (1.0 - theta) * w[k]);
+        for (k, slot) in state.delta.iter_mut().enumerate() {
+            *slot += tau * (theta * work.w_new[k] + (1.0 - theta) * state.w[k]);
         }
-        audit.step(StepWork {
+        state.audit.step(StepWork {
             tau,
             theta,
-            u_old: &u_old,
-            u_new: &u,
-            v_old: &v,
-            v_new: &v_new,
-            MCK_v_old: &MCK_v,
-            MCK_v_new: &MCK_v_new,
-            K_u_old: &K_u_old,
-            K_u_new: &K_u,
-            r: &r,
-            r_e: &contact_state.r_e,
-            w_old: &w,
-            w_new: &w_new,
-            sliding_speed: &contact_state.sliding_speed,
+            u_old: &work.u_old,
+            u_new: &state.u,
+            v_old: &state.v,
+            v_new: &work.v_new,
+            MCK_v_old: &state.MCK_v,
+            MCK_v_new: &work.MCK_v_new,
+            K_u_old: &work.K_u_old,
+            K_u_new: &state.K_u,
+            r: &state.r,
+            r_e: &self.contact_state.r_e,
+            w_old: &state.w,
+            w_new: &work.w_new,
+            sliding_speed: &self.contact_state.sliding_speed,
         });
-        std::mem::swap(&mut v, &mut v_new);
-        std::mem::swap(&mut MCK_v, &mut MCK_v_new);
-        std::mem::swap(&mut w, &mut w_new);
+        std::mem::swap(&mut state.v, &mut work.v_new);
+        std::mem::swap(&mut state.MCK_v, &mut work.MCK_v_new);
+        std::mem::swap(&mut state.w, &mut work.w_new);
         for p in 0..n_pairs {
-            states[p] = classify(&r, &w, p, contact_state.sliding_speed[p]);
-            peak_penetration = peak_penetration.max(-(contact_state.gap[p] + delta[3 * p]));
+            let penetration = -(self.contact_state.gap[p] + state.delta[3 * p]);
+            state.peak_penetration = state.peak_penetration.max(penetration);
         }
+        state.step = step;
+        self.record(state, report.iterations);
+        Ok(())
+    }
+
+    /// The history row and snapshot of `state.step`, when they are due.
+    fn record(&self, state: &mut State, contact_iterations: usize) {
+        let settings = self.settings;
+        let step = state.step;
         if step.is_multiple_of(settings.output_every) || step == settings.n_steps {
-            history.push(record(step, &states, &delta, &w, &audit, report.iterations));
+            state
+                .history
+                .push(self.history_row(state, contact_iterations));
         }
-        if settings.snapshot_steps.get(next_snapshot) == Some(&step) {
-            snapshots.push(Snapshot {
-                t,
-                u: u.clone(),
-                v: v.clone(),
+        if settings.snapshot_steps.binary_search(&step).is_ok() {
+            state.snapshots.push(Snapshot {
+                t: step as f64 * settings.tau,
+                u: state.u.clone(),
+                v: state.v.clone(),
             });
-            next_snapshot += 1;
         }
-        if step < settings.n_steps && checkpoints.due() {
-            let checkpoint = Checkpoint {
-                step,
-                u: u.clone(),
-                v: v.clone(),
-                K_u: K_u.clone(),
-                M_v: MCK_v.iter().map(|p| p[0]).collect(),
-                delta: delta.clone(),
-                w: w.clone(),
-                r: r.clone(),
-                contact: contact_solver.memory(),
-                audit: audit.clone(),
-                history: history.clone(),
-                snapshots: snapshots.clone(),
-                worst_contact_residual,
-                most_contact_iterations,
-                peak_penetration,
-            };
-            if let Ok(bytes) = postcard::to_stdvec(&checkpoint) {
+    }
+
+    fn history_row(&self, state: &State, contact_iterations: usize) -> HistoryRow {
+        let n_pairs = self.n_pairs();
+        let (delta, w) = (&state.delta, &state.w);
+        let mean = |values: &[f64], d: usize| {
+            if n_pairs == 0 {
+                0.0
+            } else {
+                (0..n_pairs).map(|p| values[3 * p + d]).sum::<f64>() / n_pairs as f64
+            }
+        };
+        let mut counts = [0usize; 3];
+        for p in 0..n_pairs {
+            let pair_state = classify(&state.r, w, p, self.contact_state.sliding_speed[p]);
+            counts[pair_state as usize] += 1;
+        }
+        let fraction = |state: PairState| {
+            if n_pairs == 0 {
+                0.0
+            } else {
+                counts[state as usize] as f64 / n_pairs as f64
+            }
+        };
+        HistoryRow {
+            t: state.step as f64 * self.settings.tau,
+            u_n: mean(delta, 0),
+            u_t: mean(delta, 1),
+            v_n: mean(w, 0),
+            v_t: mean(w, 1),
+            kinetic: state.audit.totals.kinetic,
+            open: fraction(PairState::Open),
+            stick: fraction(PairState::Stick),
+            slide: fraction(PairState::Slide),
+            points: self
+                .settings
+                .record_pairs
+                .iter()
+                .map(|&p| (delta[3 * p], w[3 * p]))
+                .collect(),
+            energy: state.audit.totals.clone(),
+            contact_iterations,
+        }
+    }
+}
+
+/// `out += Hᵀ r`.
+fn add_h_transpose_times(H_rows: &[Vec<(usize, f64)>], r: &[f64], out: &mut [f64]) {
+    for (row, entries) in H_rows.iter().enumerate() {
+        for &(dof, value) in entries {
+            out[dof] += value * r[row];
+        }
+    }
+}
+
+/// Everything a step changes: what a checkpoint holds. `M v` and `K u` are carried by
+/// recursions, so the products are kept with the vectors.
+#[derive(Serialize, Deserialize)]
+struct State {
+    step: usize,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    /// `(M v, C v, K v)` per DOF.
+    MCK_v: Vec<[f64; 3]>,
+    K_u: Vec<f64>,
+    /// Relative displacement (from the equilibrium) and velocity of the pairs, and their
+    /// reactions.
+    delta: Vec<f64>,
+    w: Vec<f64>,
+    r: Vec<f64>,
+    contact: contact::Memory,
+    audit: Audit,
+    history: Vec<HistoryRow>,
+    snapshots: Vec<Snapshot>,
+    worst_contact_residual: f64,
+    most_contact_iterations: usize,
+    peak_penetration: f64,
+}
+
+/// A step's scratch vectors.
+struct Work {
+    rhs: Vec<f64>,
+    /// The step's vector in elimination order, through both sweeps.
+    y: Vec<f64>,
+    u_old: Vec<f64>,
+    K_u_old: Vec<f64>,
+    v_new: Vec<f64>,
+    MCK_v_new: Vec<[f64; 3]>,
+    w_free: Vec<f64>,
+    w_new: Vec<f64>,
+    w_n_min: Vec<f64>,
+}
+
+impl Work {
+    fn new(n: usize, n_pairs: usize) -> Work {
+        Work {
+            rhs: vec![0.0; n],
+            y: vec![0.0; n],
+            u_old: vec![0.0; n],
+            K_u_old: vec![0.0; n],
+            v_new: vec![0.0; n],
+            MCK_v_new: vec![[0.0; 3]; n],
+            w_free: vec![0.0; 3 * n_pairs],
+            w_new: vec![0.0; 3 * n_pairs],
+            w_n_min: vec![0.0; n_pairs],
+        }
+    }
+}
+
+/// Integrates from the departure `(u, v)` (from the equilibrium), or from the latest of
+/// `checkpoints` if it holds one of this run; `on_step(step)` is called after each step
+/// (progress).
+pub fn integrate(
+    structure: &Structure,
+    contact_state: &ContactState,
+    settings: &Settings,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    checkpoints: &dyn Checkpoints,
+    mut on_step: impl FnMut(usize),
+) -> Result<Run, Failure> {
+    let mut timings = Timings::default();
+    let operators = Operators::new(structure, contact_state, settings, &mut timings)?;
+    let mut state = match checkpoints
+        .load()
+        .and_then(|bytes| operators.resume(&bytes))
+    {
+        Some(saved) => saved,
+        None => operators.initial_state(u, v),
+    };
+    let mut contact_solver = ContactSolver::new(settings.solver);
+    let mut work = Work::new(structure.K.n_rows, operators.n_pairs());
+    contact_solver.restore(
+        state.contact.clone(),
+        &operators.contact_problem(&work.w_free, &work.w_n_min),
+    );
+    let steps_clock = std::time::Instant::now();
+    while state.step < settings.n_steps {
+        operators.advance(&mut state, &mut contact_solver, &mut work, &mut timings)?;
+        if state.step < settings.n_steps && checkpoints.due() {
+            state.contact = contact_solver.memory();
+            if let Ok(bytes) = postcard::to_stdvec(&state) {
                 checkpoints.save(&bytes);
             }
         }
-        on_step(step);
+        on_step(state.step);
     }
     timings.steps = steps_clock.elapsed().as_secs_f64();
     Ok(Run {
         timings,
-        history,
-        snapshots,
-        factor_len: cholesky.factor_len(),
-        interface_rows: interface_solve.rows.len(),
-        worst_contact_residual,
-        most_contact_iterations,
-        peak_penetration,
+        factor_len: operators.cholesky.factor_len(),
+        interface_rows: operators.interface_solve.rows.len(),
+        history: state.history,
+        snapshots: state.snapshots,
+        worst_contact_residual: state.worst_contact_residual,
+        most_contact_iterations: state.most_contact_iterations,
+        peak_penetration: state.peak_penetration,
         contact_factorisations: contact_solver.factorisations,
     })
 }
