@@ -433,8 +433,34 @@ pub fn solve(
     band: Band,
     options: SolveOptions,
 ) -> Result<Eigensolution, Error> {
-    let par = options.par;
-    let block_size = options.block_size.max(1);
+    check_input(K, M, band)?;
+    let n = K.n_rows;
+    let mut report = SolveReport {
+        n_dofs: n,
+        ..SolveReport::default()
+    };
+    let scale = diagonal_eigenvalue_scale(K, M)?;
+    let analyse_started = Instant::now();
+    let pencil = ShiftedPencil::new(K, M, dof_of_node)?;
+    report.analyse_seconds = analyse_started.elapsed().as_secs_f64();
+    report.nested_dissection = pencil.nested_dissection;
+    report.factor_entries = pencil.factor_len();
+
+    let plan = Plan::new(&pencil, band, scale, options, &mut report)?;
+    if plan.n_wanted == 0 {
+        return Ok(Eigensolution {
+            lambda: Vec::new(),
+            shapes: Mat::zeros(n, 0),
+            residuals: Vec::new(),
+            report,
+        });
+    }
+    let K_norm = K.norm_1();
+    let candidates = plan.find(K, M, options, K_norm, &mut report)?;
+    select_band(candidates, band, plan.n_wanted, K_norm / M.norm_1(), report)
+}
+
+fn check_input(K: &CscMatrix, M: &CscMatrix, band: Band) -> Result<(), Error> {
     let n = K.n_rows;
     if n == 0 {
         return Err(Error::InvalidInput("the model has no DOF".to_string()));
@@ -446,161 +472,199 @@ pub fn solve(
             "n_modes = 0 asks for every mode below f_max_hz, but f_max_hz is not set".to_string(),
         ));
     }
-    let mut report = SolveReport {
-        n_dofs: n,
-        ..SolveReport::default()
-    };
-    let K_norm = K.norm_1();
-    let scale = diagonal_eigenvalue_scale(K, M)?;
+    Ok(())
+}
 
-    let analyse_started = Instant::now();
-    let pencil = ShiftedPencil::new(K, M, dof_of_node)?;
-    report.analyse_seconds = analyse_started.elapsed().as_secs_f64();
-    report.nested_dissection = pencil.nested_dissection;
-    report.factor_entries = pencil.factor_len();
+/// What a solve looks for and how: the shift σ below the band and its factorisation, how many
+/// eigenvalues are wanted (from the Sturm count of the band when it has a top), and whether
+/// the problem is small enough to be solved densely.
+struct Plan<'p> {
+    pencil: &'p ShiftedPencil,
+    band: Band,
+    scale: f64,
+    factor_sigma: Factor<'p>,
+    sigma: f64,
+    /// Eigenvalues below σ, and those above it.
+    below_sigma: usize,
+    available: usize,
+    n_wanted: usize,
+    /// Candidates to find: the wanted ones and a block more, for the Sturm gap.
+    n_needed: usize,
+    /// The band's top and its count, when the whole band is wanted.
+    band_shift: Option<(usize, f64)>,
+    absolute_gap: f64,
+    dense: bool,
+}
 
-    let sigma_target = if band.lambda_lo > 0.0 {
-        band.lambda_lo
-    } else {
-        -SHIFT_FRACTION * scale
-    };
-    let factor_sigma = factor_at(&pencil, sigma_target, scale, par, &mut report)?;
-    let sigma = factor_sigma.sigma;
-    report.sigma = sigma;
-    if band.lambda_lo <= 0.0 && factor_sigma.negative_pivots > 0 {
-        return Err(Error::InvalidInput(format!(
-            "K is not positive semi-definite: {} eigenvalue(s) below sigma = {sigma:e} rad^2/s^2",
-            factor_sigma.negative_pivots
-        )));
-    }
-    let below_sigma = factor_sigma.negative_pivots;
-    let available = n - below_sigma;
-
-    // With an upper bound, count the band first: the Sturm count then fixes how many to find.
-    let band_count = if band.lambda_hi.is_finite() {
-        let factor_hi = factor_at(&pencil, band.lambda_hi, scale, par, &mut report)?;
-        Some((
-            factor_hi.negative_pivots.saturating_sub(below_sigma),
-            factor_hi.sigma,
-        ))
-    } else {
-        None
-    };
-    let n_wanted = match band_count {
-        Some((count, _)) if band.n_modes == 0 => count,
-        Some((count, _)) => band.n_modes.min(count),
-        None => band.n_modes.min(available),
-    };
-    if n_wanted == 0 {
-        return Ok(Eigensolution {
-            lambda: Vec::new(),
-            shapes: Mat::zeros(n, 0),
-            residuals: Vec::new(),
-            report,
-        });
-    }
-    // When the whole band is wanted, the Sturm shift is its top: its count is known already.
-    let band_shift = band_count.filter(|(count, _)| *count == n_wanted);
-    let absolute_gap = 1e-9 * scale;
-
-    let n_needed = n_wanted + block_size;
-    let dense = n <= DENSE_LIMIT || (3 * n_needed > n && n <= 3 * DENSE_LIMIT);
-    report.dense = dense;
-    if !dense && 3 * n_needed > n {
-        return Err(Error::InvalidInput(format!(
-            "{n_wanted} modes are too many for a model of {n} DOFs: ask for at most {}",
-            n / 3 - block_size
-        )));
-    }
-
-    let op = ShiftInvert::new(&factor_sigma, M, par);
-    // Dense: every eigenpair at once; the lowest wanted ones (and a few more, for the Sturm
-    // gap) are then refined like Lanczos vectors.
-    let dense_start = if dense {
-        let all = dense_candidates(K, M, par)?;
-        let columns: Vec<usize> = (0..n)
-            .filter(|&j| band.lambda_lo <= 0.0 || all.0[j] >= sigma)
-            .take(n_needed)
-            .collect();
-        Some((
-            columns.iter().map(|&j| all.0[j]).collect::<Vec<f64>>(),
-            select_columns(all.1.as_ref(), &columns),
-        ))
-    } else {
-        None
-    };
-    let mut candidates = Candidates {
-        lambda: Vec::new(),
-        vectors: Mat::zeros(n, 0),
-        M_vectors: Mat::zeros(n, 0),
-        residuals: Vec::new(),
-    };
-    let mut sturm_failure = None;
-    for attempt in 0..MAX_ATTEMPTS {
-        report.attempts = attempt + 1;
-        let (MQ, lambda) = if let Some((lambda, vectors)) = &dense_start {
-            (symmetric_mul(M, vectors.as_ref()), lambda.clone())
+impl<'p> Plan<'p> {
+    fn new(
+        pencil: &'p ShiftedPencil,
+        band: Band,
+        scale: f64,
+        options: SolveOptions,
+        report: &mut SolveReport,
+    ) -> Result<Plan<'p>, Error> {
+        let (par, n) = (options.par, pencil.n());
+        let block_size = options.block_size.max(1);
+        let sigma_target = if band.lambda_lo > 0.0 {
+            band.lambda_lo
         } else {
-            let target = LanczosTarget {
-                sigma,
-                n_wanted,
-                n_needed,
-                band_shift,
-                absolute_gap,
-                n_missing: sturm_failure
-                    .map_or(0, |(expected, found): (usize, usize)| expected - found),
-            };
-            lanczos_candidates(&op, &candidates, &target, block_size, attempt, &mut report)?
+            -SHIFT_FRACTION * scale
         };
-        let refine_started = Instant::now();
-        let steps;
-        (candidates, steps) = refine(
-            &op,
-            K,
-            MQ,
-            lambda,
-            n_wanted,
-            options.refined_residual.min(RESIDUAL_TOLERANCE),
-            K_norm,
-        )?;
-        report.refinement_steps += steps;
-        report.refine_seconds += refine_started.elapsed().as_secs_f64();
-
-        let sturm = SturmCheck {
-            pencil: &pencil,
+        let factor_sigma = factor_at(pencil, sigma_target, scale, par, report)?;
+        let sigma = factor_sigma.sigma;
+        report.sigma = sigma;
+        if band.lambda_lo <= 0.0 && factor_sigma.negative_pivots > 0 {
+            return Err(Error::InvalidInput(format!(
+                "K is not positive semi-definite: {} eigenvalue(s) below sigma = {sigma:e} rad^2/s^2",
+                factor_sigma.negative_pivots
+            )));
+        }
+        let below_sigma = factor_sigma.negative_pivots;
+        let available = n - below_sigma;
+        // With an upper bound, count the band first: the Sturm count then fixes how many to
+        // find.
+        let band_count = if band.lambda_hi.is_finite() {
+            let factor_hi = factor_at(pencil, band.lambda_hi, scale, par, report)?;
+            Some((
+                factor_hi.negative_pivots.saturating_sub(below_sigma),
+                factor_hi.sigma,
+            ))
+        } else {
+            None
+        };
+        let n_wanted = match band_count {
+            Some((count, _)) if band.n_modes == 0 => count,
+            Some((count, _)) => band.n_modes.min(count),
+            None => band.n_modes.min(available),
+        };
+        let n_needed = n_wanted + block_size;
+        let dense = n <= DENSE_LIMIT || (3 * n_needed > n && n <= 3 * DENSE_LIMIT);
+        if n_wanted > 0 {
+            report.dense = dense;
+        }
+        if n_wanted > 0 && !dense && 3 * n_needed > n {
+            return Err(Error::InvalidInput(format!(
+                "{n_wanted} modes are too many for a model of {n} DOFs: ask for at most {}",
+                n / 3 - block_size
+            )));
+        }
+        Ok(Plan {
+            pencil,
+            band,
             scale,
-            par,
-            lambda_lo: band.lambda_lo,
+            factor_sigma,
             sigma,
             below_sigma,
             available,
             n_wanted,
-            band_shift,
-            absolute_gap,
-        };
-        let (expected, found) = sturm.count(&candidates.lambda, &mut report)?;
-        if found == expected {
-            sturm_failure = None;
-            break;
-        }
-        sturm_failure = Some((expected, found));
-        if dense_start.is_some() || found > expected {
-            break;
-        }
-    }
-    report.n_solves = op.n_solves.load(std::sync::atomic::Ordering::Relaxed);
-    if let Some((expected, found)) = sturm_failure {
-        let worst = candidates
-            .residuals
-            .iter()
-            .fold(0.0f64, |worst, r| worst.max(*r));
-        return Err(Error::NotConverged(format!(
-            "Sturm count: {expected} eigenvalues lie in [{sigma:e}, {:e}) rad^2/s^2 but {found} were found (worst residual {worst:.2e})",
-            report.sturm_shift
-        )));
+            n_needed,
+            // When the whole band is wanted, the Sturm shift is its top: its count is known.
+            band_shift: band_count.filter(|(count, _)| *count == n_wanted),
+            absolute_gap: 1e-9 * scale,
+            dense,
+        })
     }
 
-    select_band(candidates, band, n_wanted, K_norm / M.norm_1(), report)
+    /// Candidates found (densely, or by Lanczos from σ, restarted while the Sturm count finds
+    /// some missing), refined, and proved complete by the Sturm count.
+    fn find(
+        &self,
+        K: &CscMatrix,
+        M: &CscMatrix,
+        options: SolveOptions,
+        K_norm: f64,
+        report: &mut SolveReport,
+    ) -> Result<Candidates, Error> {
+        let (par, n, sigma) = (options.par, K.n_rows, self.sigma);
+        let op = ShiftInvert::new(&self.factor_sigma, M, par);
+        // Dense: every eigenpair at once; the lowest wanted ones (and a few more, for the Sturm
+        // gap) are then refined like Lanczos vectors.
+        let dense_start = if self.dense {
+            let all = dense_candidates(K, M, par)?;
+            let columns: Vec<usize> = (0..n)
+                .filter(|&j| self.band.lambda_lo <= 0.0 || all.0[j] >= sigma)
+                .take(self.n_needed)
+                .collect();
+            Some((
+                columns.iter().map(|&j| all.0[j]).collect::<Vec<f64>>(),
+                select_columns(all.1.as_ref(), &columns),
+            ))
+        } else {
+            None
+        };
+        let mut candidates = Candidates {
+            lambda: Vec::new(),
+            vectors: Mat::zeros(n, 0),
+            M_vectors: Mat::zeros(n, 0),
+            residuals: Vec::new(),
+        };
+        let sturm = SturmCheck {
+            pencil: self.pencil,
+            scale: self.scale,
+            par,
+            lambda_lo: self.band.lambda_lo,
+            sigma,
+            below_sigma: self.below_sigma,
+            available: self.available,
+            n_wanted: self.n_wanted,
+            band_shift: self.band_shift,
+            absolute_gap: self.absolute_gap,
+        };
+        let mut sturm_failure = None;
+        for attempt in 0..MAX_ATTEMPTS {
+            report.attempts = attempt + 1;
+            let (MQ, lambda) = if let Some((lambda, vectors)) = &dense_start {
+                (symmetric_mul(M, vectors.as_ref()), lambda.clone())
+            } else {
+                let target = LanczosTarget {
+                    sigma,
+                    n_wanted: self.n_wanted,
+                    n_needed: self.n_needed,
+                    band_shift: self.band_shift,
+                    absolute_gap: self.absolute_gap,
+                    n_missing: sturm_failure
+                        .map_or(0, |(expected, found): (usize, usize)| expected - found),
+                };
+                let block_size = options.block_size.max(1);
+                lanczos_candidates(&op, &candidates, &target, block_size, attempt, report)?
+            };
+            let refine_started = Instant::now();
+            let steps;
+            (candidates, steps) = refine(
+                &op,
+                K,
+                MQ,
+                lambda,
+                self.n_wanted,
+                options.refined_residual.min(RESIDUAL_TOLERANCE),
+                K_norm,
+            )?;
+            report.refinement_steps += steps;
+            report.refine_seconds += refine_started.elapsed().as_secs_f64();
+            let (expected, found) = sturm.count(&candidates.lambda, report)?;
+            if found == expected {
+                sturm_failure = None;
+                break;
+            }
+            sturm_failure = Some((expected, found));
+            if dense_start.is_some() || found > expected {
+                break;
+            }
+        }
+        report.n_solves = op.n_solves.load(std::sync::atomic::Ordering::Relaxed);
+        if let Some((expected, found)) = sturm_failure {
+            let worst = candidates
+                .residuals
+                .iter()
+                .fold(0.0f64, |worst, r| worst.max(*r));
+            return Err(Error::NotConverged(format!(
+                "Sturm count: {expected} eigenvalues lie in [{sigma:e}, {:e}) rad^2/s^2 but {found} were found (worst residual {worst:.2e})",
+                report.sturm_shift
+            )));
+        }
+        Ok(candidates)
+    }
 }
 
 /// The Sturm check of [`solve`]: the eigenvalues in `[σ, τ)` counted by the inertia of

@@ -152,6 +152,11 @@ impl ShiftedPencil {
         })
     }
 
+    /// Order of the matrices.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
     /// Number of stored entries of the factor `L`.
     pub fn factor_len(&self) -> usize {
         self.symbolic.len_val()
