@@ -156,39 +156,12 @@ pub(super) fn solve_shift(
         }
         // Ritz values of the k × k section, nearest σ (largest |θ|) first.
         let phase = Instant::now();
-        let eigen = H.submatrix(0, 0, k, k).to_owned().eigen().map_err(|err| {
-            StageError::new(format!(
-                "dense eigensolver failed on the Arnoldi matrix: {err:?}"
-            ))
-        })?;
-        let theta: Vec<c64> = eigen.S().column_vector().iter().copied().collect();
-        let S = eigen.U();
-        let residual_block = H.submatrix(k, k - b, b, b);
-        let mut order: Vec<usize> = (0..k).collect();
-        order.sort_by(|&a, &c| theta[c].norm().total_cmp(&theta[a].norm()));
-        let mut radius = f64::INFINITY;
-        let mut converged = Vec::new();
-        for &i in &order {
-            let arnoldi_residual =
-                column_norm((residual_block * S.submatrix(k - b, i, b, 1)).as_ref(), 0);
-            let scale = theta[i].norm() * column_norm(S, i);
-            if arnoldi_residual > options.arnoldi_tolerance * scale {
-                radius = theta[i].inv().norm();
-                let lambda = sigma + theta[i].inv();
-                tracing::debug!(
-                    "stability: nearest unconverged Ritz value {:.1} Hz (divergence rate {:.2e}), Arnoldi residual {:.1e}",
-                    lambda.im / (2.0 * PI),
-                    2.0 * lambda.re / lambda.im,
-                    arnoldi_residual / scale
-                );
-                break;
-            }
-            converged.push(i);
-        }
-        if converged.is_empty() {
-            // Not even the dominant eigenvalue is resolved: the Ritz values say nothing yet.
-            radius = 0.0;
-        }
+        let RitzCheck {
+            theta,
+            S,
+            converged,
+            radius,
+        } = ritz_check(H.as_ref(), k, b, sigma, options.arnoldi_tolerance)?;
         seconds.ritz += phase.elapsed().as_secs_f64();
         tracing::debug!(
             "stability: shift {:.0} Hz, basis {k}, {} converged, trusted radius {:.0} Hz, {:.1} s",
@@ -207,52 +180,18 @@ pub(super) fn solve_shift(
         }
         let phase = Instant::now();
         let eigenvalue = |i: usize| sigma + theta[i].inv();
-        // Eigenvectors y = V s, only for the eigenvalues the band reports (the others, damped
-        // beyond d_max, only bound the disk): q is either half of y, x₁ or s x₂/λ. The first
-        // is kept when its residual is at round-off level, else the better of the two.
+        // Eigenvectors only for the eigenvalues the band reports (the others, damped beyond
+        // d_max, only bound the disk).
         let reported: Vec<usize> = converged
             .iter()
             .copied()
             .filter(|&i| wanted(eigenvalue(i)))
             .collect();
+        let lambdas: Vec<c64> = reported.iter().map(|&i| eigenvalue(i)).collect();
         let selected = Mat::<c64>::from_fn(k, reported.len(), |row, col| S[(row, reported[col])]);
         let coordinates =
             deinterleave((U.submatrix(0, 0, 2 * half.rank(), k) * &selected).as_ref());
-        let n_reported = reported.len();
-        let first = half.expand(coordinates.subcols(0, n_reported));
-        let lambdas: Vec<c64> = reported.iter().map(|&i| eigenvalue(i)).collect();
-        let residuals = system.residuals(&lambdas, first.as_ref());
-        let mut pairs: Vec<EigenPair> = (0..n_reported)
-            .map(|col| EigenPair {
-                lambda: lambdas[col],
-                q: first.col(col).iter().copied().collect(),
-                residual: residuals[col],
-            })
-            .collect();
-        let retry: Vec<usize> = (0..n_reported)
-            .filter(|&col| !(pairs[col].residual <= ROUND_OFF_RESIDUAL))
-            .collect();
-        if !retry.is_empty() {
-            let second = Mat::<c64>::from_fn(coordinates.nrows(), retry.len(), |row, j| {
-                coordinates[(row, n_reported + retry[j])]
-            });
-            let mut second = half.expand(second.as_ref());
-            for (j, &col) in retry.iter().enumerate() {
-                let factor = scale / lambdas[col];
-                second
-                    .col_mut(j)
-                    .iter_mut()
-                    .for_each(|value| *value *= factor);
-            }
-            let retry_lambdas: Vec<c64> = retry.iter().map(|&col| lambdas[col]).collect();
-            let residuals = system.residuals(&retry_lambdas, second.as_ref());
-            for (j, &col) in retry.iter().enumerate() {
-                if residuals[j] < pairs[col].residual {
-                    pairs[col].q = second.col(j).iter().copied().collect();
-                    pairs[col].residual = residuals[j];
-                }
-            }
-        }
+        let pairs = eigenpairs(system, &half, coordinates.as_ref(), &lambdas, scale);
         seconds.vectors = phase.elapsed().as_secs_f64();
         report.seconds_arnoldi += clock.elapsed().as_secs_f64();
         return Ok(ShiftResult {
@@ -264,6 +203,114 @@ pub(super) fn solve_shift(
             seconds,
         });
     }
+}
+
+/// The Ritz values of an Arnoldi matrix's leading k × k section, and which have converged.
+struct RitzCheck {
+    theta: Vec<c64>,
+    /// The Ritz vectors (columns).
+    S: Mat<c64>,
+    /// Indices of the converged Ritz values, nearest σ first: all those nearer than the
+    /// nearest unconverged one.
+    converged: Vec<usize>,
+    /// `|λ − σ|` of the nearest unconverged Ritz value: the radius the shift can trust.
+    radius: f64,
+}
+
+fn ritz_check(
+    H: MatRef<'_, c64>,
+    k: usize,
+    b: usize,
+    sigma: c64,
+    arnoldi_tolerance: f64,
+) -> Result<RitzCheck, StageError> {
+    let eigen = H.submatrix(0, 0, k, k).to_owned().eigen().map_err(|err| {
+        StageError::new(format!(
+            "dense eigensolver failed on the Arnoldi matrix: {err:?}"
+        ))
+    })?;
+    let theta: Vec<c64> = eigen.S().column_vector().iter().copied().collect();
+    let S = eigen.U().to_owned();
+    let residual_block = H.submatrix(k, k - b, b, b);
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by(|&a, &c| theta[c].norm().total_cmp(&theta[a].norm()));
+    let mut radius = f64::INFINITY;
+    let mut converged = Vec::new();
+    for &i in &order {
+        let arnoldi_residual =
+            column_norm((residual_block * S.submatrix(k - b, i, b, 1)).as_ref(), 0);
+        let scale = theta[i].norm() * column_norm(S.as_ref(), i);
+        if arnoldi_residual > arnoldi_tolerance * scale {
+            radius = theta[i].inv().norm();
+            let lambda = sigma + theta[i].inv();
+            tracing::debug!(
+                "stability: nearest unconverged Ritz value {:.1} Hz (divergence rate {:.2e}), Arnoldi residual {:.1e}",
+                lambda.im / (2.0 * PI),
+                2.0 * lambda.re / lambda.im,
+                arnoldi_residual / scale
+            );
+            break;
+        }
+        converged.push(i);
+    }
+    if converged.is_empty() {
+        // Not even the dominant eigenvalue is resolved: the Ritz values say nothing yet.
+        radius = 0.0;
+    }
+    Ok(RitzCheck {
+        theta,
+        S,
+        converged,
+        radius,
+    })
+}
+
+/// The eigenpairs `λ` of the Ritz vectors whose Arnoldi coordinates are `coordinates` (the
+/// first halves `x₁`, then the second ones `x₂`, side by side): `q` is either half of
+/// `y = V s`, `x₁` or `s x₂/λ`. The first is kept when its residual is at round-off level,
+/// else the better of the two.
+fn eigenpairs(
+    system: &SlidingSystem,
+    half: &HalfBasis,
+    coordinates: MatRef<'_, c64>,
+    lambdas: &[c64],
+    scale: f64,
+) -> Vec<EigenPair> {
+    let n_reported = lambdas.len();
+    let first = half.expand(coordinates.subcols(0, n_reported));
+    let residuals = system.residuals(lambdas, first.as_ref());
+    let mut pairs: Vec<EigenPair> = (0..n_reported)
+        .map(|col| EigenPair {
+            lambda: lambdas[col],
+            q: first.col(col).iter().copied().collect(),
+            residual: residuals[col],
+        })
+        .collect();
+    let retry: Vec<usize> = (0..n_reported)
+        .filter(|&col| !(pairs[col].residual <= ROUND_OFF_RESIDUAL))
+        .collect();
+    if !retry.is_empty() {
+        let second = Mat::<c64>::from_fn(coordinates.nrows(), retry.len(), |row, j| {
+            coordinates[(row, n_reported + retry[j])]
+        });
+        let mut second = half.expand(second.as_ref());
+        for (j, &col) in retry.iter().enumerate() {
+            let factor = scale / lambdas[col];
+            second
+                .col_mut(j)
+                .iter_mut()
+                .for_each(|value| *value *= factor);
+        }
+        let retry_lambdas: Vec<c64> = retry.iter().map(|&col| lambdas[col]).collect();
+        let residuals = system.residuals(&retry_lambdas, second.as_ref());
+        for (j, &col) in retry.iter().enumerate() {
+            if residuals[j] < pairs[col].residual {
+                pairs[col].q = second.col(j).iter().copied().collect();
+                pairs[col].residual = residuals[j];
+            }
+        }
+    }
+    pairs
 }
 
 /// Basis size of a shift's next Ritz check, after one at basis `k` trusted `radius` (0: none
