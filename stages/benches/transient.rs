@@ -17,14 +17,13 @@ use std::io::Write;
 use std::time::Instant;
 
 use faer::{Mat, Par};
-use squeal_linalg::cholesky::Cholesky;
 use squeal_linalg::matrix_market::write_matrix_market;
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::contact::lcp::LcpSettings;
 use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::transient::contact::Solver as ContactSolver;
-use squeal_stages::transient::scheme::{Settings, integrate};
+use squeal_stages::transient::scheme::{Settings, factorise_J, integrate};
 use squeal_stages::transient::{kick, structure_of};
 use squeal_stages::{NoCheckpoints, Params, Stage, Value};
 
@@ -83,24 +82,7 @@ fn main() {
 
     // One plain solve with J's factor (the same ordering as the run's), the yardstick of a step.
     let theta = 0.5;
-    let mut interface: Vec<usize> = structure
-        .H_rows
-        .iter()
-        .flat_map(|row| row.iter().map(|&(dof, _)| dof))
-        .collect();
-    interface.sort_unstable();
-    interface.dedup();
-    let cholesky = Cholesky::new(
-        &[
-            (1.0 / tau, structure.M),
-            (theta, structure.C),
-            (tau * theta * theta, structure.K),
-        ],
-        structure.dof_of_node,
-        &interface,
-        Par::Seq,
-    )
-    .expect("J is positive definite");
+    let cholesky = factorise_J(&structure, theta, tau).expect("J is positive definite");
     let mut rhs = Mat::from_fn(model.n_dofs(), 1, |i, _| ((i * 7919) % 1000) as f64 - 500.0);
     let repeats = 20;
     let clock = Instant::now();

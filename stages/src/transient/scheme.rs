@@ -216,6 +216,31 @@ fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// `J = M/τ + θ C + τθ² K` factorised, the contact DOFs ordered last.
+pub fn factorise_J(
+    structure: &Structure,
+    theta: f64,
+    tau: f64,
+) -> Result<Cholesky, squeal_linalg::Error> {
+    let mut interface: Vec<usize> = structure
+        .H_rows
+        .iter()
+        .flat_map(|row| row.iter().map(|&(dof, _)| dof))
+        .collect();
+    interface.sort_unstable();
+    interface.dedup();
+    Cholesky::new(
+        &[
+            (1.0 / tau, structure.M),
+            (theta, structure.C),
+            (tau * theta * theta, structure.K),
+        ],
+        structure.dof_of_node,
+        &interface,
+        Par::Seq,
+    )
+}
+
 /// What stays fixed through a run: J's factorisation, the Delassus operator, the products.
 struct Operators<'s> {
     structure: &'s Structure<'s>,
@@ -239,24 +264,7 @@ impl<'s> Operators<'s> {
     ) -> Result<Operators<'s>, Failure> {
         let Settings { theta, tau, .. } = *settings;
         let clock = std::time::Instant::now();
-        let mut interface: Vec<usize> = structure
-            .H_rows
-            .iter()
-            .flat_map(|row| row.iter().map(|&(dof, _)| dof))
-            .collect();
-        interface.sort_unstable();
-        interface.dedup();
-        let cholesky = Cholesky::new(
-            &[
-                (1.0 / tau, structure.M),
-                (theta, structure.C),
-                (tau * theta * theta, structure.K),
-            ],
-            structure.dof_of_node,
-            &interface,
-            Par::Seq,
-        )
-        .map_err(Failure::Linear)?;
+        let cholesky = factorise_J(structure, theta, tau).map_err(Failure::Linear)?;
         timings.factor = clock.elapsed().as_secs_f64();
         let clock = std::time::Instant::now();
         let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
