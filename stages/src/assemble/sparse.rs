@@ -55,25 +55,14 @@ impl NodeElements {
     }
 }
 
-/// Assembles the element matrices (`elements[e]`, damping `(α, β)` of element `e`) over the
-/// free DOFs `dof_of_node` (node-major numbering, `n_dofs` in all).
-pub fn assemble(
+/// The neighbours of each free node (sorted, itself included) and, for each neighbour, how many
+/// free DOFs precede it in the node's columns.
+fn neighbourhoods(
     mesh: &Mesh,
-    dof_of_node: &[[Option<u32>; 3]],
-    n_dofs: usize,
-    elements: &[ElementMatrices],
-    damping: &[(f64, f64)],
-) -> Assembled {
-    let n_nodes = mesh.n_nodes();
-    let node_elements = NodeElements::new(mesh);
-    let free_dirs: Vec<Vec<usize>> = dof_of_node
-        .iter()
-        .map(|dofs| (0..3).filter(|&dir| dofs[dir].is_some()).collect())
-        .collect();
-
-    // Neighbours of each free node (sorted, itself included) and, for each neighbour, how many
-    // free DOFs precede it in the node's columns.
-    let neighbours: Vec<(Vec<u32>, Vec<usize>)> = (0..n_nodes)
+    node_elements: &NodeElements,
+    free_dirs: &[Vec<usize>],
+) -> Vec<(Vec<u32>, Vec<usize>)> {
+    (0..mesh.n_nodes())
         .into_par_iter()
         .map(|node| {
             if free_dirs[node].is_empty() {
@@ -95,14 +84,21 @@ pub fn assemble(
             }
             (nodes, offsets)
         })
-        .collect();
+        .collect()
+}
 
-    // Pattern: node-major, so the columns of node n come after those of nodes < n.
+/// The compressed pattern (column pointers, row indices), node-major: the columns of node `n`
+/// come after those of nodes `< n`.
+fn pattern(
+    n_dofs: usize,
+    dof_of_node: &[[Option<u32>; 3]],
+    free_dirs: &[Vec<usize>],
+    neighbours: &[(Vec<u32>, Vec<usize>)],
+) -> (Vec<usize>, Vec<usize>) {
     let mut col_ptr = Vec::with_capacity(n_dofs + 1);
     col_ptr.push(0usize);
     let mut row_idx = Vec::new();
-    for node in 0..n_nodes {
-        let (nodes, offsets) = &neighbours[node];
+    for (node, (nodes, offsets)) in neighbours.iter().enumerate() {
         let column_len = *offsets.last().unwrap_or(&0);
         for _ in &free_dirs[node] {
             for &other in nodes {
@@ -114,6 +110,27 @@ pub fn assemble(
         }
     }
     debug_assert_eq!(col_ptr.len(), n_dofs + 1);
+    (col_ptr, row_idx)
+}
+
+/// Assembles the element matrices (`elements[e]`, damping `(α, β)` of element `e`) over the
+/// free DOFs `dof_of_node` (node-major numbering, `n_dofs` in all).
+pub fn assemble(
+    mesh: &Mesh,
+    dof_of_node: &[[Option<u32>; 3]],
+    n_dofs: usize,
+    elements: &[ElementMatrices],
+    damping: &[(f64, f64)],
+) -> Assembled {
+    let n_nodes = mesh.n_nodes();
+    let node_elements = NodeElements::new(mesh);
+    let free_dirs: Vec<Vec<usize>> = dof_of_node
+        .iter()
+        .map(|dofs| (0..3).filter(|&dir| dofs[dir].is_some()).collect())
+        .collect();
+
+    let neighbours = neighbourhoods(mesh, &node_elements, &free_dirs);
+    let (col_ptr, row_idx) = pattern(n_dofs, dof_of_node, &free_dirs, &neighbours);
 
     let nnz = row_idx.len();
     let mut M_values = vec![0.0; nnz];

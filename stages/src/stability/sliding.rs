@@ -82,6 +82,136 @@ pub enum Part {
     K,
 }
 
+/// One slave DOF per closed pair: the pad node's free DOF most aligned with the normal,
+/// eliminated by the constraint that keeps the pair closed. Returns (pair, DOF).
+fn choose_slaves(
+    model: &Model,
+    equilibrium: &Equilibrium,
+) -> Result<Vec<(usize, usize)>, StageError> {
+    let frames = &equilibrium.frames;
+    let mut is_slave = vec![false; model.n_dofs()];
+    let mut chosen = Vec::new();
+    for (pair_idx, pair) in model.mesh.contact_pairs.iter().enumerate() {
+        if !equilibrium.closed[pair_idx] {
+            continue;
+        }
+        let normal = frames.n[pair_idx];
+        let pad_dofs = model.dof_of_node[pair.pad_node as usize];
+        let axis = (0..3)
+            .filter(|&axis| pad_dofs[axis].is_some())
+            .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()));
+        let Some(axis) = axis.filter(|&axis| normal[axis].abs() > 0.5) else {
+            return Err(StageError::new(format!(
+                "closed pair {pair_idx}: pad node {} is not free along its normal, so the contact cannot be kept by a perturbation",
+                pair.pad_node
+            )));
+        };
+        let dof = pad_dofs[axis].expect("filtered on free DOFs") as usize;
+        if is_slave[dof] {
+            return Err(StageError::new(format!(
+                "closed pair {pair_idx}: pad node {} is in two closed pairs",
+                pair.pad_node
+            )));
+        }
+        is_slave[dof] = true;
+        chosen.push((pair_idx, dof));
+    }
+    Ok(chosen)
+}
+
+/// The reduced index of every DOF that is not a slave, and the masters in order.
+fn masters(n: usize, chosen: &[(usize, usize)]) -> (Vec<Option<usize>>, Vec<usize>) {
+    let mut is_slave = vec![false; n];
+    for &(_, dof) in chosen {
+        is_slave[dof] = true;
+    }
+    let mut reduced_of = vec![None; n];
+    let mut master_dofs = Vec::with_capacity(n - chosen.len());
+    for dof in 0..n {
+        if !is_slave[dof] {
+            reduced_of[dof] = Some(master_dofs.len());
+            master_dofs.push(dof);
+        }
+    }
+    (reduced_of, master_dofs)
+}
+
+/// The slave `dof` of closed pair `pair` in terms of the masters: by the normal constraint
+/// (trial side) and by `n + μ t` (test side).
+fn slave(
+    columns: &[Vec<(usize, f64)>],
+    pair: usize,
+    dof: usize,
+    mu: f64,
+    reduced_of: &[Option<usize>],
+) -> Result<Slave, StageError> {
+    // u_s from the constraint direction·(u_p − u_d) = 0, i.e. direction·column = 0.
+    let relation = |column: &[(usize, f64)], pivot: f64| -> Vec<(usize, f64)> {
+        column
+            .iter()
+            .filter(|&&(other, _)| other != dof)
+            .map(|&(other, value)| {
+                (
+                    reduced_of[other].expect("one slave per node"),
+                    -value / pivot,
+                )
+            })
+            .collect()
+    };
+    let normal_column = &columns[3 * pair];
+    let tangent_column = &columns[3 * pair + 1];
+    // G's row: n + μ t on the same DOFs (merged).
+    let mut g_column: Vec<(usize, f64)> = normal_column.clone();
+    for &(other, value) in tangent_column {
+        match g_column.iter_mut().find(|(dof, _)| *dof == other) {
+            Some(entry) => entry.1 += mu * value,
+            None => g_column.push((other, mu * value)),
+        }
+    }
+    let pivot_of = |column: &[(usize, f64)]| {
+        column
+            .iter()
+            .find(|&&(other, _)| other == dof)
+            .map_or(0.0, |&(_, value)| value)
+    };
+    let (normal_pivot, g_pivot) = (pivot_of(normal_column), pivot_of(&g_column));
+    if !(g_pivot.abs() > 1e-3 * normal_pivot.abs()) {
+        return Err(StageError::new(format!(
+            "closed pair {pair}: (n + mu t) has no component along the eliminated DOF (mu = {mu})"
+        )));
+    }
+    Ok(Slave {
+        pair,
+        dof,
+        trial: relation(normal_column, normal_pivot),
+        test: relation(&g_column, g_pivot),
+    })
+}
+
+/// `Ĉ = C + μ Σ (r_n / V) h_b h_bᵀ`: the friction direction's linearised damping.
+fn friction_damped(
+    model: &Model,
+    equilibrium: &Equilibrium,
+    columns: &[Vec<(usize, f64)>],
+) -> CscMatrix {
+    let n = model.n_dofs();
+    let mut triplets: Vec<(usize, usize, f64)> = model.C.triplets().collect();
+    for (pair_idx, closed) in equilibrium.closed.iter().enumerate() {
+        if !closed {
+            continue;
+        }
+        let coefficient =
+            equilibrium.mu * equilibrium.r_n[pair_idx] / equilibrium.frames.sliding_speed[pair_idx];
+        let binormal = &columns[3 * pair_idx + 2];
+        for &(row, a) in binormal {
+            for &(col, b) in binormal {
+                triplets.push((row, col, coefficient * a * b));
+            }
+        }
+    }
+    CscMatrix::from_triplets(n, n, triplets)
+}
+
 impl SlidingSystem {
     /// The sliding perturbations of `model` about `equilibrium`; `friction_damping` adds the
     /// linearised friction-direction term to C.
@@ -102,104 +232,14 @@ impl SlidingSystem {
         let mu = equilibrium.mu;
         let frames: &ContactFrames = &equilibrium.frames;
         let columns = contact::h_columns(model, frames);
-
-        // Pick the slaves.
-        let mut is_slave = vec![false; n];
-        let mut chosen: Vec<(usize, usize)> = Vec::new(); // (pair, slave DOF)
-        for (pair_idx, pair) in pairs.iter().enumerate() {
-            if !equilibrium.closed[pair_idx] {
-                continue;
-            }
-            let normal = frames.n[pair_idx];
-            let pad_dofs = model.dof_of_node[pair.pad_node as usize];
-            let axis = (0..3)
-                .filter(|&axis| pad_dofs[axis].is_some())
-                .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()));
-            let Some(axis) = axis.filter(|&axis| normal[axis].abs() > 0.5) else {
-                return Err(StageError::new(format!(
-                    "closed pair {pair_idx}: pad node {} is not free along its normal, so the contact cannot be kept by a perturbation",
-                    pair.pad_node
-                )));
-            };
-            let dof = pad_dofs[axis].expect("filtered on free DOFs") as usize;
-            if is_slave[dof] {
-                return Err(StageError::new(format!(
-                    "closed pair {pair_idx}: pad node {} is in two closed pairs",
-                    pair.pad_node
-                )));
-            }
-            is_slave[dof] = true;
-            chosen.push((pair_idx, dof));
-        }
-        let mut reduced_of = vec![None; n];
-        let mut master_dofs = Vec::with_capacity(n - chosen.len());
-        for dof in 0..n {
-            if !is_slave[dof] {
-                reduced_of[dof] = Some(master_dofs.len());
-                master_dofs.push(dof);
-            }
-        }
-        // u_s from the constraint direction·(u_p − u_d) = 0, i.e. direction·column = 0.
-        let relation = |column: &[(usize, f64)], dof: usize, pivot: f64| -> Vec<(usize, f64)> {
-            column
-                .iter()
-                .filter(|&&(other, _)| other != dof)
-                .map(|&(other, value)| {
-                    (
-                        reduced_of[other].expect("one slave per node"),
-                        -value / pivot,
-                    )
-                })
-                .collect()
-        };
-        let mut slaves = Vec::with_capacity(chosen.len());
-        for &(pair_idx, dof) in &chosen {
-            let normal_column = &columns[3 * pair_idx];
-            let tangent_column = &columns[3 * pair_idx + 1];
-            // G's row: n + μ t on the same DOFs (merged).
-            let mut g_column: Vec<(usize, f64)> = normal_column.clone();
-            for &(other, value) in tangent_column {
-                match g_column.iter_mut().find(|(dof, _)| *dof == other) {
-                    Some(entry) => entry.1 += mu * value,
-                    None => g_column.push((other, mu * value)),
-                }
-            }
-            let pivot_of = |column: &[(usize, f64)]| {
-                column
-                    .iter()
-                    .find(|&&(other, _)| other == dof)
-                    .map_or(0.0, |&(_, value)| value)
-            };
-            let (normal_pivot, g_pivot) = (pivot_of(normal_column), pivot_of(&g_column));
-            if !(g_pivot.abs() > 1e-3 * normal_pivot.abs()) {
-                return Err(StageError::new(format!(
-                    "closed pair {pair_idx}: (n + mu t) has no component along the eliminated DOF (mu = {mu})"
-                )));
-            }
-            slaves.push(Slave {
-                pair: pair_idx,
-                dof,
-                trial: relation(normal_column, dof, normal_pivot),
-                test: relation(&g_column, dof, g_pivot),
-            });
-        }
-
-        // Ĉ = C + μ Σ (r_n / V) h_b h_bᵀ.
+        let chosen = choose_slaves(model, equilibrium)?;
+        let (reduced_of, master_dofs) = masters(n, &chosen);
+        let slaves = chosen
+            .iter()
+            .map(|&(pair, dof)| slave(&columns, pair, dof, mu, &reduced_of))
+            .collect::<Result<Vec<Slave>, StageError>>()?;
         let C = if friction_damping && mu > 0.0 {
-            let mut triplets: Vec<(usize, usize, f64)> = model.C.triplets().collect();
-            for (pair_idx, closed) in equilibrium.closed.iter().enumerate() {
-                if !closed {
-                    continue;
-                }
-                let coefficient = mu * equilibrium.r_n[pair_idx] / frames.sliding_speed[pair_idx];
-                let binormal = &columns[3 * pair_idx + 2];
-                for &(row, a) in binormal {
-                    for &(col, b) in binormal {
-                        triplets.push((row, col, coefficient * a * b));
-                    }
-                }
-            }
-            CscMatrix::from_triplets(n, n, triplets)
+            friction_damped(model, equilibrium, &columns)
         } else {
             model.C.clone()
         };
