@@ -117,6 +117,29 @@ impl BrakeGeometry {
     fn pad_span(&self, count: usize) -> usize {
         count * self.puck_cells + count.saturating_sub(1) * self.puck_gap_cells
     }
+
+    /// Index of the disc's node at radial `i`, angular `j` (wrapping) and thickness `k`.
+    fn disc_node(&self, i: usize, j: usize, k: usize) -> u32 {
+        ((k * self.n_theta + j % self.n_theta) * (self.n_radial + 1) + i) as u32
+    }
+
+    /// Position of the grid point at radial `i`, angular `j`, height `z`: the same formula as
+    /// the annulus, so coincident nodes are bit-identical.
+    fn position(&self, i: usize, j: usize, z: f64) -> [f64; 3] {
+        let r = self.r_inner + (self.r_outer - self.r_inner) * i as f64 / self.n_radial as f64;
+        let theta = 2.0 * PI * (j % self.n_theta) as f64 / self.n_theta as f64;
+        [r * theta.cos(), r * theta.sin(), z]
+    }
+}
+
+/// One face of the disc that pads press on.
+struct FrictionFace {
+    upper: bool,
+    /// Heights of the friction face and of the pucks' backs.
+    friction_z: f64,
+    back_z: f64,
+    /// The disc's layer of nodes on this face.
+    disc_layer: usize,
 }
 
 /// Builds the brake mesh. See the module documentation for the layout and the named sets.
@@ -132,15 +155,6 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
         "disc",
     );
     mesh.parts.push("pad".into());
-    let disc_node = |i: usize, j: usize, k: usize| {
-        ((k * g.n_theta + j % g.n_theta) * (g.n_radial + 1) + i) as u32
-    };
-    let position = |i: usize, j: usize, z: f64| {
-        let r = g.r_inner + (g.r_outer - g.r_inner) * i as f64 / g.n_radial as f64;
-        // The same formula as the annulus, so coincident nodes are bit-identical.
-        let theta = 2.0 * PI * (j % g.n_theta) as f64 / g.n_theta as f64;
-        [r * theta.cos(), r * theta.sin(), z]
-    };
     let first_radial = (g.n_radial - g.pad_span(g.pucks_radial)) / 2;
     let cell_deg = 360.0 / g.n_theta as f64;
     let center_cell = (g.pad_center_deg.rem_euclid(360.0) / cell_deg).round() as usize;
@@ -148,104 +162,26 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
 
     let mut sets: BTreeMap<&str, Vec<u32>> = BTreeMap::new();
     for upper in [true, false] {
-        let (friction_z, back_z) = if upper {
-            (g.thickness, g.thickness + g.puck_height)
+        let face = if upper {
+            FrictionFace {
+                upper,
+                friction_z: g.thickness,
+                back_z: g.thickness + g.puck_height,
+                disc_layer: g.n_thick,
+            }
         } else {
-            (0.0, -g.puck_height)
-        };
-        let disc_layer = if upper { g.n_thick } else { 0 };
-        let normal = if upper {
-            [0.0, 0.0, 1.0]
-        } else {
-            [0.0, 0.0, -1.0]
+            FrictionFace {
+                upper,
+                friction_z: 0.0,
+                back_z: -g.puck_height,
+                disc_layer: 0,
+            }
         };
         for puck_r in 0..g.pucks_radial {
             for puck_a in 0..g.pucks_angular {
                 let i0 = first_radial + puck_r * (g.puck_cells + g.puck_gap_cells);
                 let j0 = first_angular + puck_a * (g.puck_cells + g.puck_gap_cells);
-                let n_side = g.puck_cells + 1;
-                let base = mesh.nodes.len() as u32;
-                // Layer 0 is always the friction face; layers go away from the disc.
-                let puck_node = |di: usize, dj: usize, layer: usize| {
-                    base + ((layer * n_side + dj) * n_side + di) as u32
-                };
-                for layer in 0..=g.puck_layers {
-                    let z =
-                        friction_z + (back_z - friction_z) * layer as f64 / g.puck_layers as f64;
-                    for dj in 0..n_side {
-                        for di in 0..n_side {
-                            mesh.nodes.push(position(i0 + di, j0 + dj, z));
-                        }
-                    }
-                }
-                for layer in 0..g.puck_layers {
-                    for dj in 0..g.puck_cells {
-                        for di in 0..g.puck_cells {
-                            // Upper pucks grow along +z and lower ones along −z: swap the
-                            // bottom and top faces of the lower ones to keep det J > 0.
-                            let (below, above) = if upper {
-                                (layer, layer + 1)
-                            } else {
-                                (layer + 1, layer)
-                            };
-                            let corner = |ddi: usize, ddj: usize, level: usize| {
-                                puck_node(di + ddi, dj + ddj, level)
-                            };
-                            mesh.hexes.push([
-                                corner(0, 0, below),
-                                corner(1, 0, below),
-                                corner(1, 1, below),
-                                corner(0, 1, below),
-                                corner(0, 0, above),
-                                corner(1, 0, above),
-                                corner(1, 1, above),
-                                corner(0, 1, above),
-                            ]);
-                            mesh.hex_part.push(1);
-                        }
-                    }
-                }
-                // Tributary areas of the disc's friction-face nodes (its outward normal ±z is
-                // exact: the face is plane).
-                let mut integrals = FaceIntegrals::default();
-                for dj in 0..g.puck_cells {
-                    for di in 0..g.puck_cells {
-                        // Radial then angular: counter-clockwise seen from +z.
-                        let mut corners = [(di, dj), (di + 1, dj), (di + 1, dj + 1), (di, dj + 1)];
-                        if !upper {
-                            corners.reverse();
-                        }
-                        integrals.add(
-                            corners.map(|(a, b)| disc_node(i0 + a, j0 + b, disc_layer)),
-                            &corners.map(|(a, b)| position(i0 + a, j0 + b, friction_z)),
-                        );
-                    }
-                }
-                let back_set = if upper {
-                    "pad_backs_upper"
-                } else {
-                    "pad_backs_lower"
-                };
-                for dj in 0..n_side {
-                    for di in 0..n_side {
-                        let pad_node = puck_node(di, dj, 0);
-                        let disc = disc_node(i0 + di, j0 + dj, disc_layer);
-                        mesh.contact_pairs.push(ContactPair {
-                            disc_node: disc,
-                            pad_node,
-                            normal,
-                            area: integrals.area_sums[&disc],
-                        });
-                        sets.entry("contact_disc").or_default().push(disc);
-                        sets.entry("contact_pad").or_default().push(pad_node);
-                        sets.entry(back_set)
-                            .or_default()
-                            .push(puck_node(di, dj, g.puck_layers));
-                        sets.entry("pad_backs")
-                            .or_default()
-                            .push(puck_node(di, dj, g.puck_layers));
-                    }
-                }
+                add_puck(&mut mesh, &mut sets, g, &face, (i0, j0));
             }
         }
     }
@@ -260,6 +196,105 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
         mesh.node_sets.insert(name.into(), nodes);
     }
     Ok(mesh)
+}
+
+/// Adds the puck whose first friction-face cell is at grid `(i0, j0)`: its nodes and
+/// hexahedra, its contact pairs with the disc, and its nodes to the named sets.
+fn add_puck(
+    mesh: &mut Mesh,
+    sets: &mut BTreeMap<&str, Vec<u32>>,
+    g: &BrakeGeometry,
+    face: &FrictionFace,
+    (i0, j0): (usize, usize),
+) {
+    let FrictionFace {
+        upper,
+        friction_z,
+        back_z,
+        disc_layer,
+    } = *face;
+    let n_side = g.puck_cells + 1;
+    let base = mesh.nodes.len() as u32;
+    // Layer 0 is always the friction face; layers go away from the disc.
+    let puck_node =
+        |di: usize, dj: usize, layer: usize| base + ((layer * n_side + dj) * n_side + di) as u32;
+    for layer in 0..=g.puck_layers {
+        let z = friction_z + (back_z - friction_z) * layer as f64 / g.puck_layers as f64;
+        for dj in 0..n_side {
+            for di in 0..n_side {
+                mesh.nodes.push(g.position(i0 + di, j0 + dj, z));
+            }
+        }
+    }
+    for layer in 0..g.puck_layers {
+        for dj in 0..g.puck_cells {
+            for di in 0..g.puck_cells {
+                // Upper pucks grow along +z and lower ones along −z: swap the bottom and top
+                // faces of the lower ones to keep det J > 0.
+                let (below, above) = if upper {
+                    (layer, layer + 1)
+                } else {
+                    (layer + 1, layer)
+                };
+                let corner =
+                    |ddi: usize, ddj: usize, level: usize| puck_node(di + ddi, dj + ddj, level);
+                mesh.hexes.push([
+                    corner(0, 0, below),
+                    corner(1, 0, below),
+                    corner(1, 1, below),
+                    corner(0, 1, below),
+                    corner(0, 0, above),
+                    corner(1, 0, above),
+                    corner(1, 1, above),
+                    corner(0, 1, above),
+                ]);
+                mesh.hex_part.push(1);
+            }
+        }
+    }
+    // Tributary areas of the disc's friction-face nodes (its outward normal ±z is exact: the
+    // face is plane).
+    let mut integrals = FaceIntegrals::default();
+    for dj in 0..g.puck_cells {
+        for di in 0..g.puck_cells {
+            // Radial then angular: counter-clockwise seen from +z.
+            let mut corners = [(di, dj), (di + 1, dj), (di + 1, dj + 1), (di, dj + 1)];
+            if !upper {
+                corners.reverse();
+            }
+            integrals.add(
+                corners.map(|(a, b)| g.disc_node(i0 + a, j0 + b, disc_layer)),
+                &corners.map(|(a, b)| g.position(i0 + a, j0 + b, friction_z)),
+            );
+        }
+    }
+    let normal = if upper {
+        [0.0, 0.0, 1.0]
+    } else {
+        [0.0, 0.0, -1.0]
+    };
+    let back_set = if upper {
+        "pad_backs_upper"
+    } else {
+        "pad_backs_lower"
+    };
+    for dj in 0..n_side {
+        for di in 0..n_side {
+            let pad_node = puck_node(di, dj, 0);
+            let disc = g.disc_node(i0 + di, j0 + dj, disc_layer);
+            mesh.contact_pairs.push(ContactPair {
+                disc_node: disc,
+                pad_node,
+                normal,
+                area: integrals.area_sums[&disc],
+            });
+            sets.entry("contact_disc").or_default().push(disc);
+            sets.entry("contact_pad").or_default().push(pad_node);
+            let back = puck_node(di, dj, g.puck_layers);
+            sets.entry(back_set).or_default().push(back);
+            sets.entry("pad_backs").or_default().push(back);
+        }
+    }
 }
 
 /// The `mesh.brake` stage.
