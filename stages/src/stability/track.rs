@@ -14,6 +14,8 @@
 //! continue through the coalescence; the figure shows it as two frequency lines merging while
 //! their divergence rates split.
 
+use std::sync::Arc;
+
 use faer::{Mat, c64};
 
 use super::figure::{Branch, coalescence_figure};
@@ -45,6 +47,158 @@ fn f64_column<'a>(table: &'a Table, name: &str) -> Result<&'a [f64], StageError>
             "eigenvalues: no f64 column `{name}`"
         ))),
     }
+}
+
+/// The sweep's points (eigenvalues and shapes at each value of `axis`), in increasing `axis`.
+fn sweep_points(
+    axis: &str,
+    eigenvalues: &[(crate::stage::Coords, Arc<Artifact>)],
+    shapes: &[(crate::stage::Coords, Arc<Artifact>)],
+) -> Result<Vec<Point>, StageError> {
+    let axis_value = |coords: &crate::stage::Coords| -> Result<f64, StageError> {
+        match coords.iter().find(|(name, _)| *name == axis) {
+            Some((_, Value::Float(value))) => Ok(*value),
+            Some((_, Value::Int(value))) => Ok(*value as f64),
+            _ => Err(StageError::new(format!(
+                "the sweep has no numeric coordinate `{axis}` (coordinates: {})",
+                coords
+                    .iter()
+                    .map(|(name, _)| name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))),
+        }
+    };
+    let mut points = Vec::with_capacity(eigenvalues.len());
+    for (coords, artifact) in eigenvalues {
+        let table = artifact
+            .as_table()
+            .ok_or_else(|| StageError::new("eigenvalues: not a table"))?;
+        let (_, shapes_artifact) = shapes
+            .iter()
+            .find(|(other, _)| other == coords)
+            .ok_or_else(|| StageError::new("shapes: a sweep point has no shapes"))?;
+        let shapes_table = shapes_artifact
+            .as_table()
+            .ok_or_else(|| StageError::new("shapes: not a table"))?;
+        points.push(point(axis_value(coords)?, table, shapes_table)?);
+    }
+    points.sort_by(|a, b| a.axis.total_cmp(&b.axis));
+
+    Ok(points)
+}
+
+/// Which branch each mode of each point belongs to.
+struct Branching {
+    /// `branch_of[point][mode]`.
+    branch_of: Vec<Vec<usize>>,
+    /// The MAC that put the mode on its branch (NaN where a branch starts).
+    mac_of: Vec<Vec<f64>>,
+    n_branches: usize,
+}
+
+/// Follows the modes from point to point by their MAC.
+fn follow_branches(points: &[Point], axis: &str, min_mac: f64) -> Result<Branching, StageError> {
+    // branch of each mode at each point, and the MAC that put it there.
+    let mut branch_of: Vec<Vec<usize>> = Vec::with_capacity(points.len());
+    let mut mac_of: Vec<Vec<f64>> = Vec::with_capacity(points.len());
+    let mut n_branches = 0;
+    for (index, current) in points.iter().enumerate() {
+        let n_modes = current.mode.len();
+        let pairing = match index {
+            0 => vec![None; n_modes],
+            _ => {
+                let previous = &points[index - 1];
+                if previous.shapes.nrows() != current.shapes.nrows() {
+                    return Err(StageError::new(format!(
+                        "shapes at {axis} = {} and {} have different DOF counts",
+                        previous.axis, current.axis
+                    )));
+                }
+                pair_modes(&mac_matrix(&previous.shapes, &current.shapes), min_mac)
+            }
+        };
+        let mut branches = Vec::with_capacity(n_modes);
+        let mut macs = Vec::with_capacity(n_modes);
+        for pair in pairing {
+            match pair {
+                Some((row, mac)) => {
+                    branches.push(branch_of[index - 1][row]);
+                    macs.push(mac);
+                }
+                None => {
+                    branches.push(n_branches);
+                    n_branches += 1;
+                    macs.push(f64::NAN);
+                }
+            }
+        }
+        branch_of.push(branches);
+        mac_of.push(macs);
+    }
+
+    Ok(Branching {
+        branch_of,
+        mac_of,
+        n_branches,
+    })
+}
+
+/// The `tracked` table, sorted by branch then `axis`, and each branch's points for the figure.
+fn tracked_table(points: &[Point], axis: &str, branching: &Branching) -> (Table, Vec<Branch>) {
+    let Branching {
+        branch_of,
+        mac_of,
+        n_branches,
+    } = branching;
+    let mut table_rows: Vec<TrackedRow> = Vec::new();
+    let mut branches: Vec<Branch> = vec![Vec::new(); *n_branches];
+    for (index, point) in points.iter().enumerate() {
+        for mode in 0..point.mode.len() {
+            let rate = 2.0 * point.re[mode] / point.im[mode];
+            let branch = branch_of[index][mode];
+            table_rows.push((
+                point.axis,
+                branch as i64 + 1,
+                point.mode[mode],
+                point.freq_hz[mode],
+                point.re[mode],
+                point.im[mode],
+                point.unstable[mode],
+                point.residual[mode],
+                mac_of[index][mode],
+            ));
+            branches[branch].push((
+                point.axis,
+                point.freq_hz[mode],
+                100.0 * rate,
+                point.unstable[mode],
+            ));
+        }
+    }
+    table_rows.sort_by(|a, b| a.1.cmp(&b.1).then(a.0.total_cmp(&b.0)));
+    let column = |f: &dyn Fn(&TrackedRow) -> f64| table_rows.iter().map(f).collect::<Vec<f64>>();
+    let table = Table::new()
+        .with(axis, column(&|row| row.0))
+        .with(
+            "branch",
+            table_rows.iter().map(|row| row.1).collect::<Vec<i64>>(),
+        )
+        .with(
+            "mode",
+            table_rows.iter().map(|row| row.2).collect::<Vec<i64>>(),
+        )
+        .with("freq_hz", column(&|row| row.3))
+        .with("re", column(&|row| row.4))
+        .with("im", column(&|row| row.5))
+        .with("divergence_rate", column(&|row| 2.0 * row.4 / row.5))
+        .with(
+            "unstable",
+            table_rows.iter().map(|row| row.6).collect::<Vec<bool>>(),
+        )
+        .with("residual", column(&|row| row.7))
+        .with("mac", column(&|row| row.8));
+    (table, branches)
 }
 
 fn point(axis_value: f64, eigenvalues: &Table, shapes: &Table) -> Result<Point, StageError> {
@@ -182,122 +336,9 @@ impl Stage for Track {
         let TrackParams { axis, min_mac } = params.typed()?;
         let eigenvalues = inputs.many("eigenvalues")?;
         let shapes = inputs.many("shapes")?;
-        let axis_value = |coords: &crate::stage::Coords| -> Result<f64, StageError> {
-            match coords.iter().find(|(name, _)| *name == axis) {
-                Some((_, Value::Float(value))) => Ok(*value),
-                Some((_, Value::Int(value))) => Ok(*value as f64),
-                _ => Err(StageError::new(format!(
-                    "the sweep has no numeric coordinate `{axis}` (coordinates: {})",
-                    coords
-                        .iter()
-                        .map(|(name, _)| name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ))),
-            }
-        };
-        let mut points = Vec::with_capacity(eigenvalues.len());
-        for (coords, artifact) in eigenvalues {
-            let table = artifact
-                .as_table()
-                .ok_or_else(|| StageError::new("eigenvalues: not a table"))?;
-            let (_, shapes_artifact) = shapes
-                .iter()
-                .find(|(other, _)| other == coords)
-                .ok_or_else(|| StageError::new("shapes: a sweep point has no shapes"))?;
-            let shapes_table = shapes_artifact
-                .as_table()
-                .ok_or_else(|| StageError::new("shapes: not a table"))?;
-            points.push(point(axis_value(coords)?, table, shapes_table)?);
-        }
-        points.sort_by(|a, b| a.axis.total_cmp(&b.axis));
-
-        // branch of each mode at each point, and the MAC that put it there.
-        let mut branch_of: Vec<Vec<usize>> = Vec::with_capacity(points.len());
-        let mut mac_of: Vec<Vec<f64>> = Vec::with_capacity(points.len());
-        let mut n_branches = 0;
-        for (index, current) in points.iter().enumerate() {
-            let n_modes = current.mode.len();
-            let pairing = match index {
-                0 => vec![None; n_modes],
-                _ => {
-                    let previous = &points[index - 1];
-                    if previous.shapes.nrows() != current.shapes.nrows() {
-                        return Err(StageError::new(format!(
-                            "shapes at {axis} = {} and {} have different DOF counts",
-                            previous.axis, current.axis
-                        )));
-                    }
-                    pair_modes(&mac_matrix(&previous.shapes, &current.shapes), min_mac)
-                }
-            };
-            let mut branches = Vec::with_capacity(n_modes);
-            let mut macs = Vec::with_capacity(n_modes);
-            for pair in pairing {
-                match pair {
-                    Some((row, mac)) => {
-                        branches.push(branch_of[index - 1][row]);
-                        macs.push(mac);
-                    }
-                    None => {
-                        branches.push(n_branches);
-                        n_branches += 1;
-                        macs.push(f64::NAN);
-                    }
-                }
-            }
-            branch_of.push(branches);
-            mac_of.push(macs);
-        }
-
-        let mut table_rows: Vec<TrackedRow> = Vec::new();
-        let mut branches: Vec<Branch> = vec![Vec::new(); n_branches];
-        for (index, point) in points.iter().enumerate() {
-            for mode in 0..point.mode.len() {
-                let rate = 2.0 * point.re[mode] / point.im[mode];
-                let branch = branch_of[index][mode];
-                table_rows.push((
-                    point.axis,
-                    branch as i64 + 1,
-                    point.mode[mode],
-                    point.freq_hz[mode],
-                    point.re[mode],
-                    point.im[mode],
-                    point.unstable[mode],
-                    point.residual[mode],
-                    mac_of[index][mode],
-                ));
-                branches[branch].push((
-                    point.axis,
-                    point.freq_hz[mode],
-                    100.0 * rate,
-                    point.unstable[mode],
-                ));
-            }
-        }
-        table_rows.sort_by(|a, b| a.1.cmp(&b.1).then(a.0.total_cmp(&b.0)));
-        let column =
-            |f: &dyn Fn(&TrackedRow) -> f64| table_rows.iter().map(f).collect::<Vec<f64>>();
-        let table = Table::new()
-            .with(axis.clone(), column(&|row| row.0))
-            .with(
-                "branch",
-                table_rows.iter().map(|row| row.1).collect::<Vec<i64>>(),
-            )
-            .with(
-                "mode",
-                table_rows.iter().map(|row| row.2).collect::<Vec<i64>>(),
-            )
-            .with("freq_hz", column(&|row| row.3))
-            .with("re", column(&|row| row.4))
-            .with("im", column(&|row| row.5))
-            .with("divergence_rate", column(&|row| 2.0 * row.4 / row.5))
-            .with(
-                "unstable",
-                table_rows.iter().map(|row| row.6).collect::<Vec<bool>>(),
-            )
-            .with("residual", column(&|row| row.7))
-            .with("mac", column(&|row| row.8));
+        let points = sweep_points(&axis, eigenvalues, shapes)?;
+        let branching = follow_branches(&points, &axis, min_mac)?;
+        let (table, branches) = tracked_table(&points, &axis, &branching);
         let figure = coalescence_figure(&branches, &axis)?;
         Ok(Outputs::from([
             ("tracked".to_string(), Artifact::Table(table)),
