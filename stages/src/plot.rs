@@ -126,6 +126,41 @@ pub fn series_color(idx: usize) -> RGBColor {
     PALETTE[idx % PALETTE.len()]
 }
 
+/// A vertical colour bar over `range`, in `levels` viridis steps from its bottom to its top,
+/// with its axis labelled `label` (ticks as [`tick_label`]).
+pub fn colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    range: std::ops::Range<f64>,
+    label: &str,
+    levels: usize,
+) -> DrawResult {
+    let (low, high) = (range.start, range.end);
+    let mut bar = ChartBuilder::on(area)
+        .margin_top(45)
+        .margin_bottom(56)
+        .margin_right(10)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..1.0, range)
+        .map_err(drawing_error)?;
+    bar.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(label)
+        .y_label_formatter(&|value| tick_label(*value))
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 15))
+        .draw()
+        .map_err(drawing_error)?;
+    let levels = levels.max(2);
+    let at = |step: usize| low + (high - low) * step as f64 / levels as f64;
+    bar.draw_series((0..levels).map(|step| {
+        let color = viridis(step as f64 / (levels - 1) as f64);
+        Rectangle::new([(0.0, at(step)), (1.0, at(step + 1))], color.filled())
+    }))
+    .map_err(drawing_error)?;
+    Ok(())
+}
+
 /// Short engineering label for an axis tick: `1.5k`, `250`, `0.01`.
 pub fn tick_label(value: f64) -> String {
     let magnitude = value.abs();

@@ -79,31 +79,12 @@ impl Drawing for PressureMap<'_> {
             chart.draw_series(markers).map_err(drawing_error)?;
         }
         // Colour bar: 0 to the peak pressure (grey: open pairs).
-        let mut bar = ChartBuilder::on(&colorbar)
-            .margin_top(40)
-            .margin_bottom(55)
-            .margin_right(10)
-            .y_label_area_size(75)
-            .build_cartesian_2d(0.0..1.0, 0.0..peak.max(f64::MIN_POSITIVE))
-            .map_err(drawing_error)?;
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_desc("pressure (Pa)")
-            .y_label_formatter(&|value| format!("{value:.2e}"))
-            .label_style((plot::FONT, 13))
-            .axis_desc_style((plot::FONT, 14))
-            .draw()
-            .map_err(drawing_error)?;
-        let steps = 64;
-        bar.draw_series((0..steps).map(|step| {
-            let (low, high) = (step as f64 / steps as f64, (step + 1) as f64 / steps as f64);
-            Rectangle::new(
-                [(0.0, low * peak), (1.0, high * peak)],
-                plot::viridis(low).filled(),
-            )
-        }))
-        .map_err(drawing_error)?;
+        plot::colour_bar(
+            &colorbar,
+            0.0..peak.max(f64::MIN_POSITIVE),
+            "pressure (Pa)",
+            64,
+        )?;
         Ok(())
     }
 }

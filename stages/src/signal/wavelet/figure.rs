@@ -191,29 +191,7 @@ impl Drawing for PowerMap<'_> {
         }
 
         // Colour bar, in dB below the maximum.
-        let mut bar = ChartBuilder::on(&colorbar)
-            .margin_top(50)
-            .margin_bottom(57)
-            .margin_right(10)
-            .y_label_area_size(55)
-            .build_cartesian_2d(0.0..1.0, -self.range_db..0.0)
-            .map_err(drawing_error)?;
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_desc("dB")
-            .label_style((plot::FONT, 14))
-            .axis_desc_style((plot::FONT, 15))
-            .draw()
-            .map_err(drawing_error)?;
-        let n_steps = MAP_LEVELS as usize;
-        bar.draw_series((0..n_steps).map(|step| {
-            let low = -self.range_db + self.range_db * step as f64 / n_steps as f64;
-            let high = -self.range_db + self.range_db * (step + 1) as f64 / n_steps as f64;
-            let color = plot::viridis(step as f64 / (n_steps - 1) as f64);
-            Rectangle::new([(0.0, low), (1.0, high)], color.filled())
-        }))
-        .map_err(drawing_error)?;
+        plot::colour_bar(&colorbar, -self.range_db..0.0, "dB", MAP_LEVELS as usize)?;
         Ok(())
     }
 }
