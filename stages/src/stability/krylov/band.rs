@@ -41,104 +41,166 @@ pub fn solve_band(
     options: &KrylovOptions,
     progress: &dyn Fn(f64),
 ) -> Result<(Vec<EigenPair>, BandReport), StageError> {
-    let half_rate = max_divergence_rate / 2.0;
     let pattern = EmbeddedPattern::new(system)?;
-    let mut report = BandReport {
-        factor_entries: pattern.factor_len(),
-        ..BandReport::default()
+    let mut cover = Cover {
+        omega_max,
+        max_divergence_rate,
+        half_rate: max_divergence_rate / 2.0,
+        report: BandReport {
+            factor_entries: pattern.factor_len(),
+            ..BandReport::default()
+        },
+        kept: Vec::new(),
+        previous: None,
+        covered_to: 0.0,
+        step: omega_max / 10.0,
+        pending: None,
     };
-    let mut kept: Vec<EigenPair> = Vec::new();
-    // The previous shift: its coverage top, its cell's lower cut, the eigenvalues inside its
-    // disk and the band's eigenpairs among them.
-    let mut previous: Option<(f64, f64, Vec<c64>, Vec<EigenPair>)> = None;
-    let mut covered_to = 0.0_f64;
-    let mut step = omega_max / 10.0;
-    // A shift whose disk fell short of what is covered, kept until a shift below fills the gap.
-    let mut pending: Option<ShiftResult> = None;
-    while covered_to < omega_max {
-        let gap_filled = pending.as_ref().is_some_and(|result| {
+    while cover.covered_to < omega_max {
+        let result = cover.next_shift(system, &pattern, options)?;
+        if cover.reaches(&result) {
+            cover.accept(result, options)?;
+            progress((cover.covered_to / omega_max).min(1.0));
+        } else {
+            cover.fell_short(result)?;
+        }
+    }
+    Ok(cover.finish())
+}
+
+/// The band covered so far, shift by shift.
+struct Cover {
+    omega_max: f64,
+    max_divergence_rate: f64,
+    half_rate: f64,
+    report: BandReport,
+    /// The eigenpairs kept from the shifts before the previous one.
+    kept: Vec<EigenPair>,
+    previous: Option<Accepted>,
+    /// Height up to which the band is covered.
+    covered_to: f64,
+    /// Height between shifts, aimed at `per_shift` eigenvalues a disk.
+    step: f64,
+    /// A shift whose disk fell short of what is covered, kept until a shift below fills the gap.
+    pending: Option<ShiftResult>,
+}
+
+/// The last accepted shift: the top of its coverage, its cell's lower cut, the eigenvalues
+/// inside its disk and the band's eigenpairs among them.
+struct Accepted {
+    high: f64,
+    cut: f64,
+    inside: Vec<c64>,
+    pairs: Vec<EigenPair>,
+}
+
+impl Cover {
+    /// The pending shift if the gap below it is now covered, else a new shift: halfway below a
+    /// pending one (its disk must reach up into it as well as down to what is covered), or a
+    /// step above what is covered (the origin for the first shift).
+    fn next_shift(
+        &mut self,
+        system: &SlidingSystem,
+        pattern: &EmbeddedPattern,
+        options: &KrylovOptions,
+    ) -> Result<ShiftResult, StageError> {
+        let (covered_to, half_rate, omega_max) = (self.covered_to, self.half_rate, self.omega_max);
+        let gap_filled = self.pending.as_ref().is_some_and(|result| {
             covered(result.sigma.im, result.radius, half_rate).0 <= covered_to
         });
-        let result = match pending.take() {
-            Some(result) if gap_filled => result,
+        match self.pending.take() {
+            Some(result) if gap_filled => Ok(result),
             short => {
-                // Below a shift that fell short, halfway to it: the disk must reach up into
-                // it as well as down to what is covered (the origin for the first shift).
                 let short_low = short
                     .as_ref()
                     .map(|short| covered(short.sigma.im, short.radius, half_rate).0);
                 let omega = match short_low {
                     Some(low) => 0.5 * (covered_to + low),
-                    None => (covered_to + step).min(omega_max),
+                    None => (covered_to + self.step).min(omega_max),
                 };
                 let height_gap = |y: f64| ((omega - y).powi(2) + (half_rate * y).powi(2)).sqrt();
                 let needed = 1.05 * height_gap(covered_to).max(short_low.map_or(0.0, height_gap));
-                pending = short;
+                self.pending = short;
                 solve_shift(
                     system,
-                    &pattern,
+                    pattern,
                     c64::new(0.0, omega),
                     needed,
                     &|lambda| in_band(lambda, omega_max, half_rate),
                     options,
-                    &mut report,
-                )?
+                    &mut self.report,
+                )
             }
-        };
-        let omega = result.sigma.im;
-        let (low, high) = covered(omega, result.radius, half_rate);
-        let reaches = if previous.is_none() {
-            result.radius >= omega
-        } else {
-            low <= covered_to
-        };
-        if !reaches {
-            // The basis limit left the disk too small. Where the band's wedge is about as wide
-            // as the disk, no shift can help: every disk must hold the wedge's cross-section
-            // at the height covered so far, and barely wider ones would crawl up the band.
-            let wedge = half_rate * covered_to;
-            if result.radius < WEDGE_MARGIN * wedge {
-                return Err(StageError::new(format!(
-                    "at {:.0} Hz the band (|divergence rate| ≤ {max_divergence_rate}) reaches ±{:.0} Hz off the frequency axis, and a shift at {:.0} Hz resolves a disk of only {:.0} Hz radius with {} vectors (max_basis), too small to cover more than a sliver of it: lower max_divergence_rate or raise max_basis",
-                    covered_to / (2.0 * PI),
-                    wedge / (2.0 * PI),
-                    omega / (2.0 * PI),
-                    result.radius / (2.0 * PI),
-                    result.basis
-                )));
-            }
-            // Otherwise keep it, and fill the gap below it with a shift halfway; if that one
-            // falls short too (or this is the first shift), start over closer.
-            if step < 1e-4 * omega_max {
-                return Err(StageError::new(format!(
-                    "the shift at {:.1} Hz trusts only a radius of {:.1} Hz with {} vectors: raise max_basis",
-                    omega / (2.0 * PI),
-                    result.radius / (2.0 * PI),
-                    result.basis
-                )));
-            }
-            if previous.is_some() && pending.is_none() && low < high {
-                tracing::info!(
-                    "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); a shift below fills the gap",
-                    omega / (2.0 * PI),
-                    result.basis,
-                    result.radius / (2.0 * PI)
-                );
-                report.fell_short += 1;
-                pending = Some(result);
-            } else {
-                step = 0.5 * (omega - covered_to);
-                pending = None;
-                tracing::info!(
-                    "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); starting over closer, at {:.0} Hz",
-                    omega / (2.0 * PI),
-                    result.basis,
-                    result.radius / (2.0 * PI),
-                    (covered_to + step).min(omega_max) / (2.0 * PI)
-                );
-            }
-            continue;
         }
+    }
+
+    /// Whether the shift's disk reaches down to what is covered (to the origin for the first).
+    fn reaches(&self, result: &ShiftResult) -> bool {
+        let (low, _) = covered(result.sigma.im, result.radius, self.half_rate);
+        if self.previous.is_none() {
+            result.radius >= result.sigma.im
+        } else {
+            low <= self.covered_to
+        }
+    }
+
+    /// A shift whose disk the basis limit left too small: an error where no shift can help,
+    /// else kept while a shift halfway below fills the gap, or dropped to start over closer.
+    fn fell_short(&mut self, result: ShiftResult) -> Result<(), StageError> {
+        let omega = result.sigma.im;
+        let (low, high) = covered(omega, result.radius, self.half_rate);
+        // Where the band's wedge is about as wide as the disk, no shift can help: every disk
+        // must hold the wedge's cross-section at the height covered so far, and barely wider
+        // ones would crawl up the band.
+        let wedge = self.half_rate * self.covered_to;
+        if result.radius < WEDGE_MARGIN * wedge {
+            return Err(StageError::new(format!(
+                "at {:.0} Hz the band (|divergence rate| ≤ {}) reaches ±{:.0} Hz off the frequency axis, and a shift at {:.0} Hz resolves a disk of only {:.0} Hz radius with {} vectors (max_basis), too small to cover more than a sliver of it: lower max_divergence_rate or raise max_basis",
+                self.covered_to / (2.0 * PI),
+                self.max_divergence_rate,
+                wedge / (2.0 * PI),
+                omega / (2.0 * PI),
+                result.radius / (2.0 * PI),
+                result.basis
+            )));
+        }
+        if self.step < 1e-4 * self.omega_max {
+            return Err(StageError::new(format!(
+                "the shift at {:.1} Hz trusts only a radius of {:.1} Hz with {} vectors: raise max_basis",
+                omega / (2.0 * PI),
+                result.radius / (2.0 * PI),
+                result.basis
+            )));
+        }
+        if self.previous.is_some() && self.pending.is_none() && low < high {
+            tracing::info!(
+                "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); a shift below fills the gap",
+                omega / (2.0 * PI),
+                result.basis,
+                result.radius / (2.0 * PI)
+            );
+            self.report.fell_short += 1;
+            self.pending = Some(result);
+        } else {
+            self.step = 0.5 * (omega - self.covered_to);
+            self.pending = None;
+            tracing::info!(
+                "stability: shift at {:.0} Hz fell short ({} vectors, trusted radius {:.0} Hz); starting over closer, at {:.0} Hz",
+                omega / (2.0 * PI),
+                result.basis,
+                result.radius / (2.0 * PI),
+                (self.covered_to + self.step).min(self.omega_max) / (2.0 * PI)
+            );
+        }
+        Ok(())
+    }
+
+    /// Takes a shift whose disk reaches what is covered: checks it against the previous one
+    /// where their disks overlap, keeps the previous shift's eigenpairs below the cut between
+    /// them, and aims the next shift.
+    fn accept(&mut self, result: ShiftResult, options: &KrylovOptions) -> Result<(), StageError> {
+        let omega = result.sigma.im;
+        let (low, high) = covered(omega, result.radius, self.half_rate);
         let mut shift_report = ShiftReport {
             frequency_hz: omega / (2.0 * PI),
             radius: result.radius,
@@ -160,30 +222,36 @@ pub fn solve_band(
             .into_iter()
             .filter(|pair| is_inside(pair.lambda))
             .collect();
-        let cut = match previous.take() {
-            Some((previous_high, previous_cut, previous_inside, previous_pairs)) => {
-                // Both disks cover [low, previous_high]: there the two sets must agree.
-                let window = (low, previous_high);
-                check_overlap(&previous_inside, &inside, window, omega_max, half_rate).map_err(
-                    |(theirs, mine)| {
-                        StageError::new(format!(
-                            "shifts at {:.1} Hz and {:.1} Hz disagree on the eigenvalues between {:.1} and {:.1} Hz ({theirs} against {mine}): an eigenvalue was missed; raise max_basis",
-                            report.shifts.last().map_or(0.0, |shift| shift.frequency_hz),
-                            omega / (2.0 * PI),
-                            window.0 / (2.0 * PI),
-                            window.1 / (2.0 * PI),
-                        ))
-                    },
-                )?;
+        let cut = match self.previous.take() {
+            Some(previous) => {
+                // Both disks cover [low, previous.high]: there the two sets must agree.
+                let window = (low, previous.high);
+                check_overlap(
+                    &previous.inside,
+                    &inside,
+                    window,
+                    self.omega_max,
+                    self.half_rate,
+                )
+                .map_err(|(theirs, mine)| {
+                    StageError::new(format!(
+                        "shifts at {:.1} Hz and {:.1} Hz disagree on the eigenvalues between {:.1} and {:.1} Hz ({theirs} against {mine}): an eigenvalue was missed; raise max_basis",
+                        self.report.shifts.last().map_or(0.0, |shift| shift.frequency_hz),
+                        omega / (2.0 * PI),
+                        window.0 / (2.0 * PI),
+                        window.1 / (2.0 * PI),
+                    ))
+                })?;
                 shift_report.overlap_matched = inside
                     .iter()
                     .filter(|lambda| lambda.im >= window.0 && lambda.im <= window.1)
                     .count();
                 let cut = 0.5 * (window.0 + window.1);
-                kept.extend(
-                    previous_pairs
+                self.kept.extend(
+                    previous
+                        .pairs
                         .into_iter()
-                        .filter(|pair| pair.lambda.im >= previous_cut && pair.lambda.im < cut),
+                        .filter(|pair| pair.lambda.im >= previous.cut && pair.lambda.im < cut),
                 );
                 cut
             }
@@ -197,28 +265,46 @@ pub fn solve_band(
             shift_report.radius / (2.0 * PI),
             shift_report.kept
         );
-        report.shifts.push(shift_report);
-        covered_to = high;
-        progress((covered_to / omega_max).min(1.0));
+        self.report.shifts.push(shift_report);
+        self.covered_to = high;
         // Aim the next disk at `per_shift` eigenvalues. It spans about twice the step in
         // height; the density is that of this disk's upper half, raised by half as modal
         // density grows with frequency.
         let above = inside.iter().filter(|lambda| lambda.im >= omega).count();
-        step = if above == 0 {
+        self.step = if above == 0 {
             1.6 * result.radius
         } else {
             let density = 1.5 * above as f64 / result.radius;
             (options.per_shift as f64 / (2.0 * density))
                 .clamp(0.1 * result.radius, 1.6 * result.radius)
         };
-        previous = Some((high, cut, inside, inside_pairs));
+        self.previous = Some(Accepted {
+            high,
+            cut,
+            inside,
+            pairs: inside_pairs,
+        });
+        Ok(())
     }
-    if let Some((_, cut, _, pairs)) = previous {
-        kept.extend(pairs.into_iter().filter(|pair| pair.lambda.im >= cut));
+
+    /// The kept eigenpairs in the band, by frequency, and the report.
+    fn finish(mut self) -> (Vec<EigenPair>, BandReport) {
+        if let Some(previous) = self.previous.take() {
+            let cut = previous.cut;
+            self.kept.extend(
+                previous
+                    .pairs
+                    .into_iter()
+                    .filter(|pair| pair.lambda.im >= cut),
+            );
+        }
+        let (omega_max, half_rate) = (self.omega_max, self.half_rate);
+        self.kept
+            .retain(|pair| in_band(pair.lambda, omega_max, half_rate));
+        self.kept
+            .sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
+        (self.kept, self.report)
     }
-    kept.retain(|pair| in_band(pair.lambda, omega_max, half_rate));
-    kept.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
-    Ok((kept, report))
 }
 
 /// Checks that two shifts found the same eigenvalues in the band part of `window` (heights):
