@@ -120,26 +120,14 @@ pub(super) fn solve_shift(
         while 2 * half.rank() < k + b && half.rank() < m {
             half.add_random(&mut random);
         }
-        // w₁ = z₁ and w₂ = (x₁ + σ z₁)/s in coordinates.
         let new_rank = half.rank();
-        let mut W = Mat::<c64>::from_fn(2 * new_rank, b, |row, j| {
-            let i = row / 2;
-            let w1 = if i < z_coordinates.nrows() {
-                z_coordinates[(i, j)]
-            } else {
-                c64::new(0.0, 0.0)
-            };
-            if row % 2 == 0 {
-                w1
-            } else {
-                let x1 = if i < rank {
-                    U[(2 * i, k - b + j)]
-                } else {
-                    c64::new(0.0, 0.0)
-                };
-                (x1 + sigma * w1) / scale
-            }
-        });
+        let mut W = next_block(
+            z_coordinates.as_ref(),
+            U.submatrix(0, k - b, 2 * rank, b),
+            new_rank,
+            sigma,
+            scale,
+        );
         let (coefficients, R) = orthonormalise(
             U.submatrix(0, 0, 2 * new_rank, k),
             &mut W,
@@ -203,6 +191,37 @@ pub(super) fn solve_shift(
             seconds,
         });
     }
+}
+
+/// The new Arnoldi block in coordinates (interleaved, `2 × new_rank` rows), from the operator's
+/// first half `z₁` (coordinates of `Q`) and the block it was applied to (`x₁` its first half):
+/// `w₁ = z₁` and `w₂ = (x₁ + σ z₁)/s`.
+fn next_block(
+    z_coordinates: MatRef<'_, c64>,
+    block: MatRef<'_, c64>,
+    new_rank: usize,
+    sigma: c64,
+    scale: f64,
+) -> Mat<c64> {
+    let zero = c64::new(0.0, 0.0);
+    Mat::<c64>::from_fn(2 * new_rank, block.ncols(), |row, j| {
+        let i = row / 2;
+        let w1 = if i < z_coordinates.nrows() {
+            z_coordinates[(i, j)]
+        } else {
+            zero
+        };
+        if row % 2 == 0 {
+            w1
+        } else {
+            let x1 = if 2 * i < block.nrows() {
+                block[(2 * i, j)]
+            } else {
+                zero
+            };
+            (x1 + sigma * w1) / scale
+        }
+    })
 }
 
 /// The Ritz values of an Arnoldi matrix's leading k × k section, and which have converged.
