@@ -1417,23 +1417,12 @@ mod tests {
                 "model".to_string(),
                 Input::One(Arc::new(Artifact::Model(Box::new(model)))),
             )]));
-            let encoded = |threads: usize| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap()
-                    .install(|| SlidingEquilibrium.run(&params, &inputs).unwrap())
-                    .iter()
-                    .map(|(name, artifact)| (name.clone(), artifact.encode()))
-                    .collect::<Vec<_>>()
-            };
-            let one = encoded(1);
-            for threads in [2, 3] {
-                assert!(
-                    one == encoded(threads),
-                    "{load}: outputs differ on {threads} threads"
-                );
-            }
+            crate::stage::assert_outputs_independent_of_threads(
+                &SlidingEquilibrium,
+                &params,
+                &inputs,
+                load,
+            );
         }
     }
 

@@ -420,15 +420,8 @@ mod tests {
     use crate::table::ColumnData;
 
     fn noise(n: usize) -> Vec<f64> {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        (0..n)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect()
+        let mut random = squeal_linalg::rng::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
+        (0..n).map(|_| 0.5 * random.next_signed()).collect()
     }
 
     #[test]

@@ -634,21 +634,5 @@ fn stability_results_do_not_depend_on_the_thread_count() {
             })
             .collect(),
     );
-    let encoded = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| Stability.run(&params, &inputs).unwrap())
-            .iter()
-            .map(|(name, artifact)| (name.clone(), artifact.encode()))
-            .collect::<Vec<_>>()
-    };
-    let one = encoded(1);
-    for threads in [2, 3] {
-        assert!(
-            one == encoded(threads),
-            "outputs differ on {threads} threads"
-        );
-    }
+    crate::stage::assert_outputs_independent_of_threads(&Stability, &params, &inputs, "stability");
 }

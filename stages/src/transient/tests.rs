@@ -665,23 +665,7 @@ fn stage_outputs_do_not_depend_on_the_thread_count() {
         ("duration", Value::Float(4e-4)),
         ("amplitude", Value::Float(1e-6)),
     ]);
-    let encoded = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| Transient.run(&params, &inputs).unwrap())
-            .iter()
-            .map(|(name, artifact)| (name.clone(), artifact.encode()))
-            .collect::<Vec<_>>()
-    };
-    let one = encoded(1);
-    for threads in [2, 3] {
-        assert!(
-            one == encoded(threads),
-            "outputs differ on {threads} threads"
-        );
-    }
+    crate::stage::assert_outputs_independent_of_threads(&Transient, &params, &inputs, "transient");
 }
 
 /// Checkpoints kept in memory, one due every `every` steps.

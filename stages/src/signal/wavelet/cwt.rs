@@ -802,15 +802,8 @@ mod tests {
 
     /// A deterministic broadband signal: every scale sees content.
     fn broadband(n: usize) -> Vec<f64> {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        (0..n)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect()
+        let mut random = squeal_linalg::rng::SplitMix64::new(0x2545_f491_4f6c_dd1d);
+        (0..n).map(|_| 0.5 * random.next_signed()).collect()
     }
 
     /// Which evaluation a scale must take: overlap-save blocks or the whole record, and for
