@@ -362,14 +362,6 @@ impl InterfaceSolve {
         InterfaceSolve { rows, columns, W }
     }
 
-    /// Entries of `Y` stored, zeros inside runs included.
-    pub fn stored_len(&self) -> usize {
-        self.columns
-            .iter()
-            .flat_map(|runs| runs.iter().map(|(_, values)| values.len()))
-            .sum()
-    }
-
     /// `Yᵀ y` for `y` in elimination order: `G A⁻¹ b` when `y = L⁻¹ Pᵀ b`.
     pub fn project(&self, y: &[f64], out: &mut [f64]) {
         let gathered: Vec<f64> = self.rows.iter().map(|&row| y[row]).collect();

@@ -578,9 +578,9 @@ impl ContactSolver {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
-        let warm_start = (r.to_vec(), w.to_vec());
         self.pacing.wait = self.pacing.wait.saturating_sub(1);
         if let Some((_, factorisation)) = &self.factorisation {
+            let warm_start = (r.to_vec(), w.to_vec());
             if let Some(report) = factorisation.chord(problem, step, tolerance, r, w) {
                 self.pacing.uses += 1;
                 if self.pacing.uses >= PAYBACK_STEPS {

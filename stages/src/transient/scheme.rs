@@ -552,6 +552,7 @@ struct State {
     delta: Vec<f64>,
     w: Vec<f64>,
     r: Vec<f64>,
+    /// The contact solver's memory, written with each checkpoint.
     contact: contact::Memory,
     audit: Audit,
     history: Vec<HistoryRow>,
