@@ -407,7 +407,11 @@ fn print_stages(registry: &Registry) {
             } else {
                 ""
             };
-            println!("  input  {:<20} {}{many}: {}", port.name, port.ty, port.doc);
+            let optional = if port.optional { ", optional" } else { "" };
+            println!(
+                "  input  {:<20} {}{many}{optional}: {}",
+                port.name, port.ty, port.doc
+            );
         }
         for port in stage.outputs() {
             println!("  output {:<20} {}: {}", port.name, port.ty, port.doc);

@@ -507,12 +507,13 @@ impl Executor<'_> {
                         &document.bytes,
                     )];
                 }
-                // Meshes, models and modes feed other stages; people see them through the
-                // tables, figures and documents those stages write.
+                // Meshes, models, modes and bases feed other stages; people see them through
+                // the tables, figures and documents those stages write.
                 Artifact::Mesh(_)
                 | Artifact::Model(_)
                 | Artifact::RealModes(_)
-                | Artifact::Equilibrium(_) => files = Vec::new(),
+                | Artifact::Equilibrium(_)
+                | Artifact::Basis(_) => files = Vec::new(),
             }
             for (file, bytes) in &files {
                 let path = self.options.out_dir.join(file);

@@ -425,7 +425,7 @@ impl Validator<'_> {
                 arity: port.arity,
             });
         }
-        for port in &ports {
+        for port in ports.iter().filter(|port| !port.optional) {
             if !inputs.iter().any(|input| input.port == port.name) {
                 return Err(kind.error(
                     path,

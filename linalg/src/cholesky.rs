@@ -115,8 +115,13 @@ impl Cholesky {
         }
         let matrices: Vec<&CscMatrix> = terms.iter().map(|(_, A)| *A).collect();
         let groups = ordering::dof_groups(dof_of_node, n);
-        let order =
-            ordering::nested_dissection(&groups, &matrices, n).unwrap_or_else(|| (0..n).collect());
+        // A dense matrix (a reduced model) has nothing to reorder.
+        let dense = values.len() == n * (n + 1) / 2;
+        let order = if dense {
+            (0..n).collect()
+        } else {
+            ordering::nested_dissection(&groups, &matrices, n).unwrap_or_else(|| (0..n).collect())
+        };
         // The interface last, each part keeping its nested-dissection order.
         let mut on_interface = vec![false; n];
         for &unknown in interface {

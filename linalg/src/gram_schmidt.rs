@@ -8,6 +8,10 @@
 //! The real Lanczos basis is orthonormal in the `M` inner product, with `M V` kept beside `V`:
 //! its blocks are made orthonormal by Cholesky QR, twice, after the same projections
 //! (`orthonormalize_block`), column by column where the Krylov space has become invariant.
+//!
+//! [`MSpan`] grows an `M`-orthonormal basis from given vectors (a reduction basis), keeping a
+//! vector only when enough of it lies outside the span so far: the span's rank is decided
+//! vector by vector, against a norm the caller states.
 
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatRef, Par, c64};
@@ -305,6 +309,124 @@ pub(crate) fn orthonormalize_block(
     })
 }
 
+/// Candidates are projected and tested this many at a time.
+const SPAN_BLOCK: usize = 32;
+/// Projections of one candidate at most.
+const MAX_PASSES: usize = 5;
+
+/// An `M`-orthonormal basis `Q` (`Qᵀ M Q = I`) with `M Q` beside it.
+pub struct MSpan {
+    vectors: Mat<f64>,
+    M_vectors: Mat<f64>,
+    len: usize,
+}
+
+impl MSpan {
+    /// An empty span in `n` dimensions with room for `capacity` vectors.
+    pub fn with_capacity(n: usize, capacity: usize) -> MSpan {
+        MSpan {
+            vectors: Mat::zeros(n, capacity),
+            M_vectors: Mat::zeros(n, capacity),
+            len: 0,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The orthonormal vectors.
+    pub fn vectors(&self) -> MatRef<'_, f64> {
+        self.vectors.as_ref().subcols(0, self.len)
+    }
+
+    /// `M` times the vectors.
+    pub fn M_vectors(&self) -> MatRef<'_, f64> {
+        self.M_vectors.as_ref().subcols(0, self.len)
+    }
+
+    /// Adds the candidates (columns, in order), each projected `M`-orthogonally out of the
+    /// span so far (classical Gram–Schmidt, twice) and kept, normalised, when the `M`-norm left
+    /// is at least `tolerance × reference_norms[j]`. Returns that norm over the reference for
+    /// every candidate, kept or not.
+    pub fn extend(
+        &mut self,
+        M: &CscMatrix,
+        candidates: MatRef<'_, f64>,
+        reference_norms: &[f64],
+        tolerance: f64,
+    ) -> Vec<f64> {
+        assert_eq!(candidates.ncols(), reference_norms.len());
+        let mut remaining = Vec::with_capacity(candidates.ncols());
+        let mut first = 0;
+        while first < candidates.ncols() {
+            let width = SPAN_BLOCK.min(candidates.ncols() - first);
+            let mut X = candidates.subcols(first, width).to_owned();
+            let mut MX = symmetric_mul(M, X.as_ref());
+            for _ in 0..2 {
+                if self.len > 0 {
+                    let coefficients = transpose_times(self.M_vectors(), X.as_ref());
+                    add_product(X.as_mut(), self.vectors(), coefficients.as_ref(), -1.0);
+                    add_product(MX.as_mut(), self.M_vectors(), coefficients.as_ref(), -1.0);
+                }
+            }
+            let block_start = self.len;
+            for j in 0..width {
+                let mut x = X.col(j).to_owned();
+                let mut Mx = MX.col(j).to_owned();
+                let mut norm = dot(x.as_ref(), Mx.as_ref()).max(0.0).sqrt();
+                // Twice against the block's vectors; again, against every vector, while a pass
+                // still removes more than 1 − 1/√2 of what is left (DGKS): a vector mostly in
+                // the span keeps the round-off of its projections, which normalising magnifies.
+                for pass in 0..MAX_PASSES {
+                    let before = norm;
+                    let from = if pass < 2 { block_start } else { 0 };
+                    for k in from..self.len {
+                        let coefficient = dot(self.M_vectors.col(k), x.as_ref());
+                        x -= faer::Scale(coefficient) * self.vectors.col(k);
+                        Mx -= faer::Scale(coefficient) * self.M_vectors.col(k);
+                    }
+                    norm = dot(x.as_ref(), Mx.as_ref()).max(0.0).sqrt();
+                    if pass >= 1 && norm >= REORTHOGONALIZE_BELOW * before {
+                        break;
+                    }
+                }
+                if norm >= tolerance * reference_norms[first + j] && norm > 0.0 {
+                    // `M x` carried through the projections keeps the round-off of the
+                    // cancelled parts: a kept vector gets its own product.
+                    let fresh = symmetric_mul(M, x.as_mat());
+                    Mx.copy_from(fresh.col(0));
+                    norm = dot(x.as_ref(), Mx.as_ref()).max(0.0).sqrt();
+                }
+                let ratio = norm / reference_norms[first + j];
+                remaining.push(ratio);
+                if ratio >= tolerance && norm > 0.0 {
+                    if self.len == self.vectors.ncols() {
+                        let grown = (2 * self.len).max(SPAN_BLOCK);
+                        self.vectors
+                            .resize_with(self.vectors.nrows(), grown, |_, _| 0.0);
+                        self.M_vectors
+                            .resize_with(self.vectors.nrows(), grown, |_, _| 0.0);
+                    }
+                    self.vectors
+                        .col_mut(self.len)
+                        .copy_from(faer::Scale(1.0 / norm) * &x);
+                    self.M_vectors
+                        .col_mut(self.len)
+                        .copy_from(faer::Scale(1.0 / norm) * &Mx);
+                    self.len += 1;
+                }
+            }
+            first += width;
+        }
+        remaining
+    }
+}
+
 /// `xᵀ y` of two columns.
 fn dot(x: faer::ColRef<'_, f64>, y: faer::ColRef<'_, f64>) -> f64 {
     x.iter().zip(y.iter()).map(|(a, b)| a * b).sum()
@@ -319,6 +441,61 @@ mod tests {
     /// almost wholly in its span (the case it is made for): the remainder must be orthogonal to
     /// the basis to round-off, and basis times coefficients plus remainder must give back the
     /// vectors.
+    /// A span grown from vectors with exact and near dependences: `M`-orthonormal to
+    /// round-off, the rank decided by the tolerance, and spanning every kept candidate.
+    #[test]
+    fn a_span_drops_dependent_vectors_and_is_M_orthonormal() {
+        let n = 3000;
+        // A diagonal mass matrix with entries spread over three decades.
+        let M = CscMatrix {
+            n_rows: n,
+            n_cols: n,
+            col_ptr: (0..=n).collect(),
+            row_idx: (0..n).collect(),
+            values: (0..n)
+                .map(|i| 10f64.powf(3.0 * i as f64 / n as f64))
+                .collect(),
+        };
+        let mut random = SplitMix64::new(3);
+        let independent = random.block(n, 50);
+        // Columns 50..70: combinations of the first 50; 70..80: the same plus 1e-3 of noise.
+        let mixture = random.block(50, 30);
+        let mut candidates = Mat::<f64>::zeros(n, 80);
+        candidates
+            .as_mut()
+            .subcols_mut(0, 50)
+            .copy_from(&independent);
+        let combined = &independent * &mixture;
+        candidates.as_mut().subcols_mut(50, 30).copy_from(&combined);
+        let noise = random.block(n, 10);
+        for j in 0..10 {
+            let scale = 1e-3 * combined.col(20 + j).norm_l2() / noise.col(j).norm_l2();
+            let column = combined.col(20 + j) + faer::Scale(scale) * noise.col(j);
+            candidates.col_mut(70 + j).copy_from(&column);
+        }
+        let M_candidates = symmetric_mul(&M, candidates.as_ref());
+        let norms: Vec<f64> = (0..80)
+            .map(|j| dot(candidates.col(j), M_candidates.col(j)).sqrt())
+            .collect();
+        let mut span = MSpan::with_capacity(n, 8);
+        let remaining = span.extend(&M, candidates.as_ref(), &norms, 1e-6);
+        assert_eq!(span.len(), 60, "50 independent + 10 noisy: {remaining:?}");
+        assert!(remaining[50..70].iter().all(|&r| r < 1e-12));
+        assert!(remaining[70..].iter().all(|&r| r > 1e-5 && r < 1e-2));
+        let Q = span.vectors();
+        let gram = Q.transpose() * symmetric_mul(&M, Q);
+        let off = (&gram - Mat::<f64>::identity(60, 60)).norm_max();
+        assert!(off < 1e-13, "QᵀMQ − I = {off:.1e}");
+        // Every candidate lies in the span: its M-orthogonal projection gives it back.
+        let coefficients = span.M_vectors().transpose() * &candidates;
+        let error = (Q * &coefficients - &candidates).norm_max() / candidates.norm_max();
+        assert!(error < 1e-12, "candidates outside the span: {error:.1e}");
+        // A tolerance above the noise keeps the 50 only.
+        let mut strict = MSpan::with_capacity(n, 80);
+        strict.extend(&M, candidates.as_ref(), &norms, 1e-2);
+        assert_eq!(strict.len(), 50);
+    }
+
     #[test]
     fn gram_schmidt_twice_leaves_a_remainder_orthogonal_to_a_tall_basis() {
         let (rows, rank, b) = (5000, 40, 8);

@@ -13,6 +13,7 @@
 
 pub mod artifact;
 pub mod assemble;
+pub mod basis;
 pub mod contact;
 pub mod equilibrium;
 pub mod export;
@@ -50,6 +51,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(stability::Stability),
         Arc::new(stability::track::Track),
         Arc::new(stability::lumped::StabilityMatrices),
+        Arc::new(basis::ReductionBasis),
         Arc::new(transient::Transient),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),

@@ -181,6 +181,8 @@ pub struct PortSpec {
     pub name: &'static str,
     pub ty: ArtifactType,
     pub arity: Arity,
+    /// An input a study may leave unconnected (outputs are never optional).
+    pub optional: bool,
     pub doc: &'static str,
 }
 
@@ -190,6 +192,7 @@ impl PortSpec {
             name,
             ty,
             arity: Arity::One,
+            optional: false,
             doc,
         }
     }
@@ -199,8 +202,15 @@ impl PortSpec {
             name,
             ty,
             arity: Arity::Many,
+            optional: false,
             doc,
         }
+    }
+
+    /// This input may be left unconnected; the stage reads it with [`Inputs::get_optional`].
+    pub fn optional(mut self) -> Self {
+        self.optional = true;
+        self
     }
 }
 
@@ -312,6 +322,15 @@ impl Inputs {
 
     pub fn table(&self, port: &str) -> Result<&crate::Table, StageError> {
         self.get(port)
+    }
+
+    /// An optional input: `None` when the study leaves it unconnected.
+    pub fn get_optional<T: ArtifactValue>(&self, port: &str) -> Result<Option<&T>, StageError> {
+        if self.0.contains_key(port) {
+            self.get(port).map(Some)
+        } else {
+            Ok(None)
+        }
     }
 }
 

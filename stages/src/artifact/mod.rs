@@ -5,10 +5,12 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod basis;
 pub mod equilibrium;
 pub mod mesh;
 pub mod model;
 
+pub use basis::Basis;
 pub use equilibrium::{ContactFrames, Equilibrium};
 pub use mesh::{ContactPair, Mesh};
 pub use model::{CscMatrix, Model, RealModes};
@@ -29,6 +31,7 @@ pub enum Artifact {
     Model(Box<Model>),
     RealModes(Box<RealModes>),
     Equilibrium(Box<Equilibrium>),
+    Basis(Box<Basis>),
 }
 
 /// Bytes of a file format, with the extension it is written under.
@@ -55,6 +58,7 @@ pub enum ArtifactType {
     Model,
     RealModes,
     Equilibrium,
+    Basis,
 }
 
 impl ArtifactType {
@@ -67,6 +71,7 @@ impl ArtifactType {
             ArtifactType::Model => "model",
             ArtifactType::RealModes => "real modes",
             ArtifactType::Equilibrium => "equilibrium",
+            ArtifactType::Basis => "basis",
         }
     }
 }
@@ -110,6 +115,7 @@ artifact_value!(
     Model(Model),
     RealModes(RealModes),
     Equilibrium(Equilibrium),
+    Basis(Basis),
 );
 
 /// The bytes could not be decoded as an artifact (a corrupt or foreign cache object).
@@ -127,6 +133,7 @@ impl Artifact {
             Artifact::Model(_) => ArtifactType::Model,
             Artifact::RealModes(_) => ArtifactType::RealModes,
             Artifact::Equilibrium(_) => ArtifactType::Equilibrium,
+            Artifact::Basis(_) => ArtifactType::Basis,
         }
     }
 

@@ -68,17 +68,19 @@
 pub mod contact;
 pub mod energy;
 mod figure;
+pub mod reduced;
 pub mod scheme;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 use faer::c64;
 use serde::Deserialize;
 
-use crate::artifact::{Artifact, ArtifactType, Equilibrium, Model};
+use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, RunContext, Stage, StageError};
 use crate::table::{ColumnData, Table};
 use contact::Solver;
+use reduced::ReducedModel;
 use scheme::{ContactState, Failure, Run, Settings, Structure};
 
 /// Progress reports over a run.
@@ -265,6 +267,12 @@ impl Stage for Transient {
                 ArtifactType::Table,
                 "the stability stage's mode shapes (dof, mode_NNNN_re, mode_NNNN_im)",
             ),
+            PortSpec::one(
+                "basis",
+                ArtifactType::Basis,
+                "a reduction basis (the basis stage): the run is made on the reduced model",
+            )
+            .optional(),
         ]
     }
     fn outputs(&self) -> Vec<PortSpec> {
@@ -345,14 +353,31 @@ impl Stage for Transient {
             }
         };
         let settings = settings_of(&params, model.mesh.contact_pairs.len())?;
-        let run = integrate(
-            &structure,
-            &contact_state,
-            &settings,
-            (u0, v0),
-            &params,
-            context,
-        )?;
+        let run = match inputs.get_optional::<Basis>("basis")? {
+            None => integrate(
+                &structure,
+                &contact_state,
+                &settings,
+                (u0, v0),
+                &params,
+                context,
+            )?,
+            Some(basis) => {
+                let reduced = ReducedModel::new(model, basis, &structure)?;
+                let restrict = |u: &[f64]| reduced.static_modes.restrict(basis, &model.M, u);
+                let start = (restrict(&u0), restrict(&v0));
+                let mut run = integrate(
+                    &reduced.structure(),
+                    &contact_state,
+                    &settings,
+                    start,
+                    &params,
+                    context,
+                )?;
+                reduced.lift_snapshots(basis, &mut run);
+                run
+            }
+        };
         outputs(model, &settings, &run)
     }
 }
@@ -721,6 +746,7 @@ fn summary_table(settings: &Settings, run: &Run) -> Table {
         ("steps", settings.n_steps as f64),
         ("tau", settings.tau),
         ("theta", settings.theta),
+        ("unknowns", run.unknowns as f64),
         ("factor_entries", run.factor_len as f64),
         ("interface_rows", run.interface_rows as f64),
         ("worst_contact_residual", run.worst_contact_residual),

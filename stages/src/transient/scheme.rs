@@ -103,6 +103,8 @@ pub struct Snapshot {
 pub struct Run {
     pub history: Vec<HistoryRow>,
     pub snapshots: Vec<Snapshot>,
+    /// Unknowns of the structure (DOFs, or reduced coordinates).
+    pub unknowns: usize,
     pub factor_len: usize,
     /// Rows of `Y = L⁻¹ Pᵀ Hᵀ` that are not zero.
     pub interface_rows: usize,
@@ -633,6 +635,7 @@ pub fn integrate(
     timings.steps = steps_clock.elapsed().as_secs_f64();
     Ok(Run {
         timings,
+        unknowns: structure.K.n_rows,
         factor_len: operators.cholesky.factor_len(),
         interface_rows: operators.interface_solve.rows.len(),
         history: state.history,

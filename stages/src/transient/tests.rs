@@ -334,7 +334,7 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
     assert!(run.history.last().unwrap().energy.balance_error.abs() < 1e-9 * 0.5 * k * x_e * x_e);
 }
 
-fn stage_params(overrides: &[(&str, Value)]) -> Params {
+pub(crate) fn stage_params(overrides: &[(&str, Value)]) -> Params {
     let mut values: BTreeMap<String, Value> = Transient
         .params()
         .into_iter()
@@ -347,7 +347,7 @@ fn stage_params(overrides: &[(&str, Value)]) -> Params {
 }
 
 /// A coarse brake through equilibrium and stability, as the transient's inputs.
-fn brake_inputs() -> Inputs {
+pub(crate) fn brake_inputs() -> Inputs {
     let mesh = brake(&BrakeGeometry {
         n_radial: 3,
         n_theta: 24,
@@ -399,42 +399,18 @@ fn brake_inputs() -> Inputs {
     inputs
 }
 
-fn f64_column<'a>(table: &'a Table, name: &str) -> &'a [f64] {
+pub(crate) fn f64_column<'a>(table: &'a Table, name: &str) -> &'a [f64] {
     match table.column(name) {
         Some(ColumnData::F64(values)) => values,
         _ => panic!("no f64 column {name}"),
     }
 }
 
-#[test]
-fn the_brake_grows_at_the_rate_of_its_most_unstable_mode() {
-    let inputs = brake_inputs();
-    let eigenvalues = inputs.table("eigenvalues").unwrap();
-    let re = f64_column(eigenvalues, "re");
-    let im = f64_column(eigenvalues, "im");
-    let most = (0..re.len())
-        .max_by(|&a, &b| re[a].total_cmp(&re[b]))
-        .unwrap();
-    assert!(re[most] > 0.0, "the fixture has an unstable mode");
-    let growth_rate = re[most];
-    let period = 2.0 * PI / im[most];
-    let tau = period / 60.0;
-    // Long enough for the growth to show over a few e-foldings, in the linear regime.
-    let duration = (3.0 / growth_rate).min(4000.0 * tau);
-    let outputs = Transient
-        .run(
-            &stage_params(&[
-                ("tau", Value::Float(tau)),
-                ("duration", Value::Float(duration)),
-                ("amplitude", Value::Float(1e-9)),
-            ]),
-            &inputs,
-        )
-        .unwrap();
-    let history = outputs["history"].as_table().unwrap();
+/// The growth rate of the kinetic energy's envelope, `e^{2 σ t}`: σ fitted in log scale to
+/// the per-period maxima, the first two periods left out.
+pub(crate) fn growth_rate(history: &Table, period: f64, tau: f64) -> f64 {
     let t = f64_column(history, "t");
     let kinetic = f64_column(history, "kinetic");
-    // The kinetic energy grows as e^{2 Re λ t}: its per-period maxima, fitted in log scale.
     let per_period = (period / tau).round() as usize;
     let peaks: Vec<(f64, f64)> = kinetic
         .chunks(per_period)
@@ -458,10 +434,39 @@ fn the_brake_grows_at_the_rate_of_its_most_unstable_mode() {
         .map(|(x, y)| (x - mean_t) * (y - mean_y))
         .sum::<f64>()
         / peaks.iter().map(|(x, _)| (x - mean_t).powi(2)).sum::<f64>();
-    let measured = slope / 2.0;
+    slope / 2.0
+}
+
+#[test]
+fn the_brake_grows_at_the_rate_of_its_most_unstable_mode() {
+    let inputs = brake_inputs();
+    let eigenvalues = inputs.table("eigenvalues").unwrap();
+    let re = f64_column(eigenvalues, "re");
+    let im = f64_column(eigenvalues, "im");
+    let most = (0..re.len())
+        .max_by(|&a, &b| re[a].total_cmp(&re[b]))
+        .unwrap();
+    assert!(re[most] > 0.0, "the fixture has an unstable mode");
+    let expected = re[most];
+    let period = 2.0 * PI / im[most];
+    let tau = period / 60.0;
+    // Long enough for the growth to show over a few e-foldings, in the linear regime.
+    let duration = (3.0 / expected).min(4000.0 * tau);
+    let outputs = Transient
+        .run(
+            &stage_params(&[
+                ("tau", Value::Float(tau)),
+                ("duration", Value::Float(duration)),
+                ("amplitude", Value::Float(1e-9)),
+            ]),
+            &inputs,
+        )
+        .unwrap();
+    let history = outputs["history"].as_table().unwrap();
+    let measured = growth_rate(history, period, tau);
     assert!(
-        (measured - growth_rate).abs() < 0.05 * growth_rate,
-        "growth rate {measured} /s against Re lambda = {growth_rate} /s"
+        (measured - expected).abs() < 0.05 * expected,
+        "growth rate {measured} /s against Re lambda = {expected} /s"
     );
     let energy = outputs["energy"].as_table().unwrap();
     let balance = f64_column(energy, "balance_error");

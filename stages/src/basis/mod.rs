@@ -1,0 +1,724 @@
+//! `basis`: a reduction basis of the model and its reduced matrices, on which `transient`
+//! runs the same scheme as on the full model.
+//!
+//! # The basis
+//!
+//! With `i` the interface (every free DOF of the contact pairs' nodes) and `o` the others,
+//!
+//! ```text
+//! u = T x,   x = [u_i; q],   T = [[I, 0], [Ψ_o, Φ_o]],   Ψ_o = −K_oo⁻¹ K_oi
+//! ```
+//!
+//! The interface DOFs stay physical, so the contact laws act on `x`'s first coordinates
+//! exactly as on the full model; `[I; Ψ_o]` are the interface's static modes (unit
+//! displacement of one interface DOF, the others fixed, no load off the interface); the
+//! vectors `Φ` vanish on the interface and are `M`-orthonormal. The reduced matrices
+//! `Tᵀ M T`, `Tᵀ C T`, `Tᵀ K T` are dense and symmetric.
+//!
+//! `Φ` spans, by `kind`:
+//! - `fc` (the paper's FC_N): the real and imaginary parts of the first N complex modes of the
+//!   stability stage, off the interface, and the static equilibrium `u_e`;
+//! - `real`: the first N real modes of the `modes` stage, off the interface;
+//! - `craig_bampton`: the first N fixed-interface modes, `K_oo φ = ω² M_oo φ`, computed here
+//!   (with the static modes, the Craig–Bampton basis);
+//! - `modes`: the complex modes a user lists (those near the unstable frequencies and their
+//!   harmonics, say), as for `fc`.
+//!
+//! N is `n_modes`, or every mode below the cut-off `f_cutoff_hz`, by default `cutoff_factor`
+//! (1.5) times the highest unstable frequency of the stability stage.
+//!
+//! # Rank
+//!
+//! The candidates are `M`-orthonormalised in order (Gram–Schmidt twice,
+//! [`squeal_linalg::gram_schmidt::MSpan`]); one is kept when the `M`-norm left after its
+//! projection on those before is at least `rank_tolerance` times its reference norm: for a
+//! complex mode's real and imaginary parts, the norm of the whole mode off the interface (a
+//! nearly real mode's imaginary part is judged against the mode, and dropped when it is
+//! round-off); for the other vectors, their own norm. The `vectors` table gives every
+//! candidate's norm left, kept or not.
+//!
+//! # Complex modes the stability stage did not seek
+//!
+//! The stability stage returns the modes whose divergence rate is within its
+//! `max_divergence_rate`: heavily damped modes below the cut-off are missing (at the slow
+//! sliding of the default brake, about a third of the band). They are damped by friction at
+//! the contact (the friction-direction damping `μ r_n / |v_g|` acts on the pairs' tangential
+//! motion), so their deformation is driven from the interface, and the interface's static
+//! modes, which every basis here holds, represent it: on the test brake, the 20 of 38 modes
+//! below 8 kHz that a 0.5 % band leaves out lie within 0.4 % (in `M`-norm) of the span of the
+//! basis built without them (`the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis`).
+//! Widening the band instead would cost a shift-invert Arnoldi over the damped region, for
+//! modes the transient only needs as a subspace. As a safeguard for other models, with the
+//! `modes` input connected and `complete: true`, `fc` also adds every real mode below the
+//! cut-off of which at least [`COMPLETION_FRACTION`] of the `M`-norm lies outside the span
+//! so far: an undamped mode that the vectors found do not represent. (`modes` lists are taken
+//! as given.)
+
+mod static_modes;
+#[cfg(test)]
+mod tests;
+
+use std::f64::consts::PI;
+
+use faer::Mat;
+use serde::Deserialize;
+use squeal_linalg::csc::symmetric_mul;
+use squeal_linalg::eigensolver::{self, Band, SolveOptions};
+use squeal_linalg::gram_schmidt::MSpan;
+use squeal_linalg::tall::transpose_times;
+
+use crate::artifact::{Artifact, ArtifactType, Basis, CscMatrix, Equilibrium, Model, RealModes};
+use crate::signal::f64_column;
+use crate::signal::svd_projection::ComplexModes;
+use crate::stability::UNSTABLE_FLOOR;
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::{ColumnData, Table};
+
+pub use static_modes::{StaticModes, interface_dofs};
+
+/// A real mode completes `fc` when at least this fraction of its `M`-norm lies outside the
+/// span of the complex modes (and vectors) before it.
+pub const COMPLETION_FRACTION: f64 = 0.5;
+
+/// Candidate vectors per block of `M`-norm products.
+const NORM_BLOCK: usize = 64;
+
+pub struct ReductionBasis;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BasisParams {
+    kind: String,
+    n_modes: i64,
+    f_cutoff_hz: f64,
+    cutoff_factor: f64,
+    modes: String,
+    rank_tolerance: f64,
+    complete: bool,
+}
+
+impl Stage for ReductionBasis {
+    fn kind(&self) -> &'static str {
+        "basis"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Reduction basis (complex modes FC_N, real modes, Craig-Bampton or a list of complex modes) with the interface's static modes, and the reduced M, C, K"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::choice(
+                "kind",
+                &["fc", "real", "craig_bampton", "modes"],
+                "fc",
+                "vectors off the interface: complex modes and the equilibrium, real modes, fixed-interface modes, or the complex modes listed in `modes`",
+            ),
+            ParamSpec::int(
+                "n_modes",
+                0,
+                "modes taken (0: every mode below the cut-off)",
+            )
+            .at_least(0.0),
+            ParamSpec::float(
+                "f_cutoff_hz",
+                0.0,
+                "Hz",
+                "cut-off frequency (0: cutoff_factor times the highest unstable frequency)",
+            )
+            .at_least(0.0),
+            ParamSpec::float(
+                "cutoff_factor",
+                1.5,
+                "",
+                "cut-off over the highest unstable frequency, when f_cutoff_hz is 0",
+            )
+            .at_least(0.0),
+            ParamSpec::string(
+                "modes",
+                "",
+                "kind modes: complex mode numbers of the stability tables, comma separated",
+            ),
+            ParamSpec::float(
+                "rank_tolerance",
+                1e-3,
+                "",
+                "a vector is kept when this fraction of its reference M-norm lies outside the span of those before",
+            )
+            .at_least(0.0),
+            ParamSpec::bool(
+                "complete",
+                true,
+                "fc: add the real modes below the cut-off that the complex modes found do not span (needs the modes input)",
+            ),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "model",
+                ArtifactType::Model,
+                "M, C, K and the contact pairs",
+            ),
+            PortSpec::one(
+                "equilibrium",
+                ArtifactType::Equilibrium,
+                "the sliding equilibrium (fc takes u_e)",
+            ),
+            PortSpec::one(
+                "eigenvalues",
+                ArtifactType::Table,
+                "fc, modes: the stability stage's eigenvalues",
+            )
+            .optional(),
+            PortSpec::one(
+                "shapes",
+                ArtifactType::Table,
+                "fc, modes: the stability stage's mode shapes",
+            )
+            .optional(),
+            PortSpec::one(
+                "modes",
+                ArtifactType::RealModes,
+                "real: the modes stage's real modes; fc: the completion",
+            )
+            .optional(),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "basis",
+                ArtifactType::Basis,
+                "the basis and the reduced M, C, K (the transient's basis input)",
+            ),
+            PortSpec::one(
+                "vectors",
+                ArtifactType::Table,
+                "every candidate vector: source, mode, freq_hz, the fraction of its norm left after projection, kept",
+            ),
+            PortSpec::one(
+                "summary",
+                ArtifactType::Table,
+                "sizes, rank, cut-off, M-orthonormality and symmetry errors",
+            ),
+        ]
+    }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        let params: BasisParams = params.typed()?;
+        list_of_modes(&params.modes).map(drop)
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let params: BasisParams = params.typed()?;
+        let model: &Model = inputs.get("model")?;
+        let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
+        model.check_dof_map()?;
+        if equilibrium.u.len() != model.n_dofs() {
+            return Err(StageError::new(format!(
+                "basis: the equilibrium has {} DOFs, the model {}",
+                equilibrium.u.len(),
+                model.n_dofs()
+            )));
+        }
+        let interface = interface_dofs(model);
+        if interface.is_empty() {
+            return Err(StageError::new(
+                "basis: the model has no contact pair, so no interface to keep",
+            ));
+        }
+        let static_modes = StaticModes::new(model, &interface)?;
+        let sources = Sources {
+            eigenvalues: inputs.get_optional("eigenvalues")?,
+            shapes: inputs.get_optional("shapes")?,
+            real_modes: inputs.get_optional("modes")?,
+        };
+        let cutoff_hz = cutoff(&params, &sources)?;
+        let mut candidates = Candidates::new(&interface);
+        let mut completion = Candidates::new(&interface);
+        match params.kind.as_str() {
+            "fc" | "modes" => {
+                let wanted = if params.kind == "modes" {
+                    Wanted::Listed(list_of_modes(&params.modes)?)
+                } else {
+                    Wanted::Lowest {
+                        n_modes: params.n_modes as usize,
+                        cutoff_hz,
+                    }
+                };
+                candidates.complex_modes(&sources, &wanted, model.n_dofs())?;
+                if params.kind == "fc" {
+                    candidates.push(&equilibrium.u, "equilibrium", -1, 0.0, None);
+                    if params.complete
+                        && let Some(real_modes) = sources.real_modes
+                    {
+                        completion.real_modes(real_modes, params.n_modes as usize, cutoff_hz);
+                    }
+                }
+            }
+            "real" => {
+                let real_modes = sources.real_modes.ok_or_else(|| {
+                    StageError::new("basis: kind real needs the `modes` input (the modes stage)")
+                })?;
+                let n_modes = params.n_modes as usize;
+                if n_modes > real_modes.omega.len() {
+                    return Err(StageError::new(format!(
+                        "basis: n_modes = {n_modes}, the modes stage found {}",
+                        real_modes.omega.len()
+                    )));
+                }
+                let highest = real_modes.omega.last().copied().unwrap_or(0.0) / (2.0 * PI);
+                if n_modes == 0 && highest < cutoff_hz {
+                    return Err(StageError::new(format!(
+                        "basis: the modes stage reaches {highest:.1} Hz, below the cut-off {cutoff_hz:.1} Hz: raise its band or set n_modes"
+                    )));
+                }
+                candidates.real_modes(real_modes, n_modes, cutoff_hz);
+            }
+            _ => candidates.fixed_interface_modes(
+                model,
+                &interface,
+                params.n_modes as usize,
+                cutoff_hz,
+            )?,
+        }
+        if candidates.len() == 0 {
+            return Err(StageError::new(format!(
+                "basis: no {} vector below {cutoff_hz:.1} Hz",
+                params.kind
+            )));
+        }
+        let mut span = MSpan::with_capacity(model.n_dofs(), candidates.len() + completion.len());
+        candidates.add_to(&mut span, &model.M, params.rank_tolerance);
+        let kept_completion = completion.add_to(&mut span, &model.M, COMPLETION_FRACTION);
+        let vectors: Vec<Vec<f64>> = (0..span.len())
+            .map(|k| span.vectors().col(k).iter().copied().collect())
+            .collect();
+        let orthonormality = orthonormality_error(&model.M, span.vectors());
+        let mut basis = Basis {
+            kind: params.kind.clone(),
+            interface: interface.iter().map(|&dof| dof as u32).collect(),
+            vectors,
+            ..Basis::default()
+        };
+        let T = static_modes.basis_matrix(&basis);
+        let (mass, mass_asymmetry) = reduced(&model.M, &T);
+        let (damping, damping_asymmetry) = reduced(&model.C, &T);
+        let (stiffness, stiffness_asymmetry) = reduced(&model.K, &T);
+        basis.mass = mass;
+        basis.damping = damping;
+        basis.stiffness = stiffness;
+        let summary: Vec<(&str, f64)> = vec![
+            ("n_dofs", model.n_dofs() as f64),
+            ("n_interface", interface.len() as f64),
+            ("n_candidates", (candidates.len() + completion.len()) as f64),
+            ("n_vectors", basis.vectors.len() as f64),
+            ("n_completion", kept_completion as f64),
+            ("n_reduced", basis.n_reduced() as f64),
+            ("f_cutoff_hz", cutoff_hz),
+            ("orthonormality_error", orthonormality),
+            ("mass_asymmetry", mass_asymmetry),
+            ("damping_asymmetry", damping_asymmetry),
+            ("stiffness_asymmetry", stiffness_asymmetry),
+        ];
+        let vectors_table = candidates.table(&completion);
+        Ok(Outputs::from([
+            ("basis".to_string(), Artifact::Basis(Box::new(basis))),
+            ("vectors".to_string(), Artifact::Table(vectors_table)),
+            (
+                "summary".to_string(),
+                Artifact::Table(
+                    Table::new()
+                        .with(
+                            "quantity",
+                            summary
+                                .iter()
+                                .map(|(name, _)| name.to_string())
+                                .collect::<Vec<_>>(),
+                        )
+                        .with(
+                            "value",
+                            summary.iter().map(|(_, value)| *value).collect::<Vec<_>>(),
+                        ),
+                ),
+            ),
+        ]))
+    }
+}
+
+/// The inputs vectors may come from.
+struct Sources<'a> {
+    eigenvalues: Option<&'a Table>,
+    shapes: Option<&'a Table>,
+    real_modes: Option<&'a RealModes>,
+}
+
+enum Wanted {
+    Lowest { n_modes: usize, cutoff_hz: f64 },
+    Listed(Vec<i64>),
+}
+
+fn list_of_modes(text: &str) -> Result<Vec<i64>, StageError> {
+    text.split(',')
+        .map(str::trim)
+        .filter(|item| !item.is_empty())
+        .map(|item| {
+            item.parse::<i64>()
+                .ok()
+                .filter(|&mode| mode >= 1)
+                .ok_or_else(|| {
+                    StageError::new(format!("modes: `{item}` is not a mode number (1, 2, …)"))
+                })
+        })
+        .collect()
+}
+
+/// The cut-off frequency (Hz): given, or `cutoff_factor` × the highest unstable frequency.
+fn cutoff(params: &BasisParams, sources: &Sources) -> Result<f64, StageError> {
+    if params.f_cutoff_hz > 0.0 {
+        return Ok(params.f_cutoff_hz);
+    }
+    if params.n_modes > 0 || params.kind == "modes" {
+        return Ok(f64::INFINITY);
+    }
+    let eigenvalues = sources.eigenvalues.ok_or_else(|| {
+        StageError::new(
+            "basis: the cut-off is cutoff_factor times the highest unstable frequency, which needs the `eigenvalues` input; or set f_cutoff_hz or n_modes",
+        )
+    })?;
+    let re = f64_column(eigenvalues, "re")?;
+    let im = f64_column(eigenvalues, "im")?;
+    let highest = re
+        .iter()
+        .zip(im)
+        .filter(|(re, im)| **re > UNSTABLE_FLOOR * re.hypot(**im))
+        .map(|(_, im)| im / (2.0 * PI))
+        .fold(0.0_f64, f64::max);
+    if highest == 0.0 {
+        return Err(StageError::new(
+            "basis: the stability tables hold no unstable mode to set the cut-off: set f_cutoff_hz or n_modes",
+        ));
+    }
+    Ok(params.cutoff_factor * highest)
+}
+
+/// Candidate vectors, zero on the interface, with what a reader needs to know of each.
+struct Candidates {
+    interface: Vec<usize>,
+    vectors: Vec<Vec<f64>>,
+    source: Vec<&'static str>,
+    mode: Vec<i64>,
+    freq_hz: Vec<f64>,
+    /// Candidates of one group (a complex mode's two parts) share their reference norm.
+    group: Vec<usize>,
+    /// Filled by [`Candidates::add_to`].
+    remaining: Vec<f64>,
+    kept: Vec<bool>,
+}
+
+impl Candidates {
+    fn new(interface: &[usize]) -> Candidates {
+        Candidates {
+            interface: interface.to_vec(),
+            vectors: Vec::new(),
+            source: Vec::new(),
+            mode: Vec::new(),
+            freq_hz: Vec::new(),
+            group: Vec::new(),
+            remaining: Vec::new(),
+            kept: Vec::new(),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.vectors.len()
+    }
+
+    /// Adds `vector` off the interface; `group`: the candidate it shares a norm with.
+    fn push(
+        &mut self,
+        vector: &[f64],
+        source: &'static str,
+        mode: i64,
+        freq_hz: f64,
+        group: Option<usize>,
+    ) {
+        let mut vector = vector.to_vec();
+        for &dof in &self.interface {
+            vector[dof] = 0.0;
+        }
+        self.group.push(group.unwrap_or(self.vectors.len()));
+        self.vectors.push(vector);
+        self.source.push(source);
+        self.mode.push(mode);
+        self.freq_hz.push(freq_hz);
+    }
+
+    fn complex_modes(
+        &mut self,
+        sources: &Sources,
+        wanted: &Wanted,
+        n_dofs: usize,
+    ) -> Result<(), StageError> {
+        let (Some(eigenvalues), Some(shapes)) = (sources.eigenvalues, sources.shapes) else {
+            return Err(StageError::new(
+                "basis: fc and modes take complex modes: connect the stability stage's `eigenvalues` and `shapes`",
+            ));
+        };
+        let modes = ComplexModes::from_tables(shapes, eigenvalues)?;
+        let dofs: &[i64] = match shapes.column("dof") {
+            Some(ColumnData::I64(values)) => values,
+            _ => {
+                return Err(StageError::new(
+                    "basis: the shapes table has no i64 column `dof`",
+                ));
+            }
+        };
+        let mut order: Vec<usize> = (0..modes.numbers.len()).collect();
+        order.sort_by(|&a, &b| modes.freqs_hz[a].total_cmp(&modes.freqs_hz[b]));
+        let chosen: Vec<usize> = match wanted {
+            Wanted::Lowest { n_modes, cutoff_hz } => {
+                let below: Vec<usize> = order
+                    .into_iter()
+                    .filter(|&k| modes.freqs_hz[k] <= *cutoff_hz)
+                    .collect();
+                if *n_modes > 0 {
+                    if below.len() < *n_modes {
+                        return Err(StageError::new(format!(
+                            "basis: n_modes = {n_modes}, the stability tables hold {} mode shapes (does the stability stage keep `shapes: all`?)",
+                            below.len()
+                        )));
+                    }
+                    below[..*n_modes].to_vec()
+                } else {
+                    below
+                }
+            }
+            Wanted::Listed(numbers) => numbers
+                .iter()
+                .map(|number| {
+                    modes
+                        .numbers
+                        .iter()
+                        .position(|m| m == number)
+                        .ok_or_else(|| {
+                            StageError::new(format!(
+                                "basis: mode {number} has no shape in the stability tables"
+                            ))
+                        })
+                })
+                .collect::<Result<_, _>>()?,
+        };
+        let mut full = vec![0.0; n_dofs];
+        for k in chosen {
+            let first = self.len();
+            for (part, columns) in [("complex_re", &modes.real), ("complex_im", &modes.imag)] {
+                full.iter_mut().for_each(|value| *value = 0.0);
+                for (row, &dof) in dofs.iter().enumerate() {
+                    if dof >= 0 && (dof as usize) < n_dofs {
+                        full[dof as usize] = columns[(row, k)];
+                    }
+                }
+                self.push(
+                    &full,
+                    part,
+                    modes.numbers[k],
+                    modes.freqs_hz[k],
+                    Some(first),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// The first `n_modes` real modes, or (0) those below the cut-off.
+    fn real_modes(&mut self, real_modes: &RealModes, n_modes: usize, cutoff_hz: f64) {
+        for (k, (omega, shape)) in real_modes.omega.iter().zip(&real_modes.shapes).enumerate() {
+            let freq_hz = omega / (2.0 * PI);
+            let wanted = if n_modes > 0 {
+                k < n_modes
+            } else {
+                freq_hz <= cutoff_hz
+            };
+            if wanted {
+                self.push(shape, "real", k as i64 + 1, freq_hz, None);
+            }
+        }
+    }
+
+    /// The fixed-interface modes `K_oo φ = ω² M_oo φ`: the first `n_modes`, or those below
+    /// the cut-off.
+    fn fixed_interface_modes(
+        &mut self,
+        model: &Model,
+        interface: &[usize],
+        n_modes: usize,
+        cutoff_hz: f64,
+    ) -> Result<(), StageError> {
+        let n = model.n_dofs();
+        let mut on_interface = vec![false; n];
+        for &dof in interface {
+            on_interface[dof] = true;
+        }
+        let others: Vec<usize> = (0..n).filter(|&dof| !on_interface[dof]).collect();
+        let mut index = vec![usize::MAX; n];
+        for (k, &dof) in others.iter().enumerate() {
+            index[dof] = k;
+        }
+        let restrict = |A: &CscMatrix| {
+            let triplets = A
+                .triplets()
+                .filter(|&(row, col, _)| !on_interface[row] && !on_interface[col])
+                .map(|(row, col, value)| (index[row], index[col], value))
+                .collect();
+            CscMatrix::from_triplets(others.len(), others.len(), triplets)
+        };
+        let dof_of_node: Vec<[Option<u32>; 3]> = model
+            .dof_of_node
+            .iter()
+            .map(|dofs| {
+                dofs.map(|dof| {
+                    dof.filter(|&dof| !on_interface[dof as usize])
+                        .map(|dof| index[dof as usize] as u32)
+                })
+            })
+            .collect();
+        let lambda_hi = if n_modes > 0 {
+            f64::INFINITY
+        } else {
+            (2.0 * PI * cutoff_hz).powi(2)
+        };
+        let solution = eigensolver::solve(
+            &restrict(&model.K),
+            &restrict(&model.M),
+            &dof_of_node,
+            Band {
+                n_modes,
+                lambda_lo: 0.0,
+                lambda_hi,
+            },
+            SolveOptions::default(),
+        )
+        .map_err(|err| StageError::new(format!("basis: fixed-interface modes: {err}")))?;
+        let mut full = vec![0.0; n];
+        for (k, lambda) in solution.lambda.iter().enumerate() {
+            for (row, &dof) in others.iter().enumerate() {
+                full[dof] = solution.shapes[(row, k)];
+            }
+            self.push(
+                &full,
+                "fixed_interface",
+                k as i64 + 1,
+                lambda.max(0.0).sqrt() / (2.0 * PI),
+                None,
+            );
+        }
+        Ok(())
+    }
+
+    /// Extends `span` with the candidates, in order, at `tolerance`; returns how many it kept.
+    fn add_to(&mut self, span: &mut MSpan, M: &CscMatrix, tolerance: f64) -> usize {
+        let n = M.n_rows;
+        let mut norms_squared = Vec::with_capacity(self.len());
+        for first in (0..self.len()).step_by(NORM_BLOCK) {
+            let block = &self.vectors[first..(first + NORM_BLOCK).min(self.len())];
+            let X = Mat::from_fn(n, block.len(), |i, k| block[k][i]);
+            let MX = symmetric_mul(M, X.as_ref());
+            norms_squared.extend((0..block.len()).map(|k| {
+                X.col(k)
+                    .iter()
+                    .zip(MX.col(k).iter())
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>()
+            }));
+        }
+        let mut group_norms = vec![0.0; self.len()];
+        for (k, &group) in self.group.iter().enumerate() {
+            group_norms[group] += norms_squared[k];
+        }
+        let reference: Vec<f64> = self
+            .group
+            .iter()
+            .map(|&group| group_norms[group].sqrt().max(f64::MIN_POSITIVE))
+            .collect();
+        let before = span.len();
+        for first in (0..self.len()).step_by(NORM_BLOCK) {
+            let last = (first + NORM_BLOCK).min(self.len());
+            let X = Mat::from_fn(n, last - first, |i, k| self.vectors[first + k][i]);
+            let remaining = span.extend(M, X.as_ref(), &reference[first..last], tolerance);
+            self.kept
+                .extend(remaining.iter().map(|&ratio| ratio >= tolerance));
+            self.remaining.extend(remaining);
+        }
+        span.len() - before
+    }
+
+    /// One row per candidate of both lists.
+    fn table(&self, completion: &Candidates) -> Table {
+        let both = [self, completion];
+        let gather_f64 = |f: &dyn Fn(&Candidates, usize) -> f64| -> Vec<f64> {
+            both.iter()
+                .flat_map(|list| (0..list.len()).map(move |k| f(list, k)))
+                .collect()
+        };
+        Table::new()
+            .with(
+                "candidate",
+                (0..(self.len() + completion.len()) as i64).collect::<Vec<i64>>(),
+            )
+            .with(
+                "source",
+                both.iter()
+                    .flat_map(|list| list.source.iter().map(|s| s.to_string()))
+                    .collect::<Vec<String>>(),
+            )
+            .with(
+                "mode",
+                both.iter()
+                    .flat_map(|list| list.mode.iter().copied())
+                    .collect::<Vec<i64>>(),
+            )
+            .with("freq_hz", gather_f64(&|list, k| list.freq_hz[k]))
+            .with("remaining", gather_f64(&|list, k| list.remaining[k]))
+            .with(
+                "kept",
+                both.iter()
+                    .flat_map(|list| list.kept.iter().copied())
+                    .collect::<Vec<bool>>(),
+            )
+    }
+}
+
+/// `max |Qᵀ M Q − I|`, from fresh products.
+fn orthonormality_error(M: &CscMatrix, Q: faer::MatRef<'_, f64>) -> f64 {
+    let gram = transpose_times(Q, symmetric_mul(M, Q).as_ref());
+    let mut worst = 0.0_f64;
+    for j in 0..gram.ncols() {
+        for i in 0..gram.nrows() {
+            let expected = if i == j { 1.0 } else { 0.0 };
+            worst = worst.max((gram[(i, j)] - expected).abs());
+        }
+    }
+    worst
+}
+
+/// `Tᵀ A T`, column-major, symmetrised; and its asymmetry before, `max |R − Rᵀ| / max |R|`.
+fn reduced(A: &CscMatrix, T: &Mat<f64>) -> (Vec<f64>, f64) {
+    let R = transpose_times(T.as_ref(), symmetric_mul(A, T.as_ref()).as_ref());
+    let n = R.nrows();
+    let (mut largest, mut asymmetry) = (0.0_f64, 0.0_f64);
+    let mut values = vec![0.0; n * n];
+    for j in 0..n {
+        for i in 0..n {
+            largest = largest.max(R[(i, j)].abs());
+            asymmetry = asymmetry.max((R[(i, j)] - R[(j, i)]).abs());
+            values[j * n + i] = 0.5 * (R[(i, j)] + R[(j, i)]);
+        }
+    }
+    let relative = if largest > 0.0 {
+        asymmetry / largest
+    } else {
+        0.0
+    };
+    (values, relative)
+}
