@@ -6,6 +6,7 @@
 //! produces one from a simulation. Every stage here checks the sampling itself and names the
 //! row that breaks it.
 
+pub mod compare;
 pub mod read;
 pub mod spectrum;
 pub mod svd_projection;
@@ -30,6 +31,7 @@ pub fn kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(wavelet::Wavelet),
         Arc::new(spectrum::Spectrum),
         Arc::new(svd_projection::SvdProjection),
+        Arc::new(compare::Compare),
     ]
 }
 

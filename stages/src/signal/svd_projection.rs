@@ -229,6 +229,42 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a * b).sum()
 }
 
+/// The f64 columns of a wide snapshot table (one row per DOF) as the columns of a matrix, the
+/// last `n_last` of them (0: all); an error names an empty table or a value that is not finite.
+pub fn snapshot_matrix(table: &Table, n_last: usize) -> Result<Mat<f64>, StageError> {
+    let mut columns: Vec<(&str, &[f64])> = table
+        .columns()
+        .iter()
+        .filter_map(|column| match &column.data {
+            ColumnData::F64(values) => Some((column.name.as_str(), values.as_slice())),
+            _ => None,
+        })
+        .collect();
+    if n_last > 0 && n_last < columns.len() {
+        columns.drain(..columns.len() - n_last);
+    }
+    let n_dofs = table.n_rows();
+    let n_snapshots = columns.len();
+    if n_snapshots == 0 || n_dofs == 0 {
+        return Err(StageError::new(format!(
+            "snapshots: {n_snapshots} f64 column(s) of {n_dofs} row(s): need at least one of each"
+        )));
+    }
+    if let Some((name, values)) = columns
+        .iter()
+        .find(|(_, values)| values.iter().any(|v| !v.is_finite()))
+    {
+        let row = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        return Err(StageError::new(format!(
+            "snapshots: column `{name}` row {row} is {}",
+            values[row]
+        )));
+    }
+    Ok(Mat::from_fn(n_dofs, n_snapshots, |row, col| {
+        columns[col].1[row]
+    }))
+}
+
 /// `X = Ψ Σ Vᵀ` with `Ψᵀ M Ψ = I` (module doc). Shapes are the columns of `shapes`.
 pub struct MassSvd {
     pub singular_values: Vec<f64>,
@@ -518,35 +554,8 @@ impl Stage for SvdProjection {
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let params: ProjectionParams = params.typed()?;
         let snapshot_table = inputs.table("snapshots")?;
-        let mut snapshot_columns: Vec<(&str, &[f64])> = snapshot_table
-            .columns()
-            .iter()
-            .filter_map(|column| match &column.data {
-                ColumnData::F64(values) => Some((column.name.as_str(), values.as_slice())),
-                _ => None,
-            })
-            .collect();
-        let n_last = params.n_last_snapshots as usize;
-        if n_last > 0 && n_last < snapshot_columns.len() {
-            snapshot_columns.drain(..snapshot_columns.len() - n_last);
-        }
-        let n_dofs = snapshot_table.n_rows();
-        let n_snapshots = snapshot_columns.len();
-        if n_snapshots == 0 || n_dofs == 0 {
-            return Err(StageError::new(format!(
-                "snapshots: {n_snapshots} f64 column(s) of {n_dofs} row(s): need at least one of each"
-            )));
-        }
-        if let Some((name, values)) = snapshot_columns
-            .iter()
-            .find(|(_, values)| values.iter().any(|v| !v.is_finite()))
-        {
-            let row = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
-            return Err(StageError::new(format!(
-                "snapshots: column `{name}` row {row} is {}",
-                values[row]
-            )));
-        }
+        let x = snapshot_matrix(snapshot_table, params.n_last_snapshots as usize)?;
+        let (n_dofs, n_snapshots) = (x.nrows(), x.ncols());
         let modes_table = inputs.table("modes")?;
         if modes_table.n_rows() != n_dofs {
             return Err(StageError::new(format!(
@@ -557,7 +566,6 @@ impl Stage for SvdProjection {
         let mass = MassMatrix::from_table(inputs.table("mass")?, n_dofs)?;
         let modes = ComplexModes::from_tables(modes_table, inputs.table("frequencies")?)?;
 
-        let x = Mat::from_fn(n_dofs, n_snapshots, |row, col| snapshot_columns[col].1[row]);
         let svd = mass_svd(&x, &mass)?;
         let n_shapes = (params.n_shapes as usize).min(n_snapshots);
         let shapes = svd.shapes.subcols(0, n_shapes).to_owned();
