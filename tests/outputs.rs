@@ -47,6 +47,7 @@ fn manifest_has_one_row_per_instance_with_the_promised_columns() {
         "key",
         "status",
         "wall_s",
+        "compute_s",
         "params_json",
         "reason",
         "outputs_json",
@@ -82,6 +83,11 @@ fn manifest_has_one_row_per_instance_with_the_promised_columns() {
     assert_eq!(params, serde_json::json!({ "scale": 10.0, "offset": 0.5 }));
     assert!(floats(&manifest, "wall_s").iter().all(|wall| *wall >= 0.0));
     assert!(strings(&manifest, "key").iter().all(|key| key.len() == 64));
+    let computed: Vec<(String, f64)> = stages
+        .iter()
+        .cloned()
+        .zip(floats(&manifest, "compute_s"))
+        .collect();
 
     workspace.run_ok(&["run", "sweep.yaml", "--out", "out"]);
     let manifest = read_parquet(&workspace.path().join("out/manifest.parquet"));
@@ -90,6 +96,13 @@ fn manifest_has_one_row_per_instance_with_the_promised_columns() {
             .iter()
             .all(|status| status == "cached")
     );
+    // A cached instance reports the time its outputs took to compute, from the cache.
+    let recalled: Vec<(String, f64)> = strings(&manifest, "stage")
+        .into_iter()
+        .zip(floats(&manifest, "compute_s"))
+        .collect();
+    assert_eq!(recalled, computed);
+    assert!(floats(&manifest, "wall_s").iter().all(|wall| *wall == 0.0));
 }
 
 #[test]

@@ -35,6 +35,10 @@ pub fn table(report: &RunReport) -> Table {
             "wall_s",
             rows.iter().map(|row| row.wall_s).collect::<Vec<f64>>(),
         )
+        .with(
+            "compute_s",
+            rows.iter().map(|row| row.compute_s).collect::<Vec<f64>>(),
+        )
         .with("params_json", column(&|row| row.params_json.clone()))
         .with(
             "outputs_json",

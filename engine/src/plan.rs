@@ -33,6 +33,8 @@ pub enum Decision {
     Cached {
         key: Digest,
         outputs: BTreeMap<String, Digest>,
+        /// Seconds the stage took when it computed the cached outputs.
+        compute_s: f64,
     },
     Runs {
         key: Option<Digest>,
@@ -164,6 +166,7 @@ impl Context<'_> {
                 Decision::Cached {
                     key,
                     outputs: action.outputs,
+                    compute_s: action.wall_s,
                 }
             }
             Ok(None) => {

@@ -58,6 +58,9 @@ pub struct InstanceReport {
     pub status: Status,
     pub reasons: Vec<String>,
     pub wall_s: f64,
+    /// Seconds the stage took to compute its outputs: in this run, or when the cached outputs
+    /// were computed.
+    pub compute_s: f64,
     pub params_json: String,
     pub outputs: BTreeMap<String, Digest>,
 }
@@ -266,6 +269,7 @@ impl Executor<'_> {
             status: Status::Ran,
             reasons: Vec::new(),
             wall_s: 0.0,
+            compute_s: 0.0,
             params_json: params_json(instance),
             outputs: BTreeMap::new(),
         };
@@ -293,10 +297,15 @@ impl Executor<'_> {
         };
         self.lock().inputs[idx] = Some(inputs.clone());
         match context.decide(idx, &inputs) {
-            Decision::Cached { key, outputs } => {
+            Decision::Cached {
+                key,
+                outputs,
+                compute_s,
+            } => {
                 report.key = Some(key);
                 report.status = Status::Cached;
                 report.outputs = outputs;
+                report.compute_s = compute_s;
                 tracing::debug!(stage = %instance.name, "cached");
             }
             Decision::Runs { key, reasons } => {
@@ -309,7 +318,10 @@ impl Executor<'_> {
                 let result = self.execute(idx, key, &inputs);
                 report.wall_s = started.elapsed().as_secs_f64();
                 match result {
-                    Ok(outputs) => report.outputs = outputs,
+                    Ok((outputs, compute_s)) => {
+                        report.outputs = outputs;
+                        report.compute_s = compute_s;
+                    }
                     Err(message) => {
                         tracing::error!(stage = %instance.name, "{message}");
                         report.status = Status::Failed(message);
@@ -330,7 +342,7 @@ impl Executor<'_> {
         idx: usize,
         key: Digest,
         inputs: &ResolvedInputs,
-    ) -> Result<BTreeMap<String, Digest>, String> {
+    ) -> Result<(BTreeMap<String, Digest>, f64), String> {
         let context = self.context;
         let instance = &context.instances.list[idx];
         let stage = &context.study.stages[instance.stage].stage;
@@ -367,9 +379,11 @@ impl Executor<'_> {
             progress: &reporter,
             checkpoints: &checkpoints,
         };
+        let started = Instant::now();
         let result = catch_unwind(AssertUnwindSafe(|| {
             stage.run_with(&params, &stage_inputs, &run_context)
         }));
+        let compute_s = started.elapsed().as_secs_f64();
         // Finished, or failed for a reason a resume would meet again: the checkpoint goes.
         checkpoints.discard();
         if let Some(bar) = stage_bar.get() {
@@ -431,14 +445,14 @@ impl Executor<'_> {
                 stage: instance.name.clone(),
                 kind: stage.kind().into(),
                 outputs: digests.clone(),
-                wall_s: 0.0,
+                wall_s: compute_s,
             };
             context
                 .cache
                 .put_action(&key, &action)
                 .map_err(|err| err.to_string())?;
         }
-        Ok(digests)
+        Ok((digests, compute_s))
     }
 
     fn load(&self, digest: &Digest) -> Result<Arc<Artifact>, String> {
