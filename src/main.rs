@@ -399,6 +399,11 @@ fn referenced_keys(
 }
 
 fn print_stages(registry: &Registry) {
+    let compute_time = squeal_engine::run::compute_time_port();
+    println!(
+        "Every stage also has the output `{}` (table): {}.\n",
+        compute_time.name, compute_time.doc
+    );
     for stage in registry.iter() {
         println!("{} (v{}): {}", stage.kind(), stage.version(), stage.doc());
         for port in stage.inputs() {

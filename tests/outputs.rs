@@ -212,3 +212,53 @@ fn dag_renders_every_instance_and_edge() {
     assert!(mermaid.starts_with("flowchart LR"), "{mermaid}");
     assert_eq!(mermaid.matches("-->").count(), 18);
 }
+
+#[test]
+fn every_stage_offers_its_compute_time_as_an_output() {
+    let workspace = Workspace::new();
+    workspace.write(
+        "timed.yaml",
+        "\
+study: timed
+targets: [times]
+stages:
+  source:
+    kind: test.constant
+    params: { value: 2.0, rows: 3 }
+  scaled:
+    kind: test.affine
+    inputs: { table: source.table }
+    matrix:
+      scale: [1, 10]
+  times:
+    kind: table.gather
+    inputs: { tables: scaled.compute_s }
+",
+    );
+    workspace.run_ok(&["run", "timed.yaml", "--out", "out"]);
+    let times = read_parquet(&workspace.path().join("out/times/table.parquet"));
+    let manifest = read_parquet(&workspace.path().join("out/manifest.parquet"));
+    let stages = strings(&manifest, "stage");
+    let compute = floats(&manifest, "compute_s");
+    let of = |name: &str| compute[stages.iter().position(|s| s == name).unwrap()];
+    assert_eq!(floats(&times, "scale"), [1.0, 10.0]);
+    assert_eq!(
+        floats(&times, "compute_s"),
+        [of("scaled[scale=1]"), of("scaled[scale=10]")]
+    );
+    // Not exported as a file: the manifest has it.
+    assert!(
+        !workspace
+            .path()
+            .join("out/scaled/scale=1/compute_s.parquet")
+            .exists()
+    );
+    // Cached, the same times: the gather does not rerun.
+    workspace.run_ok(&["run", "timed.yaml", "--out", "out"]);
+    let manifest = read_parquet(&workspace.path().join("out/manifest.parquet"));
+    assert!(
+        strings(&manifest, "status")
+            .iter()
+            .all(|status| status == "cached")
+    );
+}

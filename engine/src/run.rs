@@ -14,7 +14,10 @@ use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_cache::{ActionRecord, Digest};
-use squeal_stages::{Artifact, Input, Inputs, Outputs, Params, Progress, RunContext, StageError};
+use squeal_stages::{
+    Artifact, ArtifactType, Input, Inputs, Outputs, Params, PortSpec, Progress, RunContext,
+    StageError, Table,
+};
 
 use crate::checkpoint::CacheCheckpoints;
 
@@ -105,6 +108,21 @@ struct Executor<'a> {
 }
 
 const EXPORTS_FILE: &str = ".squeal-exports.json";
+
+/// The output every stage has besides those it declares: a one-row table, column
+/// `compute_s`, of the seconds the instance took to compute its outputs (in this run, or when
+/// the cached outputs were computed). A study wires it like any output to put run time beside
+/// results (run time against error); downstream reruns only when the instance reruns.
+pub const COMPUTE_TIME_OUTPUT: &str = "compute_s";
+
+/// [`COMPUTE_TIME_OUTPUT`] as a port.
+pub fn compute_time_port() -> PortSpec {
+    PortSpec::one(
+        COMPUTE_TIME_OUTPUT,
+        ArtifactType::Table,
+        "seconds the instance took to compute its outputs",
+    )
+}
 /// Resolution of a stage's progress bar.
 const STAGE_BAR_STEPS: u64 = 1000;
 
@@ -330,6 +348,17 @@ impl Executor<'_> {
                 }
             }
         }
+        match self.compute_time_output(report.compute_s) {
+            Ok(digest) => {
+                report
+                    .outputs
+                    .insert(COMPUTE_TIME_OUTPUT.to_string(), digest);
+            }
+            Err(message) => {
+                report.status = Status::Failed(message);
+                return report;
+            }
+        }
         if let Err(message) = self.export(idx, &report.outputs) {
             report.status = Status::Failed(message);
         }
@@ -455,6 +484,22 @@ impl Executor<'_> {
         Ok((digests, compute_s))
     }
 
+    /// The implicit output [`COMPUTE_TIME_OUTPUT`]: a one-row table of the instance's compute
+    /// time, stored like any artifact so that downstream stages can take it as an input.
+    fn compute_time_output(&self, compute_s: f64) -> Result<Digest, String> {
+        let artifact = Artifact::Table(Table::new().with(COMPUTE_TIME_OUTPUT, vec![compute_s]));
+        let digest = self
+            .context
+            .cache
+            .put_object(&artifact.encode())
+            .map_err(|err| err.to_string())?;
+        self.memo
+            .lock()
+            .expect("memo lock")
+            .insert(digest, Arc::new(artifact));
+        Ok(digest)
+    }
+
     fn load(&self, digest: &Digest) -> Result<Arc<Artifact>, String> {
         if let Some(artifact) = self.memo.lock().expect("memo lock").get(digest) {
             return Ok(artifact.clone());
@@ -482,6 +527,10 @@ impl Executor<'_> {
             dir.push(segment);
         }
         for (name, digest) in outputs {
+            if name == COMPUTE_TIME_OUTPUT {
+                // In the manifest already.
+                continue;
+            }
             let relative = dir.join(name);
             let relative_key = relative.to_string_lossy().into_owned();
             let up_to_date = self

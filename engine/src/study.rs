@@ -396,6 +396,7 @@ impl Validator<'_> {
                 let out = upstream
                     .outputs()
                     .into_iter()
+                    .chain([crate::run::compute_time_port()])
                     .find(|out| out.name == output)
                     .ok_or_else(|| {
                         let known: Vec<&str> =
