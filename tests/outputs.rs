@@ -262,3 +262,42 @@ stages:
             .all(|status| status == "cached")
     );
 }
+
+#[test]
+fn a_stage_takes_gathered_and_single_inputs_together() {
+    // `pareto` gathers the errors and run times of a sweep and takes one reference time:
+    // inputs of both arities, declared in an order other than their names'.
+    let workspace = Workspace::new();
+    workspace.write(
+        "front.yaml",
+        "\
+study: front
+targets: [front]
+stages:
+  reference:
+    kind: test.constant
+    params: { value: 1.0 }
+  error:
+    kind: test.constant
+    matrix:
+      value: [0.5, 0.25]
+  front:
+    kind: pareto
+    inputs:
+      errors: error.table
+      run_times: error.compute_s
+      reference_time: reference.compute_s
+    params: { errors: x }
+",
+    );
+    workspace.run_ok(&["run", "front.yaml", "--out", "out"]);
+    let front = read_parquet(&workspace.path().join("out/front/table.parquet"));
+    assert_eq!(floats(&front, "value"), [0.5, 0.25]);
+    assert_eq!(floats(&front, "x"), [0.5, 0.25]);
+    let speed_up = floats(&front, "speed_up");
+    assert!(
+        speed_up.iter().all(|s| s.is_finite() && *s > 0.0),
+        "{speed_up:?}"
+    );
+    assert!(workspace.path().join("out/front/figure.png").exists());
+}

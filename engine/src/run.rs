@@ -348,17 +348,10 @@ impl Executor<'_> {
                 }
             }
         }
-        match self.compute_time_output(report.compute_s) {
-            Ok(digest) => {
-                report
-                    .outputs
-                    .insert(COMPUTE_TIME_OUTPUT.to_string(), digest);
-            }
-            Err(message) => {
-                report.status = Status::Failed(message);
-                return report;
-            }
-        }
+        let compute_time = self.compute_time_output(report.compute_s);
+        report
+            .outputs
+            .insert(COMPUTE_TIME_OUTPUT.to_string(), compute_time);
         if let Err(message) = self.export(idx, &report.outputs) {
             report.status = Status::Failed(message);
         }
@@ -376,7 +369,8 @@ impl Executor<'_> {
         let instance = &context.instances.list[idx];
         let stage = &context.study.stages[instance.stage].stage;
         let mut stage_inputs = Inputs::default();
-        for (input, (port, artifacts)) in instance.inputs.iter().zip(inputs) {
+        for input in &instance.inputs {
+            let (port, artifacts) = (&input.port, &inputs[&input.port]);
             let mut loaded = Vec::with_capacity(artifacts.len());
             for artifact in artifacts {
                 let digest = artifact.digest.expect("settled inputs have digests");
@@ -485,19 +479,17 @@ impl Executor<'_> {
     }
 
     /// The implicit output [`COMPUTE_TIME_OUTPUT`]: a one-row table of the instance's compute
-    /// time, stored like any artifact so that downstream stages can take it as an input.
-    fn compute_time_output(&self, compute_s: f64) -> Result<Digest, String> {
+    /// time that downstream stages can take as an input. It lives in this run's memory only:
+    /// the figure itself is kept in the action record, and a timing must not become a cache
+    /// object that two otherwise identical runs disagree on.
+    fn compute_time_output(&self, compute_s: f64) -> Digest {
         let artifact = Artifact::Table(Table::new().with(COMPUTE_TIME_OUTPUT, vec![compute_s]));
-        let digest = self
-            .context
-            .cache
-            .put_object(&artifact.encode())
-            .map_err(|err| err.to_string())?;
+        let digest = Digest::of(&artifact.encode());
         self.memo
             .lock()
             .expect("memo lock")
             .insert(digest, Arc::new(artifact));
-        Ok(digest)
+        digest
     }
 
     fn load(&self, digest: &Digest) -> Result<Arc<Artifact>, String> {
