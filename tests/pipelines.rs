@@ -229,9 +229,20 @@ fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
         "spectrum/peaks.parquet",
         "wavelet/power.parquet",
         "projection/projection.parquet",
+        "compare/figure.png",
     ] {
         assert!(out.join(output).exists(), "{output}");
     }
+    // The same run on the FC basis grows too, and its squeal peak is the full run's.
+    let reduced = read_parquet(&out.join("reduced/history.parquet"));
+    let reduced_peak = floats(&reduced, "kinetic")
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    assert!(reduced_peak > 1e6 * kinetic[1], "reduced: {reduced_peak} J");
+    let errors = read_parquet(&out.join("compare/errors.parquet"));
+    let freq_error = floats(&errors, "freq_error")[0];
+    assert!(freq_error < 0.05, "squeal peak {freq_error} off");
 }
 
 /// The headline figures of `pipelines/tgv_brake.yaml` (its comment gives them): every complex

@@ -14,6 +14,7 @@
 pub mod artifact;
 pub mod assemble;
 pub mod basis;
+pub mod complex_modes;
 pub mod contact;
 pub mod equilibrium;
 pub mod export;
@@ -52,6 +53,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(stability::track::Track),
         Arc::new(stability::lumped::StabilityMatrices),
         Arc::new(basis::ReductionBasis),
+        Arc::new(basis::pareto::Pareto),
         Arc::new(transient::Transient),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),

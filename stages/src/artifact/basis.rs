@@ -1,6 +1,13 @@
-//! A reduction basis and the reduced matrices of a model on it.
+//! A reduction basis and the reduced matrices of a model on it, with the interface's static
+//! modes `Ψ_o = −K_oo⁻¹ K_oi` that map between full and reduced coordinates.
 
+use faer::{Mat, MatRef, Par};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use squeal_linalg::cholesky::Cholesky;
+
+use super::{CscMatrix, Model};
+use crate::stage::StageError;
 
 /// `u = T x` with `x = [u_i; q]`: the interface DOFs `u_i` (every free DOF of the contact
 /// pairs' nodes) kept as they are, with their static modes, and the weights `q` of vectors
@@ -11,7 +18,7 @@ use serde::{Deserialize, Serialize};
 /// ```
 ///
 /// (`o`: the other DOFs). `Ψ_o` is not stored: it follows from the model (see
-/// [`crate::basis::StaticModes`]).
+/// [`StaticModes`]).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Basis {
     /// Which family the vectors come from (`fc`, `real`, `craig_bampton`, `modes`).
@@ -31,4 +38,182 @@ impl Basis {
     pub fn n_reduced(&self) -> usize {
         self.interface.len() + self.vectors.len()
     }
+}
+
+/// Right-hand sides per sequential solve: the solves run in parallel over fixed chunks of
+/// columns, so the result does not depend on the thread count.
+const SOLVE_COLUMNS: usize = 32;
+
+/// `K_oo` factorised, and `K_oi` by interface DOF.
+pub struct StaticModes {
+    n: usize,
+    interface: Vec<usize>,
+    /// The DOFs off the interface, ascending (`o`).
+    others: Vec<usize>,
+    cholesky: Cholesky,
+    /// Column `j` of `K_oi`: `(index among the others, value)`.
+    coupling: Vec<Vec<(usize, f64)>>,
+}
+
+impl StaticModes {
+    /// `interface`: free DOFs, ascending.
+    pub fn new(model: &Model, interface: &[usize]) -> Result<StaticModes, StageError> {
+        let n = model.n_dofs();
+        let mut other_index: Vec<Option<usize>> = vec![None; n];
+        let mut on_interface = vec![false; n];
+        for &dof in interface {
+            on_interface[dof] = true;
+        }
+        let others: Vec<usize> = (0..n).filter(|&dof| !on_interface[dof]).collect();
+        for (index, &dof) in others.iter().enumerate() {
+            other_index[dof] = Some(index);
+        }
+        let K = &model.K;
+        let mut triplets = Vec::new();
+        for &col in &others {
+            for entry in K.col_ptr[col]..K.col_ptr[col + 1] {
+                if let Some(row) = other_index[K.row_idx[entry]] {
+                    triplets.push((
+                        row,
+                        other_index[col].expect("an other DOF"),
+                        K.values[entry],
+                    ));
+                }
+            }
+        }
+        let K_oo = CscMatrix::from_triplets(others.len(), others.len(), triplets);
+        let dof_of_node: Vec<[Option<u32>; 3]> = model
+            .dof_of_node
+            .iter()
+            .map(|dofs| {
+                dofs.map(|dof| dof.and_then(|dof| other_index[dof as usize].map(|i| i as u32)))
+            })
+            .collect();
+        let cholesky = Cholesky::new(&[(1.0, &K_oo)], &dof_of_node, &[], Par::Seq).map_err(
+            |err| {
+                StageError::new(format!(
+                    "basis: K off the interface ({} DOFs) cannot be factorised: {err} (is the structure held away from the contact?)",
+                    others.len()
+                ))
+            },
+        )?;
+        let coupling = interface
+            .iter()
+            .map(|&col| {
+                (K.col_ptr[col]..K.col_ptr[col + 1])
+                    .filter_map(|entry| {
+                        other_index[K.row_idx[entry]].map(|row| (row, K.values[entry]))
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(StaticModes {
+            n,
+            interface: interface.to_vec(),
+            others,
+            cholesky,
+            coupling,
+        })
+    }
+
+    pub fn interface(&self) -> &[usize] {
+        &self.interface
+    }
+
+    /// `S X_i` over every free DOF, `S = [I; Ψ_o]` the static modes: the displacement with the
+    /// interface at `X_i` (`n_i × p`) and no load off it.
+    pub fn static_displacement(&self, X_i: MatRef<'_, f64>) -> Mat<f64> {
+        let p = X_i.ncols();
+        let mut B = Mat::<f64>::zeros(self.others.len(), p);
+        for (j, column) in self.coupling.iter().enumerate() {
+            for k in 0..p {
+                let x = X_i[(j, k)];
+                if x != 0.0 {
+                    for &(row, value) in column {
+                        B[(row, k)] -= value * x;
+                    }
+                }
+            }
+        }
+        B.as_mut()
+            .par_col_chunks_mut(SOLVE_COLUMNS)
+            .for_each(|chunk| self.cholesky.solve_in_place(chunk, Par::Seq));
+        let mut U = Mat::<f64>::zeros(self.n, p);
+        for k in 0..p {
+            for (j, &dof) in self.interface.iter().enumerate() {
+                U[(dof, k)] = X_i[(j, k)];
+            }
+            for (index, &dof) in self.others.iter().enumerate() {
+                U[(dof, k)] = B[(index, k)];
+            }
+        }
+        U
+    }
+
+    /// The basis `T` as a dense matrix, `n × n_reduced`.
+    pub fn basis_matrix(&self, basis: &Basis) -> Mat<f64> {
+        let n_i = self.interface.len();
+        let mut T = Mat::<f64>::zeros(self.n, n_i + basis.vectors.len());
+        let static_modes = self.static_displacement(Mat::<f64>::identity(n_i, n_i).as_ref());
+        T.as_mut().subcols_mut(0, n_i).copy_from(&static_modes);
+        for (k, vector) in basis.vectors.iter().enumerate() {
+            T.col_mut(n_i + k)
+                .iter_mut()
+                .zip(vector)
+                .for_each(|(slot, value)| *slot = *value);
+        }
+        T
+    }
+
+    /// `u = T x` for each column of `X` (`n_reduced × p`).
+    pub fn lift(&self, basis: &Basis, X: MatRef<'_, f64>) -> Mat<f64> {
+        let n_i = self.interface.len();
+        let mut U = self.static_displacement(X.subrows(0, n_i));
+        for (k, vector) in basis.vectors.iter().enumerate() {
+            for col in 0..X.ncols() {
+                let q = X[(n_i + k, col)];
+                for (slot, value) in U.col_mut(col).iter_mut().zip(vector) {
+                    *slot += q * value;
+                }
+            }
+        }
+        U
+    }
+
+    /// The reduced coordinates of `u`: `u_i` itself, and the `M`-orthogonal projection of the
+    /// rest, `q = Φᵀ M (u − S u_i)` (exact when `u` lies in the span of `T`).
+    pub fn restrict(&self, basis: &Basis, M: &CscMatrix, u: &[f64]) -> Vec<f64> {
+        let u_i = Mat::from_fn(self.interface.len(), 1, |j, _| u[self.interface[j]]);
+        let static_part = self.static_displacement(u_i.as_ref());
+        let rest: Vec<f64> = u
+            .iter()
+            .zip(static_part.col(0).iter())
+            .map(|(a, b)| a - b)
+            .collect();
+        let M_rest = M.mul_vec(&rest);
+        let mut x: Vec<f64> = self.interface.iter().map(|&dof| u[dof]).collect();
+        x.extend(
+            basis
+                .vectors
+                .iter()
+                .map(|vector| vector.iter().zip(&M_rest).map(|(a, b)| a * b).sum::<f64>()),
+        );
+        x
+    }
+}
+
+/// The interface of a model: every free DOF of its contact pairs' nodes, ascending.
+pub fn interface_dofs(model: &Model) -> Vec<usize> {
+    let mut dofs: Vec<usize> = model
+        .mesh
+        .contact_pairs
+        .iter()
+        .flat_map(|pair| [pair.pad_node, pair.disc_node])
+        .flat_map(|node| model.dof_of_node[node as usize])
+        .flatten()
+        .map(|dof| dof as usize)
+        .collect();
+    dofs.sort_unstable();
+    dofs.dedup();
+    dofs
 }

@@ -54,7 +54,7 @@
 //! so far: an undamped mode that the vectors found do not represent. (`modes` lists are taken
 //! as given.)
 
-mod static_modes;
+pub mod pareto;
 #[cfg(test)]
 mod tests;
 
@@ -67,14 +67,11 @@ use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::gram_schmidt::MSpan;
 use squeal_linalg::tall::transpose_times;
 
+use crate::artifact::basis::{StaticModes, interface_dofs};
 use crate::artifact::{Artifact, ArtifactType, Basis, CscMatrix, Equilibrium, Model, RealModes};
-use crate::signal::f64_column;
-use crate::signal::svd_projection::ComplexModes;
-use crate::stability::UNSTABLE_FLOOR;
+use crate::complex_modes::ComplexModes;
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::{ColumnData, Table};
-
-pub use static_modes::{StaticModes, interface_dofs};
 
 /// A real mode completes `fc` when at least this fraction of its `M`-norm lies outside the
 /// span of the complex modes (and vectors) before it.
@@ -386,13 +383,19 @@ fn cutoff(params: &BasisParams, sources: &Sources) -> Result<f64, StageError> {
             "basis: the cut-off is cutoff_factor times the highest unstable frequency, which needs the `eigenvalues` input; or set f_cutoff_hz or n_modes",
         )
     })?;
-    let re = f64_column(eigenvalues, "re")?;
-    let im = f64_column(eigenvalues, "im")?;
-    let highest = re
+    let (Some(ColumnData::F64(freqs_hz)), Some(ColumnData::Bool(unstable))) = (
+        eigenvalues.column("freq_hz"),
+        eigenvalues.column("unstable"),
+    ) else {
+        return Err(StageError::new(
+            "basis: the eigenvalues table has no f64 `freq_hz` and bool `unstable` columns",
+        ));
+    };
+    let highest = freqs_hz
         .iter()
-        .zip(im)
-        .filter(|(re, im)| **re > UNSTABLE_FLOOR * re.hypot(**im))
-        .map(|(_, im)| im / (2.0 * PI))
+        .zip(unstable)
+        .filter(|(_, unstable)| **unstable)
+        .map(|(freq_hz, _)| *freq_hz)
         .fold(0.0_f64, f64::max);
     if highest == 0.0 {
         return Err(StageError::new(

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use faer::linalg::solvers::Solve;
 
 use super::*;
+use crate::artifact::basis::{StaticModes, interface_dofs};
 use crate::modes::Modes;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};

@@ -50,6 +50,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::artifact::{Artifact, ArtifactType};
+pub use crate::complex_modes::ComplexModes;
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::{ColumnData, Table};
@@ -340,99 +341,7 @@ pub fn mass_svd(x: &Mat<f64>, mass: &MassMatrix) -> Result<MassSvd, StageError> 
     })
 }
 
-/// The two columns of one mode in a wide table, as they are found.
-#[derive(Default)]
-struct ModeColumns<'a> {
-    real: Option<&'a [f64]>,
-    imag: Option<&'a [f64]>,
-}
-
-/// Complex modes read from a wide table, with their frequencies.
-pub struct ComplexModes {
-    pub numbers: Vec<i64>,
-    pub freqs_hz: Vec<f64>,
-    pub real: Mat<f64>,
-    pub imag: Mat<f64>,
-}
-
 impl ComplexModes {
-    pub fn from_tables(modes: &Table, frequencies: &Table) -> Result<ComplexModes, StageError> {
-        let mut parts: BTreeMap<i64, ModeColumns> = BTreeMap::new();
-        for column in modes.columns() {
-            let Some(rest) = column.name.strip_prefix("mode_") else {
-                continue;
-            };
-            let (number, is_real) = if let Some(number) = rest.strip_suffix("_re") {
-                (number, true)
-            } else if let Some(number) = rest.strip_suffix("_im") {
-                (number, false)
-            } else {
-                continue;
-            };
-            let number: i64 = number.parse().map_err(|_| {
-                StageError::new(format!(
-                    "modes: column `{}` has no mode number",
-                    column.name
-                ))
-            })?;
-            let ColumnData::F64(values) = &column.data else {
-                return Err(StageError::new(format!(
-                    "modes: column `{}` is not f64",
-                    column.name
-                )));
-            };
-            let entry = parts.entry(number).or_default();
-            if is_real {
-                entry.real = Some(values);
-            } else {
-                entry.imag = Some(values);
-            }
-        }
-        if parts.is_empty() {
-            return Err(StageError::new(
-                "modes: no `mode_NNNN_re` / `mode_NNNN_im` columns",
-            ));
-        }
-        let mode_column = match frequencies.column("mode") {
-            Some(ColumnData::I64(values)) => values,
-            _ => return Err(StageError::new("frequencies: no i64 column `mode`")),
-        };
-        let freq_column = super::f64_column(frequencies, "freq_hz")
-            .map_err(|err| StageError::new(format!("frequencies: {err}")))?;
-        let freq_of: BTreeMap<i64, f64> = mode_column
-            .iter()
-            .copied()
-            .zip(freq_column.iter().copied())
-            .collect();
-
-        let n_dofs = modes.n_rows();
-        let n_modes = parts.len();
-        let mut real = Mat::<f64>::zeros(n_dofs, n_modes);
-        let mut imag = Mat::<f64>::zeros(n_dofs, n_modes);
-        let mut numbers = Vec::with_capacity(n_modes);
-        let mut freqs_hz = Vec::with_capacity(n_modes);
-        for (idx, (&number, columns)) in parts.iter().enumerate() {
-            let (Some(re), Some(im)) = (columns.real, columns.imag) else {
-                return Err(StageError::new(format!(
-                    "modes: mode {number} needs both mode_{number:04}_re and mode_{number:04}_im"
-                )));
-            };
-            let freq = freq_of
-                .get(&number)
-                .ok_or_else(|| StageError::new(format!("frequencies: no row for mode {number}")))?;
-            real.col_as_slice_mut(idx).copy_from_slice(re);
-            imag.col_as_slice_mut(idx).copy_from_slice(im);
-            numbers.push(number);
-            freqs_hz.push(*freq);
-        }
-        Ok(ComplexModes {
-            numbers,
-            freqs_hz,
-            real,
-            imag,
-        })
-    }
-
     /// `|φ_jᴴ M ψ_k| / ‖φ_j‖_M` for every mode j (rows) and M-unit shape k (columns).
     pub fn coefficients(
         &self,

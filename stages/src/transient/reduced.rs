@@ -7,8 +7,8 @@
 use faer::Mat;
 
 use super::scheme::{Run, Snapshot, Structure};
+use crate::artifact::basis::StaticModes;
 use crate::artifact::{Basis, CscMatrix, Model};
-use crate::basis::StaticModes;
 use crate::stage::StageError;
 
 /// The reduced matrices and the maps to and from the full DOFs.
@@ -21,14 +21,29 @@ pub struct ReducedModel {
     pub H_rows: Vec<Vec<(usize, f64)>>,
 }
 
-/// A dense column-major matrix stored as compressed columns (every entry).
-fn dense_csc(n: usize, values: &[f64]) -> CscMatrix {
+/// A dense column-major matrix as compressed columns, its exact zeros left out: the static
+/// modes of separate bodies (disc, pads) do not couple, so their blocks of the reduced
+/// matrices are exactly zero, and the products and the factorisation skip them.
+fn compressed(n: usize, values: &[f64]) -> CscMatrix {
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::new();
+    let mut kept = Vec::new();
+    col_ptr.push(0);
+    for column in values.chunks_exact(n) {
+        for (row, &value) in column.iter().enumerate() {
+            if value != 0.0 {
+                row_idx.push(row);
+                kept.push(value);
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
     CscMatrix {
         n_rows: n,
         n_cols: n,
-        col_ptr: (0..=n).map(|j| j * n).collect(),
-        row_idx: (0..n * n).map(|entry| entry % n).collect(),
-        values: values.to_vec(),
+        col_ptr,
+        row_idx,
+        values: kept,
     }
 }
 
@@ -79,9 +94,9 @@ impl ReducedModel {
         let interface: Vec<usize> = basis.interface.iter().map(|&dof| dof as usize).collect();
         Ok(ReducedModel {
             static_modes: StaticModes::new(model, &interface)?,
-            M: dense_csc(n_r, &basis.mass),
-            C: dense_csc(n_r, &basis.damping),
-            K: dense_csc(n_r, &basis.stiffness),
+            M: compressed(n_r, &basis.mass),
+            C: compressed(n_r, &basis.damping),
+            K: compressed(n_r, &basis.stiffness),
             H_rows,
         })
     }

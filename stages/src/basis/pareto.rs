@@ -1,0 +1,392 @@
+//! `pareto`: run time against error over a sweep of reduction bases.
+//!
+//! Each point of the sweep brings its `compare` errors, the compute time of its reduced run
+//! (the transient's `compute_s`) and, optionally, of its basis; the reference run brings its
+//! own. The table has one row per point: the sweep coordinates, `run_s`, `build_s`,
+//! `total_s = run_s + build_s`, `speed_up = reference_s / run_s` (the transient against the
+//! full transient, as the seed paper counts it), `speed_up_total` (counting the basis), every
+//! error column, and for each plotted error whether the point is on the Pareto front of
+//! `total_s` against `|error|` (no other point is both faster and more accurate).
+//!
+//! The figure plots, per error, `|error|` against `total_s` (log–log), the front joined, each
+//! point labelled by its coordinates, the reference's run time as a vertical line.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::artifact::{Artifact, ArtifactType};
+use crate::plot::{self, DrawResult, Drawing, drawing_error};
+use crate::stage::{Coords, Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::{ColumnData, Table};
+
+pub struct Pareto;
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ParetoParams {
+    errors: String,
+}
+
+impl Stage for Pareto {
+    fn kind(&self) -> &'static str {
+        "pareto"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Run time against error over a sweep of bases: one table with speed-ups and errors, the Pareto fronts, and their figure"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![ParamSpec::string(
+            "errors",
+            "freq_error, level_error_db, time_advance, rms, mac_min",
+            "error columns plotted against run time, comma separated",
+        )]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::many(
+                "errors",
+                ArtifactType::Table,
+                "the compare errors of every point",
+            ),
+            PortSpec::many(
+                "run_times",
+                ArtifactType::Table,
+                "the reduced transient's compute_s of every point",
+            ),
+            PortSpec::many(
+                "build_times",
+                ArtifactType::Table,
+                "the basis's compute_s of every point",
+            )
+            .optional(),
+            PortSpec::one(
+                "reference_time",
+                ArtifactType::Table,
+                "the reference transient's compute_s",
+            ),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![
+            PortSpec::one(
+                "table",
+                ArtifactType::Table,
+                "one row per point: coordinates, run_s, build_s, total_s, speed_up, speed_up_total, errors, front_<error>",
+            ),
+            PortSpec::one(
+                "figure",
+                ArtifactType::Figure,
+                "each error against the total run time, Pareto fronts joined",
+            ),
+        ]
+    }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<ParetoParams>().map(drop)
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let params: ParetoParams = params.typed()?;
+        let names: Vec<String> = params
+            .errors
+            .split(',')
+            .map(|name| name.trim().to_string())
+            .filter(|name| !name.is_empty())
+            .collect();
+        let reference_s = seconds(inputs.table("reference_time")?, "reference_time")?;
+        let errors = inputs.many("errors")?;
+        let run_times = inputs.many("run_times")?;
+        let build_times = if inputs.0.contains_key("build_times") {
+            Some(inputs.many("build_times")?)
+        } else {
+            None
+        };
+        let time_of = |points: &[(Coords, std::sync::Arc<Artifact>)],
+                       coords: &Coords,
+                       port: &str|
+         -> Result<f64, StageError> {
+            let (_, artifact) = points
+                .iter()
+                .find(|(other, _)| other == coords)
+                .ok_or_else(|| StageError::new(format!("{port}: no point at {}", label(coords))))?;
+            let table = artifact
+                .as_table()
+                .ok_or_else(|| StageError::new(format!("{port}: not a table")))?;
+            seconds(table, port)
+        };
+        let mut rows: Vec<(Coords, Table)> = Vec::with_capacity(errors.len());
+        for (coords, artifact) in errors {
+            let table = artifact
+                .as_table()
+                .ok_or_else(|| StageError::new("errors: not a table"))?;
+            if table.n_rows() != 1 {
+                return Err(StageError::new(format!(
+                    "errors at {}: {} rows, a compare table has one",
+                    label(coords),
+                    table.n_rows()
+                )));
+            }
+            let run_s = time_of(run_times, coords, "run_times")?;
+            let build_s = match build_times {
+                Some(points) => time_of(points, coords, "build_times")?,
+                None => 0.0,
+            };
+            let mut row = Table::new()
+                .with("run_s", vec![run_s])
+                .with("build_s", vec![build_s])
+                .with("total_s", vec![run_s + build_s])
+                .with("speed_up", vec![reference_s / run_s])
+                .with("speed_up_total", vec![reference_s / (run_s + build_s)]);
+            for column in table.columns() {
+                row = row.with(column.name.clone(), column.data.clone());
+            }
+            rows.push((coords.clone(), row));
+        }
+        let points: Vec<(Coords, &Table)> = rows
+            .iter()
+            .map(|(coords, table)| (coords.clone(), table))
+            .collect();
+        let mut table = Table::gather(&points)?;
+        let total = f64s(&table, "total_s")?;
+        let mut panels = Vec::with_capacity(names.len());
+        for name in &names {
+            let values: Vec<f64> = f64s(&table, name)?.iter().map(|e| e.abs()).collect();
+            let front = pareto_front(&total, &values);
+            panels.push(Panel {
+                name: name.clone(),
+                errors: values,
+                front: front.clone(),
+            });
+            table = table.with(format!("front_{name}"), front);
+        }
+        let labels: Vec<String> = rows.iter().map(|(coords, _)| label(coords)).collect();
+        let figure = plot::render(
+            &ParetoFigure {
+                total: &total,
+                labels: &labels,
+                panels: &panels,
+                reference_s,
+            },
+            (1000, 330 * names.len().div_ceil(2).max(1) as u32),
+        )?;
+        Ok(Outputs::from([
+            ("table".to_string(), Artifact::Table(table)),
+            ("figure".to_string(), Artifact::Figure(figure)),
+        ]))
+    }
+}
+
+/// The `compute_s` of a one-row table.
+fn seconds(table: &Table, port: &str) -> Result<f64, StageError> {
+    match table.column("compute_s") {
+        Some(ColumnData::F64(values)) if values.len() == 1 => Ok(values[0]),
+        _ => Err(StageError::new(format!(
+            "{port}: expected a stage's compute_s output (one row, column compute_s)"
+        ))),
+    }
+}
+
+fn f64s(table: &Table, name: &str) -> Result<Vec<f64>, StageError> {
+    match table.column(name) {
+        Some(ColumnData::F64(values)) => Ok(values.clone()),
+        Some(ColumnData::I64(values)) => Ok(values.iter().map(|v| *v as f64).collect()),
+        _ => Err(StageError::new(format!(
+            "errors: no numeric column `{name}`"
+        ))),
+    }
+}
+
+fn label(coords: &Coords) -> String {
+    coords
+        .iter()
+        .map(|(_, value)| value.to_string())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Points no other point beats in both time and error (NaN errors are never on the front).
+fn pareto_front(time: &[f64], error: &[f64]) -> Vec<bool> {
+    (0..time.len())
+        .map(|i| {
+            !error[i].is_nan()
+                && !(0..time.len()).any(|j| {
+                    j != i
+                        && time[j] <= time[i]
+                        && error[j] <= error[i]
+                        && (time[j] < time[i] || error[j] < error[i])
+                })
+        })
+        .collect()
+}
+
+struct Panel {
+    name: String,
+    errors: Vec<f64>,
+    front: Vec<bool>,
+}
+
+struct ParetoFigure<'a> {
+    total: &'a [f64],
+    labels: &'a [String],
+    panels: &'a [Panel],
+    reference_s: f64,
+}
+
+impl Drawing for ParetoFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
+        let rows = self.panels.len().div_ceil(2).max(1);
+        let areas = root.split_evenly((rows, 2));
+        for (panel, area) in self.panels.iter().zip(&areas) {
+            self.draw_panel(panel, area)?;
+        }
+        Ok(())
+    }
+}
+
+/// `[lo, hi]` widened by a factor for a log axis, for positive finite values.
+fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if hi > 0.0 {
+        (lo / 2.0, hi * 2.0)
+    } else {
+        (1e-6, 1.0)
+    }
+}
+
+impl ParetoFigure<'_> {
+    fn draw_panel<DB: DrawingBackend>(
+        &self,
+        panel: &Panel,
+        area: &DrawingArea<DB, Shift>,
+    ) -> DrawResult {
+        let (t_lo, t_hi) = log_range(self.total.iter().copied().chain([self.reference_s]));
+        let (e_lo, e_hi) = log_range(panel.errors.iter().copied());
+        let mut chart = ChartBuilder::on(area)
+            .caption(
+                format!("|{}| against run time", panel.name),
+                (plot::FONT, 16),
+            )
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(64)
+            .build_cartesian_2d((t_lo..t_hi).log_scale(), (e_lo..e_hi).log_scale())
+            .map_err(drawing_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("run time (s)")
+            .x_label_formatter(&|t| plot::tick_label(*t))
+            .y_label_formatter(&|e| format!("{e:.0e}"))
+            .label_style((plot::FONT, 12))
+            .axis_desc_style((plot::FONT, 13))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(drawing_error)?;
+        let shown = |i: usize| panel.errors[i].is_finite() && panel.errors[i] > 0.0;
+        let mut front: Vec<(f64, f64)> = (0..self.total.len())
+            .filter(|&i| panel.front[i] && shown(i))
+            .map(|i| (self.total[i], panel.errors[i]))
+            .collect();
+        front.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(
+                front,
+                plot::series_color(1).stroke_width(2),
+            ))
+            .map_err(drawing_error)?;
+        chart
+            .draw_series(LineSeries::new(
+                [(self.reference_s, e_lo), (self.reference_s, e_hi)],
+                BLACK.mix(0.5).stroke_width(1),
+            ))
+            .map_err(drawing_error)?;
+        chart
+            .draw_series((0..self.total.len()).filter(|&i| shown(i)).map(|i| {
+                EmptyElement::at((self.total[i], panel.errors[i]))
+                    + Circle::new((0, 0), 4, plot::series_color(0).filled())
+                    + Text::new(
+                        self.labels[i].clone(),
+                        (6, -12),
+                        (plot::FONT, 11).into_font(),
+                    )
+            }))
+            .map_err(drawing_error)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::stage::{Input, Value};
+
+    fn point(kind: &str, n: i64) -> Coords {
+        vec![
+            ("kind".to_string(), Value::Str(kind.to_string())),
+            ("n_modes".to_string(), Value::Int(n)),
+        ]
+    }
+
+    fn one_row(name: &str, value: f64) -> Arc<Artifact> {
+        Arc::new(Artifact::Table(Table::new().with(name, vec![value])))
+    }
+
+    #[test]
+    fn speed_ups_and_fronts_follow_from_the_times_and_errors() {
+        // (kind, n, run time, error): fc 50 is fast and good, real 50 slower and worse.
+        let cases = [
+            ("fc", 50, 2.0, 0.01),
+            ("fc", 100, 4.0, 0.001),
+            ("real", 50, 3.0, 0.1),
+        ];
+        let errors = cases
+            .iter()
+            .map(|&(kind, n, _, error)| {
+                let table = Table::new()
+                    .with("freq_error", vec![error])
+                    .with("rms", vec![-error]);
+                (point(kind, n), Arc::new(Artifact::Table(table)))
+            })
+            .collect();
+        let run_times = cases
+            .iter()
+            .map(|&(kind, n, time, _)| (point(kind, n), one_row("compute_s", time)))
+            .collect();
+        let inputs = Inputs(BTreeMap::from([
+            ("errors".to_string(), Input::Many(errors)),
+            ("run_times".to_string(), Input::Many(run_times)),
+            (
+                "reference_time".to_string(),
+                Input::One(one_row("compute_s", 40.0)),
+            ),
+        ]));
+        let params = Params(BTreeMap::from([(
+            "errors".to_string(),
+            Value::Str("freq_error, rms".into()),
+        )]));
+        let outputs = Pareto.run(&params, &inputs).unwrap();
+        let table = outputs["table"].as_table().unwrap();
+        assert_eq!(f64s(table, "speed_up").unwrap(), [20.0, 10.0, 40.0 / 3.0]);
+        let front = match table.column("front_rms") {
+            Some(ColumnData::Bool(front)) => front.clone(),
+            _ => panic!("no front column"),
+        };
+        assert_eq!(front, [true, true, false], "|rms| is compared");
+        assert!(matches!(table.column("kind"), Some(ColumnData::Str(_))));
+        // A point without a run time is named.
+        let mut missing = inputs.clone();
+        missing.0.insert(
+            "run_times".to_string(),
+            Input::Many(vec![(point("fc", 50), one_row("compute_s", 1.0))]),
+        );
+        let message = Pareto.run(&params, &missing).unwrap_err().to_string();
+        assert!(message.contains("fc 100"), "{message}");
+    }
+}
