@@ -242,7 +242,13 @@ fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
     assert!(reduced_peak > 1e6 * kinetic[1], "reduced: {reduced_peak} J");
     let errors = read_parquet(&out.join("compare/errors.parquet"));
     let freq_error = floats(&errors, "freq_error")[0];
-    assert!(freq_error < 0.05, "squeal peak {freq_error} off");
+    let indicator = floats(&errors, "residual_indicator")[0];
+    // Measured: 3e-4 and 0.22.
+    assert!(freq_error < 5e-3, "squeal peak {freq_error} off");
+    assert!(
+        indicator > 0.0 && indicator < 0.5,
+        "residual indicator {indicator}"
+    );
 }
 
 /// The headline figures of `pipelines/tgv_brake.yaml` (its comment gives them): every complex

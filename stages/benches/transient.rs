@@ -122,6 +122,7 @@ fn main() {
         output_every: 1,
         record_pairs: vec![0],
         snapshot_steps: Vec::new(),
+        sample_steps: Vec::new(),
     };
     let clock = Instant::now();
     let run = integrate(

@@ -150,6 +150,23 @@ impl StaticModes {
         U
     }
 
+    /// `K_oo⁻¹ F_o` over every free DOF, zero on the interface: the static response to loads
+    /// `F` (`n × p`) with the interface held.
+    pub fn fixed_interface_response(&self, F: MatRef<'_, f64>) -> Mat<f64> {
+        let p = F.ncols();
+        let mut B = Mat::from_fn(self.others.len(), p, |row, k| F[(self.others[row], k)]);
+        B.as_mut()
+            .par_col_chunks_mut(SOLVE_COLUMNS)
+            .for_each(|chunk| self.cholesky.solve_in_place(chunk, Par::Seq));
+        let mut U = Mat::<f64>::zeros(self.n, p);
+        for k in 0..p {
+            for (index, &dof) in self.others.iter().enumerate() {
+                U[(dof, k)] = B[(index, k)];
+            }
+        }
+        U
+    }
+
     /// The basis `T` as a dense matrix, `n × n_reduced`.
     pub fn basis_matrix(&self, basis: &Basis) -> Mat<f64> {
         let n_i = self.interface.len();

@@ -11,18 +11,22 @@
 //!
 //! The interface DOFs stay physical, so the contact laws act on `x`'s first coordinates
 //! exactly as on the full model; `[I; Ψ_o]` are the interface's static modes (unit
-//! displacement of one interface DOF, the others fixed, no load off the interface); the
-//! vectors `Φ` vanish on the interface and are `M`-orthonormal. The reduced matrices
-//! `Tᵀ M T`, `Tᵀ C T`, `Tᵀ K T` are dense and symmetric.
+//! displacement of one interface DOF, the others fixed, no load off the interface). The vectors
+//! `Φ` are the candidates less their static part, `v − S v_i` with `S = [I; Ψ_o]`: they vanish
+//! on the interface, and every candidate `v = S v_i + (v − S v_i)` lies exactly in the span of
+//! `T` (merely zeroing a mode's interface entries would leave `Ψ_o v_i` out). They are
+//! `M`-orthonormal. The reduced matrices `Tᵀ M T`, `Tᵀ C T`, `Tᵀ K T` are dense and symmetric.
 //!
-//! `Φ` spans, by `kind`:
+//! The candidates, by `kind`:
 //! - `fc` (the paper's FC_N): the real and imaginary parts of the first N complex modes of the
-//!   stability stage, off the interface, and the static equilibrium `u_e`;
-//! - `real`: the first N real modes of the `modes` stage, off the interface;
+//!   stability stage, and the static equilibrium `u_e`;
+//! - `real`: the first N real modes of the `modes` stage;
 //! - `craig_bampton`: the first N fixed-interface modes, `K_oo φ = ω² M_oo φ`, computed here
 //!   (with the static modes, the Craig–Bampton basis);
 //! - `modes`: the complex modes a user lists (those near the unstable frequencies and their
-//!   harmonics, say), as for `fc`.
+//!   harmonics, say), as for `fc`;
+//! - `adaptive`: `fc`, enriched by residual vectors until the transient's residual indicator
+//!   meets `target` ([`adaptive`]).
 //!
 //! N is `n_modes`, or every mode below the cut-off `f_cutoff_hz`, by default `cutoff_factor`
 //! (1.5) times the highest unstable frequency of the stability stage.
@@ -54,13 +58,14 @@
 //! so far: an undamped mode that the vectors found do not represent. (`modes` lists are taken
 //! as given.)
 
+mod adaptive;
 pub mod pareto;
 #[cfg(test)]
 mod tests;
 
 use std::f64::consts::PI;
 
-use faer::Mat;
+use faer::{Mat, MatRef};
 use serde::Deserialize;
 use squeal_linalg::csc::symmetric_mul;
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
@@ -70,7 +75,7 @@ use squeal_linalg::tall::transpose_times;
 use crate::artifact::basis::{StaticModes, interface_dofs};
 use crate::artifact::{Artifact, ArtifactType, Basis, CscMatrix, Equilibrium, Model, RealModes};
 use crate::complex_modes::ComplexModes;
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, RunContext, Stage, StageError};
 use crate::table::{ColumnData, Table};
 
 /// A real mode completes `fc` when at least this fraction of its `M`-norm lies outside the
@@ -92,6 +97,12 @@ struct BasisParams {
     modes: String,
     rank_tolerance: f64,
     complete: bool,
+    target: f64,
+    max_rounds: i64,
+    probe_duration: f64,
+    probe_tau: f64,
+    probe_amplitude: f64,
+    probe_samples: i64,
 }
 
 impl Stage for ReductionBasis {
@@ -99,7 +110,7 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton or a list of complex modes) with the interface's static modes, and the reduced M, C, K"
@@ -108,9 +119,9 @@ impl Stage for ReductionBasis {
         vec![
             ParamSpec::choice(
                 "kind",
-                &["fc", "real", "craig_bampton", "modes"],
+                &["fc", "real", "craig_bampton", "modes", "adaptive"],
                 "fc",
-                "vectors off the interface: complex modes and the equilibrium, real modes, fixed-interface modes, or the complex modes listed in `modes`",
+                "vectors off the interface: complex modes and the equilibrium, real modes, fixed-interface modes, the complex modes listed in `modes`, or fc enriched until the residual indicator meets `target`",
             ),
             ParamSpec::int(
                 "n_modes",
@@ -149,6 +160,36 @@ impl Stage for ReductionBasis {
                 true,
                 "fc: add the real modes below the cut-off that the complex modes found do not span (needs the modes input)",
             ),
+            ParamSpec::float(
+                "target",
+                0.05,
+                "",
+                "adaptive: the residual indicator to reach (see the transient's residual_indicator)",
+            )
+            .at_least(0.0),
+            ParamSpec::int("max_rounds", 8, "adaptive: most enrichment rounds").at_least(1.0),
+            ParamSpec::float(
+                "probe_duration",
+                2e-3,
+                "s",
+                "adaptive: length of the reduced probe run of each round",
+            )
+            .at_least(0.0),
+            ParamSpec::float("probe_tau", 1e-6, "s", "adaptive: the probe run's time step")
+                .at_least(0.0),
+            ParamSpec::float(
+                "probe_amplitude",
+                1e-5,
+                "m",
+                "adaptive: the probe starts from the most unstable mode at this amplitude (large, to reach the contact nonlinearity within the probe)",
+            )
+            .at_least(0.0),
+            ParamSpec::int(
+                "probe_samples",
+                20,
+                "adaptive: steps of the probe checked against the full step equation; each gives one residual vector",
+            )
+            .at_least(1.0),
         ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
@@ -200,6 +241,11 @@ impl Stage for ReductionBasis {
                 ArtifactType::Table,
                 "sizes, rank, cut-off, M-orthonormality and symmetry errors",
             ),
+            PortSpec::one(
+                "rounds",
+                ArtifactType::Table,
+                "adaptive: per round, round, n_vectors, n_reduced, indicator (no rows for the other kinds)",
+            ),
         ]
     }
     fn check_params(&self, params: &Params) -> Result<(), StageError> {
@@ -207,6 +253,14 @@ impl Stage for ReductionBasis {
         list_of_modes(&params.modes).map(drop)
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        self.run_with(params, inputs, &RunContext::detached())
+    }
+    fn run_with(
+        &self,
+        params: &Params,
+        inputs: &Inputs,
+        context: &RunContext,
+    ) -> Result<Outputs, StageError> {
         let params: BasisParams = params.typed()?;
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
@@ -231,10 +285,10 @@ impl Stage for ReductionBasis {
             real_modes: inputs.get_optional("modes")?,
         };
         let cutoff_hz = cutoff(&params, &sources)?;
-        let mut candidates = Candidates::new(&interface);
-        let mut completion = Candidates::new(&interface);
+        let mut candidates = Candidates::new();
+        let mut completion = Candidates::new();
         match params.kind.as_str() {
-            "fc" | "modes" => {
+            "fc" | "modes" | "adaptive" => {
                 let wanted = if params.kind == "modes" {
                     Wanted::Listed(list_of_modes(&params.modes)?)
                 } else {
@@ -244,7 +298,7 @@ impl Stage for ReductionBasis {
                     }
                 };
                 candidates.complex_modes(&sources, &wanted, model.n_dofs())?;
-                if params.kind == "fc" {
+                if params.kind != "modes" {
                     candidates.push(&equilibrium.u, "equilibrium", -1, 0.0, None);
                     if params.complete
                         && let Some(real_modes) = sources.real_modes
@@ -286,39 +340,58 @@ impl Stage for ReductionBasis {
             )));
         }
         let mut span = MSpan::with_capacity(model.n_dofs(), candidates.len() + completion.len());
-        candidates.add_to(&mut span, &model.M, params.rank_tolerance);
-        let kept_completion = completion.add_to(&mut span, &model.M, COMPLETION_FRACTION);
-        let vectors: Vec<Vec<f64>> = (0..span.len())
-            .map(|k| span.vectors().col(k).iter().copied().collect())
-            .collect();
-        let orthonormality = orthonormality_error(&model.M, span.vectors());
-        let mut basis = Basis {
-            kind: params.kind.clone(),
-            interface: interface.iter().map(|&dof| dof as u32).collect(),
-            vectors,
-            ..Basis::default()
+        candidates.add_to(&mut span, &static_modes, &model.M, params.rank_tolerance);
+        let kept_completion =
+            completion.add_to(&mut span, &static_modes, &model.M, COMPLETION_FRACTION);
+        let mut reduction = Reduction::new(model, &static_modes);
+        reduction.extend(model, span.vectors());
+        let mut lists = vec![candidates, completion];
+        let rounds = if params.kind == "adaptive" {
+            let probe = adaptive::Probe {
+                model,
+                equilibrium,
+                sources: &sources,
+                static_modes: &static_modes,
+                duration: params.probe_duration,
+                tau: params.probe_tau,
+                amplitude: params.probe_amplitude,
+                samples: params.probe_samples as usize,
+            };
+            let enrichment = adaptive::Enrichment {
+                target: params.target,
+                max_rounds: params.max_rounds as usize,
+                rank_tolerance: params.rank_tolerance,
+            };
+            adaptive::enrich(
+                &probe,
+                &enrichment,
+                (&mut span, &mut reduction, &mut lists),
+                context,
+            )?
+        } else {
+            Vec::new()
         };
-        let T = static_modes.basis_matrix(&basis);
-        let (mass, mass_asymmetry) = reduced(&model.M, &T);
-        let (damping, damping_asymmetry) = reduced(&model.C, &T);
-        let (stiffness, stiffness_asymmetry) = reduced(&model.K, &T);
-        basis.mass = mass;
-        basis.damping = damping;
-        basis.stiffness = stiffness;
-        let summary: Vec<(&str, f64)> = vec![
+        let orthonormality = orthonormality_error(&model.M, span.vectors());
+        let basis = reduction.basis(&params.kind, &interface);
+        let n_candidates: usize = lists.iter().map(Candidates::len).sum();
+        let mut summary: Vec<(&str, f64)> = vec![
             ("n_dofs", model.n_dofs() as f64),
             ("n_interface", interface.len() as f64),
-            ("n_candidates", (candidates.len() + completion.len()) as f64),
+            ("n_candidates", n_candidates as f64),
             ("n_vectors", basis.vectors.len() as f64),
             ("n_completion", kept_completion as f64),
             ("n_reduced", basis.n_reduced() as f64),
             ("f_cutoff_hz", cutoff_hz),
             ("orthonormality_error", orthonormality),
-            ("mass_asymmetry", mass_asymmetry),
-            ("damping_asymmetry", damping_asymmetry),
-            ("stiffness_asymmetry", stiffness_asymmetry),
+            ("mass_asymmetry", reduction.asymmetry[0]),
+            ("damping_asymmetry", reduction.asymmetry[1]),
+            ("stiffness_asymmetry", reduction.asymmetry[2]),
         ];
-        let vectors_table = candidates.table(&completion);
+        if let Some(last) = rounds.last() {
+            summary.push(("rounds", rounds.len() as f64));
+            summary.push(("indicator", last.indicator));
+        }
+        let vectors_table = Candidates::table(&lists);
         Ok(Outputs::from([
             ("basis".to_string(), Artifact::Basis(Box::new(basis))),
             ("vectors".to_string(), Artifact::Table(vectors_table)),
@@ -338,6 +411,10 @@ impl Stage for ReductionBasis {
                             summary.iter().map(|(_, value)| *value).collect::<Vec<_>>(),
                         ),
                 ),
+            ),
+            (
+                "rounds".to_string(),
+                Artifact::Table(adaptive::table(&rounds)),
             ),
         ]))
     }
@@ -405,9 +482,8 @@ fn cutoff(params: &BasisParams, sources: &Sources) -> Result<f64, StageError> {
     Ok(params.cutoff_factor * highest)
 }
 
-/// Candidate vectors, zero on the interface, with what a reader needs to know of each.
+/// Candidate vectors, with what a reader needs to know of each.
 struct Candidates {
-    interface: Vec<usize>,
     vectors: Vec<Vec<f64>>,
     source: Vec<&'static str>,
     mode: Vec<i64>,
@@ -420,9 +496,8 @@ struct Candidates {
 }
 
 impl Candidates {
-    fn new(interface: &[usize]) -> Candidates {
+    fn new() -> Candidates {
         Candidates {
-            interface: interface.to_vec(),
             vectors: Vec::new(),
             source: Vec::new(),
             mode: Vec::new(),
@@ -437,7 +512,7 @@ impl Candidates {
         self.vectors.len()
     }
 
-    /// Adds `vector` off the interface; `group`: the candidate it shares a norm with.
+    /// Adds `vector`; `group`: the candidate it shares a norm with.
     fn push(
         &mut self,
         vector: &[f64],
@@ -446,12 +521,8 @@ impl Candidates {
         freq_hz: f64,
         group: Option<usize>,
     ) {
-        let mut vector = vector.to_vec();
-        for &dof in &self.interface {
-            vector[dof] = 0.0;
-        }
         self.group.push(group.unwrap_or(self.vectors.len()));
-        self.vectors.push(vector);
+        self.vectors.push(vector.to_vec());
         self.source.push(source);
         self.mode.push(mode);
         self.freq_hz.push(freq_hz);
@@ -619,12 +690,29 @@ impl Candidates {
         Ok(())
     }
 
-    /// Extends `span` with the candidates, in order, at `tolerance`; returns how many it kept.
-    fn add_to(&mut self, span: &mut MSpan, M: &CscMatrix, tolerance: f64) -> usize {
+    /// Extends `span` with the candidates less their static parts, `v − S v_i`, in order, at
+    /// `tolerance`; returns how many it kept.
+    fn add_to(
+        &mut self,
+        span: &mut MSpan,
+        static_modes: &StaticModes,
+        M: &CscMatrix,
+        tolerance: f64,
+    ) -> usize {
         let n = M.n_rows;
-        let mut norms_squared = Vec::with_capacity(self.len());
-        for first in (0..self.len()).step_by(NORM_BLOCK) {
-            let block = &self.vectors[first..(first + NORM_BLOCK).min(self.len())];
+        let interface = static_modes.interface();
+        let count = self.len();
+        let mut norms_squared = Vec::with_capacity(count);
+        for first in (0..count).step_by(NORM_BLOCK) {
+            let block = &mut self.vectors[first..(first + NORM_BLOCK).min(count)];
+            let X_i = Mat::from_fn(interface.len(), block.len(), |j, k| block[k][interface[j]]);
+            let S_X_i = static_modes.static_displacement(X_i.as_ref());
+            for (k, vector) in block.iter_mut().enumerate() {
+                vector
+                    .iter_mut()
+                    .zip(S_X_i.col(k).iter())
+                    .for_each(|(value, static_part)| *value -= static_part);
+            }
             let X = Mat::from_fn(n, block.len(), |i, k| block[k][i]);
             let MX = symmetric_mul(M, X.as_ref());
             norms_squared.extend((0..block.len()).map(|k| {
@@ -656,28 +744,28 @@ impl Candidates {
         span.len() - before
     }
 
-    /// One row per candidate of both lists.
-    fn table(&self, completion: &Candidates) -> Table {
-        let both = [self, completion];
+    /// One row per candidate of every list, in order.
+    fn table(lists: &[Candidates]) -> Table {
         let gather_f64 = |f: &dyn Fn(&Candidates, usize) -> f64| -> Vec<f64> {
-            both.iter()
+            lists
+                .iter()
                 .flat_map(|list| (0..list.len()).map(move |k| f(list, k)))
                 .collect()
         };
+        let total: usize = lists.iter().map(Candidates::len).sum();
         Table::new()
-            .with(
-                "candidate",
-                (0..(self.len() + completion.len()) as i64).collect::<Vec<i64>>(),
-            )
+            .with("candidate", (0..total as i64).collect::<Vec<i64>>())
             .with(
                 "source",
-                both.iter()
+                lists
+                    .iter()
                     .flat_map(|list| list.source.iter().map(|s| s.to_string()))
                     .collect::<Vec<String>>(),
             )
             .with(
                 "mode",
-                both.iter()
+                lists
+                    .iter()
                     .flat_map(|list| list.mode.iter().copied())
                     .collect::<Vec<i64>>(),
             )
@@ -685,7 +773,8 @@ impl Candidates {
             .with("remaining", gather_f64(&|list, k| list.remaining[k]))
             .with(
                 "kept",
-                both.iter()
+                lists
+                    .iter()
                     .flat_map(|list| list.kept.iter().copied())
                     .collect::<Vec<bool>>(),
             )
@@ -705,23 +794,80 @@ fn orthonormality_error(M: &CscMatrix, Q: faer::MatRef<'_, f64>) -> f64 {
     worst
 }
 
-/// `Tᵀ A T`, column-major, symmetrised; and its asymmetry before, `max |R − Rᵀ| / max |R|`.
-fn reduced(A: &CscMatrix, T: &Mat<f64>) -> (Vec<f64>, f64) {
-    let R = transpose_times(T.as_ref(), symmetric_mul(A, T.as_ref()).as_ref());
-    let n = R.nrows();
-    let (mut largest, mut asymmetry) = (0.0_f64, 0.0_f64);
-    let mut values = vec![0.0; n * n];
-    for j in 0..n {
-        for i in 0..n {
-            largest = largest.max(R[(i, j)].abs());
-            asymmetry = asymmetry.max((R[(i, j)] - R[(j, i)]).abs());
-            values[j * n + i] = 0.5 * (R[(i, j)] + R[(j, i)]);
+/// The reduced matrices `Tᵀ A T` of `A = M, C, K`, grown a block of columns of `T` at a time
+/// (an adaptive basis appends vectors to a span whose earlier vectors stay as they are).
+struct Reduction {
+    T: Mat<f64>,
+    /// `Tᵀ M T`, `Tᵀ C T`, `Tᵀ K T`, symmetrised.
+    matrices: [Mat<f64>; 3],
+    /// The largest `max |B − Bᵀ| / max |B|` over the diagonal blocks `B` computed, per matrix.
+    asymmetry: [f64; 3],
+}
+
+impl Reduction {
+    /// `T` = the static modes of the interface.
+    fn new(model: &Model, static_modes: &StaticModes) -> Reduction {
+        let n_i = static_modes.interface().len();
+        let mut reduction = Reduction {
+            T: Mat::zeros(model.n_dofs(), 0),
+            matrices: std::array::from_fn(|_| Mat::zeros(0, 0)),
+            asymmetry: [0.0; 3],
+        };
+        let S = static_modes.static_displacement(Mat::<f64>::identity(n_i, n_i).as_ref());
+        reduction.extend(model, S.as_ref());
+        reduction
+    }
+
+    /// `T ← [T, V]`: the new rows and columns of each reduced matrix, `[T, V]ᵀ A V`.
+    fn extend(&mut self, model: &Model, V: MatRef<'_, f64>) {
+        let (n_old, p) = (self.T.ncols(), V.ncols());
+        let mut T = Mat::<f64>::zeros(self.T.nrows(), n_old + p);
+        T.as_mut().subcols_mut(0, n_old).copy_from(&self.T);
+        T.as_mut().subcols_mut(n_old, p).copy_from(V);
+        for (which, A) in [&model.M, &model.C, &model.K].into_iter().enumerate() {
+            let B = transpose_times(T.as_ref(), symmetric_mul(A, V).as_ref());
+            let mut R = Mat::<f64>::zeros(n_old + p, n_old + p);
+            R.as_mut()
+                .submatrix_mut(0, 0, n_old, n_old)
+                .copy_from(&self.matrices[which]);
+            let (mut largest, mut asymmetry) = (0.0_f64, 0.0_f64);
+            for j in 0..p {
+                for i in 0..n_old {
+                    R[(i, n_old + j)] = B[(i, j)];
+                    R[(n_old + j, i)] = B[(i, j)];
+                }
+                for i in 0..p {
+                    let (b, b_transposed) = (B[(n_old + i, j)], B[(n_old + j, i)]);
+                    largest = largest.max(b.abs());
+                    asymmetry = asymmetry.max((b - b_transposed).abs());
+                    R[(n_old + i, n_old + j)] = 0.5 * (b + b_transposed);
+                }
+            }
+            if largest > 0.0 {
+                self.asymmetry[which] = self.asymmetry[which].max(asymmetry / largest);
+            }
+            self.matrices[which] = R;
+        }
+        self.T = T;
+    }
+
+    /// The basis of `vectors` (`T`'s columns after the interface's), with these matrices.
+    fn basis(&self, kind: &str, interface: &[usize]) -> Basis {
+        let n_i = interface.len();
+        let column_major = |A: &Mat<f64>| -> Vec<f64> {
+            (0..A.ncols())
+                .flat_map(|j| A.col(j).iter().copied().collect::<Vec<_>>())
+                .collect()
+        };
+        Basis {
+            kind: kind.to_string(),
+            interface: interface.iter().map(|&dof| dof as u32).collect(),
+            vectors: (n_i..self.T.ncols())
+                .map(|k| self.T.col(k).iter().copied().collect())
+                .collect(),
+            mass: column_major(&self.matrices[0]),
+            damping: column_major(&self.matrices[1]),
+            stiffness: column_major(&self.matrices[2]),
         }
     }
-    let relative = if largest > 0.0 {
-        asymmetry / largest
-    } else {
-        0.0
-    };
-    (values, relative)
 }

@@ -1,7 +1,9 @@
 //! Verification of the bases: a basis spanning every DOF reproduces the full transient; the
 //! reduced matrices are symmetric and the vectors `M`-orthonormal, with the rank reported; a
 //! reduced run grows at the rate of the unstable mode it starts from; the completion by real
-//! modes restores complex modes the stability stage did not seek; clear errors.
+//! modes restores complex modes the stability stage did not seek; the residual indicator
+//! vanishes on a full basis and tracks the true error of the others, and the adaptive basis
+//! meets its target; clear errors.
 
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -111,6 +113,8 @@ fn a_basis_spanning_every_dof_reproduces_the_full_transient() {
     let full = Transient.run(&params, &inputs).unwrap();
     insert(&mut inputs, "basis", basis["basis"].clone());
     let reduced = Transient.run(&params, &inputs).unwrap();
+    let indicator = quantity(reduced["summary"].as_table().unwrap(), "residual_indicator");
+    assert!(indicator < 1e-8, "residual indicator {indicator:.2e}");
     let history = [
         "u_n", "u_t", "v_n", "v_t", "kinetic", "open", "stick", "slide",
     ];
@@ -377,4 +381,91 @@ fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
             );
         }
     }
+}
+
+#[test]
+fn the_residual_indicator_tracks_the_true_error_and_the_adaptive_basis_meets_its_target() {
+    let inputs = brake_inputs();
+    let eigenvalues = inputs.table("eigenvalues").unwrap().clone();
+    let im = f64_column(&eigenvalues, "im");
+    let re = f64_column(&eigenvalues, "re");
+    let most = (0..re.len())
+        .max_by(|&a, &b| re[a].total_cmp(&re[b]))
+        .unwrap();
+    let tau = 2.0 * PI / im[most] / 40.0;
+    let (duration, amplitude) = (400.0 * tau, 1e-4);
+    let params = stage_params(&[
+        ("tau", Value::Float(tau)),
+        ("duration", Value::Float(duration)),
+        ("amplitude", Value::Float(amplitude)),
+    ]);
+    let full = Transient.run(&params, &inputs).unwrap();
+    let full_history = full["history"].as_table().unwrap().clone();
+    // (indicator, true error: the largest relative difference of the contact averages and
+    // the kinetic energy from the full run's)
+    let run = |basis: &Outputs| {
+        let mut inputs = inputs.clone();
+        insert(&mut inputs, "basis", basis["basis"].clone());
+        let outputs = Transient.run(&params, &inputs).unwrap();
+        let summary = outputs["summary"].as_table().unwrap();
+        let error = relative_difference(
+            outputs["history"].as_table().unwrap(),
+            &full_history,
+            &["u_t", "v_t", "kinetic"],
+        );
+        (quantity(summary, "residual_indicator"), error)
+    };
+    let mut results: Vec<(f64, f64)> = [2, 6, 0]
+        .iter()
+        .map(|&n| run(&fc_basis(&inputs, &[("n_modes", Value::Int(n))])))
+        .collect();
+    let adaptive = fc_basis(
+        &inputs,
+        &[
+            ("kind", Value::Str("adaptive".into())),
+            ("n_modes", Value::Int(2)),
+            ("target", Value::Float(0.02)),
+            ("probe_tau", Value::Float(tau)),
+            ("probe_duration", Value::Float(duration)),
+            ("probe_amplitude", Value::Float(amplitude)),
+        ],
+    );
+    results.push(run(&adaptive));
+    // The indicator orders the bases as their true errors do, and estimates them within a
+    // common factor (about 3 here: η measures one step's defect, the error accumulates).
+    let mut by_indicator = results.clone();
+    by_indicator.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert!(
+        by_indicator.windows(2).all(|pair| pair[0].1 < pair[1].1),
+        "(indicator, true error) per basis: {results:?}"
+    );
+    let ratios: Vec<f64> = results.iter().map(|(eta, error)| error / eta).collect();
+    let spread = ratios.iter().copied().fold(0.0, f64::max)
+        / ratios.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(spread < 2.0, "error over indicator per basis: {ratios:?}");
+    // The adaptive basis starts from FC_2, meets its target, and its run reports the
+    // indicator of its last round.
+    let rounds = f64_column(adaptive["rounds"].as_table().unwrap(), "indicator");
+    assert_eq!(rounds[0], results[0].0, "round 1 is FC_2's probe");
+    assert!(
+        rounds.windows(2).all(|pair| pair[1] < pair[0]),
+        "{rounds:?}"
+    );
+    let last = *rounds.last().unwrap();
+    assert!(last <= 0.02 && rounds.len() >= 2, "{rounds:?}");
+    assert!(
+        (results[3].0 - last).abs() <= 1e-9 * last,
+        "{} against {last}",
+        results[3].0
+    );
+    let summary = adaptive["summary"].as_table().unwrap();
+    assert_eq!(quantity(summary, "indicator"), last);
+    // Residual vectors may bring as little as rank_tolerance of their norm that is new: their
+    // orthonormalisation costs a digit more than the modes'.
+    let orthonormality = quantity(summary, "orthonormality_error");
+    assert!(orthonormality < 1e-11, "{orthonormality:.2e}");
+    assert!(
+        results[3].1 < results[2].1,
+        "adaptive beats the default FC: {results:?}"
+    );
 }

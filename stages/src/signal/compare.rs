@@ -25,6 +25,10 @@
 //!   (as `svd_projection`); for each of the reference's first `n_shapes` shapes, the best MAC
 //!   with the candidate's, `(ψ_rᵀ M ψ_c)²` (both `M`-normalised): `mac_k`, and `mac_min`.
 //!
+//! - **Residual indicator** (with the candidate's `summary`): its `residual_indicator`, the
+//!   a-posteriori estimate a reduced run makes of its own error without the reference
+//!   ([`crate::transient::reduced`]), beside the true errors it should track.
+//!
 //! A peak the candidate does not have gives NaN errors for it, and NaN worst errors.
 
 use faer::Mat;
@@ -38,7 +42,7 @@ use super::uniform_series;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
-use crate::table::Table;
+use crate::table::{ColumnData, Table};
 
 /// The contact-zone averages compared by RMS.
 const FIELDS: [&str; 4] = ["u_n", "u_t", "v_n", "v_t"];
@@ -128,6 +132,12 @@ impl Stage for Compare {
                 "M on the snapshot rows (the transient's mass)",
             )
             .optional(),
+            PortSpec::one(
+                "candidate_summary",
+                ArtifactType::Table,
+                "the compared run's summary: its residual_indicator joins the errors",
+            )
+            .optional(),
         ]
     }
     fn outputs(&self) -> Vec<PortSpec> {
@@ -214,6 +224,12 @@ impl Stage for Compare {
             }
             errors = errors.with("mac_min", vec![worst]);
         }
+        if let Some(summary) = inputs.get_optional::<Table>("candidate_summary")? {
+            errors = errors.with(
+                "residual_indicator",
+                vec![summary_quantity(summary, "residual_indicator")?],
+            );
+        }
         let figure = plot::render(
             &CompareFigure {
                 runs: [&reference, &candidate],
@@ -227,6 +243,26 @@ impl Stage for Compare {
             ("figure".to_string(), Artifact::Figure(figure)),
         ]))
     }
+}
+
+/// The value of `quantity` in a `(quantity, value)` summary table.
+fn summary_quantity(summary: &Table, quantity: &str) -> Result<f64, StageError> {
+    let (Some(ColumnData::Str(names)), Some(ColumnData::F64(values))) =
+        (summary.column("quantity"), summary.column("value"))
+    else {
+        return Err(StageError::new(
+            "candidate_summary: not a summary table (quantity, value)",
+        ));
+    };
+    names
+        .iter()
+        .position(|name| name == quantity)
+        .map(|row| values[row])
+        .ok_or_else(|| {
+            StageError::new(format!(
+                "candidate_summary: no `{quantity}` (a transient's summary has it)"
+            ))
+        })
 }
 
 /// `max`, NaN if either is.

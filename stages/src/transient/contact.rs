@@ -86,6 +86,17 @@ pub enum Solver {
     FixedPoint,
 }
 
+impl Solver {
+    /// The name the transient's `solver` parameter gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Solver::ActiveSet => "active_set",
+            Solver::GaussSeidel => "gauss_seidel",
+            Solver::FixedPoint => "fixed_point",
+        }
+    }
+}
+
 /// Contact state of a pair at the end of a step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PairState {

@@ -76,11 +76,12 @@ pub(crate) mod tests;
 use faer::c64;
 use serde::Deserialize;
 
+use crate::artifact::basis::StaticModes;
 use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, RunContext, Stage, StageError};
 use crate::table::{ColumnData, Table};
 use contact::Solver;
-use reduced::ReducedModel;
+use reduced::{FullStep, Indicator, ReducedModel};
 use scheme::{ContactState, Failure, Run, Settings, Structure};
 
 /// Progress reports over a run.
@@ -108,6 +109,7 @@ struct TransientParams {
     record_pairs: String,
     snapshot_window: f64,
     n_snapshots: i64,
+    indicator_samples: i64,
 }
 
 impl TransientParams {
@@ -164,7 +166,7 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        3
+        4
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
@@ -243,6 +245,12 @@ impl Stage for Transient {
             .at_least(0.0),
             ParamSpec::int("n_snapshots", 100, "snapshots kept over the final window")
                 .at_least(1.0),
+            ParamSpec::int(
+                "indicator_samples",
+                20,
+                "with a basis: steps, spread over the run, at which the full step equation is checked on the lifted reduced solution (the residual indicator)",
+            )
+            .at_least(1.0),
         ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
@@ -352,34 +360,73 @@ impl Stage for Transient {
                 mode_start(lambda, &shape, params.amplitude)
             }
         };
-        let settings = settings_of(&params, model.mesh.contact_pairs.len())?;
-        let run = match inputs.get_optional::<Basis>("basis")? {
-            None => integrate(
-                &structure,
-                &contact_state,
-                &settings,
-                (u0, v0),
-                &params,
-                context,
-            )?,
+        let basis = inputs.get_optional::<Basis>("basis")?;
+        let samples = if basis.is_some() {
+            params.indicator_samples as usize
+        } else {
+            0
+        };
+        let settings = settings_of(&params, model.mesh.contact_pairs.len(), samples)?;
+        let (run, indicator) = match basis {
+            None => (
+                integrate(&structure, &contact_state, &settings, (u0, v0), context)?,
+                None,
+            ),
             Some(basis) => {
-                let reduced = ReducedModel::new(model, basis, &structure)?;
-                let restrict = |u: &[f64]| reduced.static_modes.restrict(basis, &model.M, u);
-                let start = (restrict(&u0), restrict(&v0));
-                let mut run = integrate(
-                    &reduced.structure(),
-                    &contact_state,
+                let interface: Vec<usize> =
+                    basis.interface.iter().map(|&dof| dof as usize).collect();
+                let static_modes = StaticModes::new(model, &interface)?;
+                let full_step = FullStep::new(&structure, settings.theta, settings.tau)?;
+                let (run, indicator) = run_reduced(
+                    model,
+                    (&structure, &contact_state),
+                    (basis, &static_modes, &full_step),
                     &settings,
-                    start,
-                    &params,
+                    (u0, v0),
                     context,
                 )?;
-                reduced.lift_snapshots(basis, &mut run);
-                run
+                (run, Some(indicator))
             }
         };
-        outputs(model, &settings, &run)
+        outputs(model, &settings, &run, indicator.as_ref())
     }
+}
+
+/// A run on a reduction basis, its snapshots lifted to the full DOFs, and its residual
+/// indicator against the full model's step (`full_step`).
+pub fn run_reduced(
+    model: &Model,
+    (structure, contact_state): (&Structure, &ContactState),
+    (basis, static_modes, full_step): (&Basis, &StaticModes, &FullStep),
+    settings: &Settings,
+    (u0, v0): (Vec<f64>, Vec<f64>),
+    context: &RunContext,
+) -> Result<(Run, Indicator), StageError> {
+    let reduced = ReducedModel::new(model, basis, static_modes, structure)?;
+    let restrict = |u: &[f64]| static_modes.restrict(basis, &model.M, u);
+    let start = (restrict(&u0), restrict(&v0));
+    let mut run = integrate(
+        &reduced.structure(),
+        contact_state,
+        settings,
+        start,
+        context,
+    )?;
+    reduced.lift_snapshots(basis, &mut run);
+    let indicator = full_step.indicator(&reduced, basis, structure, contact_state, &run.samples);
+    Ok((run, indicator))
+}
+
+/// The start of a run from the sliding equilibrium plus the most unstable mode of the
+/// stability tables at `amplitude` (see the module doc).
+pub fn most_unstable_start(
+    eigenvalues: &Table,
+    shapes: &Table,
+    n_dofs: usize,
+    amplitude: f64,
+) -> Result<(Vec<f64>, Vec<f64>), StageError> {
+    let (lambda, shape) = chosen_mode(eigenvalues, shapes, 0, n_dofs)?;
+    Ok(mode_start(lambda, &shape, amplitude))
 }
 
 /// `H`'s rows and the equilibrium's contact data.
@@ -526,7 +573,12 @@ pub fn kick(model: &Model, equilibrium: &Equilibrium, speed: f64) -> (Vec<f64>, 
     (vec![0.0; n], v)
 }
 
-fn settings_of(params: &TransientParams, n_pairs: usize) -> Result<Settings, StageError> {
+/// The run's settings; `n_samples` steps kept whole for the residual indicator.
+fn settings_of(
+    params: &TransientParams,
+    n_pairs: usize,
+    n_samples: usize,
+) -> Result<Settings, StageError> {
     let n_steps = params.n_steps();
     let record_pairs: Vec<usize> = if params.record_pairs.trim().is_empty() {
         let count = n_pairs.min(4);
@@ -570,7 +622,17 @@ fn settings_of(params: &TransientParams, n_pairs: usize) -> Result<Settings, Sta
         output_every: params.output_every as usize,
         record_pairs,
         snapshot_steps,
+        sample_steps: spread_steps(n_steps, n_samples),
     })
+}
+
+/// `count` distinct steps spread evenly over `1..=n_steps`, the last one included.
+pub fn spread_steps(n_steps: usize, count: usize) -> Vec<usize> {
+    let mut steps: Vec<usize> = (1..=count.min(n_steps))
+        .map(|k| (k * n_steps).div_ceil(count.min(n_steps)))
+        .collect();
+    steps.dedup();
+    steps
 }
 
 fn integrate(
@@ -578,7 +640,6 @@ fn integrate(
     contact_state: &ContactState,
     settings: &Settings,
     (u0, v0): (Vec<f64>, Vec<f64>),
-    params: &TransientParams,
     context: &RunContext,
 ) -> Result<Run, StageError> {
     let n_steps = settings.n_steps;
@@ -613,13 +674,13 @@ fn integrate(
                 iterations,
             } => StageError::new(format!(
                 "transient: the contact solver ({}) did not converge at step {step} (t = {t:.6e} s) in {iterations} iterations; last residuals {} (tolerance {:e}); raise max_iterations, loosen tolerance or shorten tau",
-                params.solver,
+                settings.solver.name(),
                 history
                     .iter()
                     .map(|residual| format!("{residual:.2e}"))
                     .collect::<Vec<_>>()
                     .join(", "),
-                params.tolerance
+                settings.tolerance
             )),
             Failure::NotFinite { step, t } => StageError::new(format!(
                 "transient: the velocity is not finite at step {step} (t = {t:.6e} s)"
@@ -628,7 +689,12 @@ fn integrate(
     })
 }
 
-fn outputs(model: &Model, settings: &Settings, run: &Run) -> Result<Outputs, StageError> {
+fn outputs(
+    model: &Model,
+    settings: &Settings,
+    run: &Run,
+    indicator: Option<&Indicator>,
+) -> Result<Outputs, StageError> {
     let history = &run.history;
     let column =
         |f: &dyn Fn(&scheme::HistoryRow) -> f64| history.iter().map(f).collect::<Vec<f64>>();
@@ -679,7 +745,7 @@ fn outputs(model: &Model, settings: &Settings, run: &Run) -> Result<Outputs, Sta
             .map(|snapshot| (snapshot_name(snapshot.t), snapshot.v.clone()))
             .collect(),
     );
-    let summary = summary_table(settings, run);
+    let summary = summary_table(settings, run, indicator);
     let figure = figure::history(history, settings)?;
     let energy_figure = figure::energy(history)?;
     Ok(Outputs::from([
@@ -734,7 +800,9 @@ pub fn peak_energy(history: &[scheme::HistoryRow]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn summary_table(settings: &Settings, run: &Run) -> Table {
+/// The run's figures; `residual_indicator` is 0 for a run on the full model (which is its own
+/// reference).
+fn summary_table(settings: &Settings, run: &Run, indicator: Option<&Indicator>) -> Table {
     let last = run.history.last().cloned().unwrap_or_default();
     let peak = peak_energy(&run.history);
     let worst_balance = run
@@ -769,6 +837,10 @@ fn summary_table(settings: &Settings, run: &Run) -> Table {
         ("final_open", last.open),
         ("final_stick", last.stick),
         ("final_slide", last.slide),
+        (
+            "residual_indicator",
+            indicator.map_or(0.0, |indicator| indicator.value),
+        ),
     ];
     Table::new()
         .with(

@@ -3,17 +3,41 @@
 //! coordinates of `x`, so `H` keeps its entries, renumbered; the departure from the
 //! equilibrium starts at `x⁰ = [u⁰_i; Φᵀ M (u⁰ − S u⁰_i)]`, and the snapshots are lifted back
 //! to every DOF, `u = T x`.
+//!
+//! # The residual indicator
+//!
+//! The reduced step is the Galerkin projection of the full one: with the lifted states
+//! `u⁰ = T x⁰`, `v⁰ = T ẋ⁰`, `v¹ = T ẋ¹` and the step's reactions `r`, the residual of the
+//! full step equation
+//!
+//! ```text
+//! R = M (v¹ − v⁰)/τ + C v^θ + K u^θ − Hᵀ (r − r_e),   u^θ = u⁰ + τθ v^θ
+//! ```
+//!
+//! satisfies `Tᵀ R = 0` exactly: it is what the basis cannot represent of the full dynamics at
+//! that step. `δv = J⁻¹ R` is the velocity correction the full scheme would make from the
+//! same state (`J` the full model's), and the indicator compares it with the step's own change
+//! of velocity over the sampled steps,
+//!
+//! ```text
+//! η = ( Σ_k ‖δv_k‖²_M / Σ_k ‖v¹_k − v⁰_k‖²_M )^½
+//! ```
+//!
+//! dimensionless, zero for a basis that spans every DOF, and computed from the reduced run
+//! alone (one factorisation of the full `J` and one solve per sampled step, no full run).
 
-use faer::Mat;
+use faer::{Mat, Par};
 
-use super::scheme::{Run, Snapshot, Structure};
+use super::scheme::{self, ContactState, Run, Snapshot, StepSample, Structure};
 use crate::artifact::basis::StaticModes;
 use crate::artifact::{Basis, CscMatrix, Model};
 use crate::stage::StageError;
+use squeal_linalg::cholesky::Cholesky;
+use squeal_linalg::csc::symmetric_mul;
 
 /// The reduced matrices and the maps to and from the full DOFs.
-pub struct ReducedModel {
-    pub static_modes: StaticModes,
+pub struct ReducedModel<'a> {
+    pub static_modes: &'a StaticModes,
     pub M: CscMatrix,
     pub C: CscMatrix,
     pub K: CscMatrix,
@@ -47,9 +71,15 @@ fn compressed(n: usize, values: &[f64]) -> CscMatrix {
     }
 }
 
-impl ReducedModel {
-    /// `full`: the full model's structure (its `H`).
-    pub fn new(model: &Model, basis: &Basis, full: &Structure) -> Result<ReducedModel, StageError> {
+impl<'a> ReducedModel<'a> {
+    /// `full`: the full model's structure (its `H`); `static_modes`: the model's, on the
+    /// basis's interface.
+    pub fn new(
+        model: &Model,
+        basis: &Basis,
+        static_modes: &'a StaticModes,
+        full: &Structure,
+    ) -> Result<ReducedModel<'a>, StageError> {
         let n = model.n_dofs();
         let n_r = basis.n_reduced();
         let foreign = |what: String| {
@@ -91,9 +121,16 @@ impl ReducedModel {
         let Some(H_rows) = H_rows else {
             return foreign("a contact DOF is not on its interface".to_string());
         };
-        let interface: Vec<usize> = basis.interface.iter().map(|&dof| dof as usize).collect();
+        if !static_modes
+            .interface()
+            .iter()
+            .copied()
+            .eq(basis.interface.iter().map(|&dof| dof as usize))
+        {
+            return foreign("its interface is not the static modes' one".to_string());
+        }
         Ok(ReducedModel {
-            static_modes: StaticModes::new(model, &interface)?,
+            static_modes,
             M: compressed(n_r, &basis.mass),
             C: compressed(n_r, &basis.damping),
             K: compressed(n_r, &basis.stiffness),
@@ -123,6 +160,122 @@ impl ReducedModel {
         for (k, snapshot) in run.snapshots.iter_mut().enumerate() {
             snapshot.u = U.col(k).iter().copied().collect();
             snapshot.v = V.col(k).iter().copied().collect();
+        }
+    }
+}
+
+/// The residual indicator of a reduced run (see the module doc).
+pub struct Indicator {
+    /// `η` over every sampled step.
+    pub value: f64,
+    /// `(t, η_k)` per sampled step.
+    pub per_step: Vec<(f64, f64)>,
+    /// The residuals `R_k` and the corrections `δv_k = J⁻¹ R_k`, one column per sampled
+    /// step, over the full DOFs.
+    pub residuals: Mat<f64>,
+    pub corrections: Mat<f64>,
+}
+
+/// The full model's `J`, factorised once to check reduced runs against it.
+pub struct FullStep {
+    cholesky: Cholesky,
+    theta: f64,
+    tau: f64,
+}
+
+impl FullStep {
+    pub fn new(full: &Structure, theta: f64, tau: f64) -> Result<FullStep, StageError> {
+        let cholesky = scheme::factorise_J(full, theta, tau).map_err(|err| {
+            StageError::new(format!(
+                "transient: the full J for the residual indicator: {err}"
+            ))
+        })?;
+        Ok(FullStep {
+            cholesky,
+            theta,
+            tau,
+        })
+    }
+
+    /// The indicator of a reduced run's sampled steps.
+    pub fn indicator(
+        &self,
+        reduced: &ReducedModel,
+        basis: &Basis,
+        full: &Structure,
+        contact_state: &ContactState,
+        samples: &[StepSample],
+    ) -> Indicator {
+        let (theta, tau) = (self.theta, self.tau);
+        let n_r = basis.n_reduced();
+        let n = full.K.n_rows;
+        let X = Mat::from_fn(n_r, 3 * samples.len(), |i, k| {
+            let sample = &samples[k / 3];
+            [&sample.u_old, &sample.v_old, &sample.v_new][k % 3][i]
+        });
+        let lifted = reduced.static_modes.lift(basis, X.as_ref());
+        let mut dv = Mat::<f64>::zeros(n, samples.len());
+        let mut v_theta = Mat::<f64>::zeros(n, samples.len());
+        let mut u_theta = Mat::<f64>::zeros(n, samples.len());
+        for k in 0..samples.len() {
+            for i in 0..n {
+                let (u0, v0, v1) = (
+                    lifted[(i, 3 * k)],
+                    lifted[(i, 3 * k + 1)],
+                    lifted[(i, 3 * k + 2)],
+                );
+                let vt = theta * v1 + (1.0 - theta) * v0;
+                dv[(i, k)] = v1 - v0;
+                v_theta[(i, k)] = vt;
+                u_theta[(i, k)] = u0 + tau * theta * vt;
+            }
+        }
+        let M_dv = symmetric_mul(full.M, dv.as_ref());
+        let C_v = symmetric_mul(full.C, v_theta.as_ref());
+        let K_u = symmetric_mul(full.K, u_theta.as_ref());
+        let mut residuals = Mat::from_fn(n, samples.len(), |i, k| {
+            M_dv[(i, k)] / tau + C_v[(i, k)] + K_u[(i, k)]
+        });
+        for (k, sample) in samples.iter().enumerate() {
+            for (row, entries) in full.H_rows.iter().enumerate() {
+                let reaction = sample.r[row] - contact_state.r_e[row];
+                for &(dof, value) in entries {
+                    residuals[(dof, k)] -= value * reaction;
+                }
+            }
+        }
+        let mut correction = residuals.clone();
+        self.cholesky.solve_in_place(correction.as_mut(), Par::Seq);
+        let M_correction = symmetric_mul(full.M, correction.as_ref());
+        let m_norm_squared = |A: &Mat<f64>, MA: &Mat<f64>, k: usize| -> f64 {
+            A.col(k)
+                .iter()
+                .zip(MA.col(k).iter())
+                .map(|(a, b)| a * b)
+                .sum()
+        };
+        let (mut defect, mut change) = (0.0, 0.0);
+        let per_step = samples
+            .iter()
+            .enumerate()
+            .map(|(k, sample)| {
+                let d = m_norm_squared(&correction, &M_correction, k);
+                let c = m_norm_squared(&dv, &M_dv, k);
+                defect += d;
+                change += c;
+                let ratio = if c > 0.0 { (d / c).sqrt() } else { 0.0 };
+                (sample.step as f64 * tau, ratio)
+            })
+            .collect();
+        Indicator {
+            value: if change > 0.0 {
+                (defect / change).sqrt()
+            } else {
+                0.0
+            },
+            per_step,
+            residuals,
+            corrections: correction,
         }
     }
 }

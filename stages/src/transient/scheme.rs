@@ -70,6 +70,8 @@ pub struct Settings {
     pub record_pairs: Vec<usize>,
     /// Steps at which a snapshot of `u`, `v` is kept (ascending).
     pub snapshot_steps: Vec<usize>,
+    /// Steps kept whole, as [`StepSample`]s (ascending).
+    pub sample_steps: Vec<usize>,
 }
 
 /// One row of the history, at time `t`.
@@ -99,10 +101,22 @@ pub struct Snapshot {
     pub v: Vec<f64>,
 }
 
+/// One step kept whole, for an a-posteriori check of the step equation: the state before,
+/// the velocity after and the reactions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepSample {
+    pub step: usize,
+    pub u_old: Vec<f64>,
+    pub v_old: Vec<f64>,
+    pub v_new: Vec<f64>,
+    pub r: Vec<f64>,
+}
+
 /// What a run gives.
 pub struct Run {
     pub history: Vec<HistoryRow>,
     pub snapshots: Vec<Snapshot>,
+    pub samples: Vec<StepSample>,
     /// Unknowns of the structure (DOFs, or reduced coordinates).
     pub unknowns: usize,
     pub factor_len: usize,
@@ -335,6 +349,7 @@ impl<'s> Operators<'s> {
             audit,
             history: Vec::new(),
             snapshots: Vec::new(),
+            samples: Vec::new(),
             worst_contact_residual: 0.0,
             most_contact_iterations: 0,
             peak_penetration: 0.0,
@@ -456,6 +471,15 @@ impl<'s> Operators<'s> {
             w_new: &work.w_new,
             sliding_speed: &self.contact_state.sliding_speed,
         });
+        if self.settings.sample_steps.binary_search(&step).is_ok() {
+            state.samples.push(StepSample {
+                step,
+                u_old: work.u_old.clone(),
+                v_old: state.v.clone(),
+                v_new: work.v_new.clone(),
+                r: state.r.clone(),
+            });
+        }
         std::mem::swap(&mut state.v, &mut work.v_new);
         std::mem::swap(&mut state.MCK_v, &mut work.MCK_v_new);
         std::mem::swap(&mut state.w, &mut work.w_new);
@@ -559,6 +583,7 @@ struct State {
     audit: Audit,
     history: Vec<HistoryRow>,
     snapshots: Vec<Snapshot>,
+    samples: Vec<StepSample>,
     worst_contact_residual: f64,
     most_contact_iterations: usize,
     peak_penetration: f64,
@@ -640,6 +665,7 @@ pub fn integrate(
         interface_rows: operators.interface_solve.rows.len(),
         history: state.history,
         snapshots: state.snapshots,
+        samples: state.samples,
         worst_contact_residual: state.worst_contact_residual,
         most_contact_iterations: state.most_contact_iterations,
         peak_penetration: state.peak_penetration,

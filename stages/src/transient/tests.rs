@@ -30,6 +30,7 @@ fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
         output_every: 1,
         record_pairs: Vec::new(),
         snapshot_steps: Vec::new(),
+        sample_steps: Vec::new(),
     }
 }
 
