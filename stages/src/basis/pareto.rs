@@ -9,7 +9,10 @@
 //! `total_s` against `|error|` (no other point is both faster and more accurate).
 //!
 //! The figure plots, per error, `|error|` against `total_s` (log–log), the front joined, each
-//! point labelled by its coordinates, the reference's run time as a vertical line.
+//! point labelled by its coordinates, the reference's run time as a vertical line; and, when
+//! the errors carry the runs' `residual_indicator` (compare's `candidate_summary`), each error
+//! against the indicator: whether the estimate a reduced run makes of itself, without the
+//! reference, orders the bases as their true errors do.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -155,20 +158,33 @@ impl Stage for Pareto {
             let front = pareto_front(&total, &values);
             panels.push(Panel {
                 name: name.clone(),
+                x: total.clone(),
+                x_name: "run time (s)",
                 errors: values,
                 front: front.clone(),
             });
             table = table.with(format!("front_{name}"), front);
         }
+        if let Ok(indicator) = f64s(&table, INDICATOR) {
+            for name in names.iter().filter(|name| name.as_str() != INDICATOR) {
+                let errors: Vec<f64> = f64s(&table, name)?.iter().map(|e| e.abs()).collect();
+                panels.push(Panel {
+                    name: name.clone(),
+                    x: indicator.clone(),
+                    x_name: INDICATOR,
+                    front: vec![false; errors.len()],
+                    errors,
+                });
+            }
+        }
         let labels: Vec<String> = rows.iter().map(|(coords, _)| label(coords)).collect();
         let figure = plot::render(
             &ParetoFigure {
-                total: &total,
                 labels: &labels,
                 panels: &panels,
                 reference_s,
             },
-            (1000, 330 * names.len().div_ceil(2).max(1) as u32),
+            (1000, 330 * panels.len().div_ceil(2).max(1) as u32),
         )?;
         Ok(Outputs::from([
             ("table".to_string(), Artifact::Table(table)),
@@ -220,14 +236,19 @@ fn pareto_front(time: &[f64], error: &[f64]) -> Vec<bool> {
         .collect()
 }
 
+/// The a-posteriori estimate a transient's summary gives of a reduced run's error.
+const INDICATOR: &str = "residual_indicator";
+
+/// One error against the run time (with its front) or against the indicator.
 struct Panel {
     name: String,
+    x: Vec<f64>,
+    x_name: &'static str,
     errors: Vec<f64>,
     front: Vec<bool>,
 }
 
 struct ParetoFigure<'a> {
-    total: &'a [f64],
     labels: &'a [String],
     panels: &'a [Panel],
     reference_s: f64,
@@ -264,13 +285,17 @@ impl ParetoFigure<'_> {
         panel: &Panel,
         area: &DrawingArea<DB, Shift>,
     ) -> DrawResult {
-        let (t_lo, t_hi) = log_range(self.total.iter().copied().chain([self.reference_s]));
+        let against_time = panel.x_name != INDICATOR;
+        let reference = against_time.then_some(self.reference_s);
+        let (t_lo, t_hi) = log_range(panel.x.iter().copied().chain(reference));
         let (e_lo, e_hi) = log_range(panel.errors.iter().copied());
+        let caption = if against_time {
+            format!("|{}| against run time", panel.name)
+        } else {
+            format!("|{}| against the indicator", panel.name)
+        };
         let mut chart = ChartBuilder::on(area)
-            .caption(
-                format!("|{}| against run time", panel.name),
-                (plot::FONT, 16),
-            )
+            .caption(caption, (plot::FONT, 16))
             .margin(10)
             .x_label_area_size(36)
             .y_label_area_size(64)
@@ -278,7 +303,7 @@ impl ParetoFigure<'_> {
             .map_err(drawing_error)?;
         chart
             .configure_mesh()
-            .x_desc("run time (s)")
+            .x_desc(panel.x_name)
             .x_label_formatter(&|t| plot::tick_label(*t))
             .y_label_formatter(&|e| format!("{e:.0e}"))
             .label_style((plot::FONT, 12))
@@ -286,10 +311,15 @@ impl ParetoFigure<'_> {
             .light_line_style(WHITE)
             .draw()
             .map_err(drawing_error)?;
-        let shown = |i: usize| panel.errors[i].is_finite() && panel.errors[i] > 0.0;
-        let mut front: Vec<(f64, f64)> = (0..self.total.len())
+        let shown = |i: usize| {
+            panel.errors[i].is_finite()
+                && panel.errors[i] > 0.0
+                && panel.x[i].is_finite()
+                && panel.x[i] > 0.0
+        };
+        let mut front: Vec<(f64, f64)> = (0..panel.x.len())
             .filter(|&i| panel.front[i] && shown(i))
-            .map(|i| (self.total[i], panel.errors[i]))
+            .map(|i| (panel.x[i], panel.errors[i]))
             .collect();
         front.sort_by(|a, b| a.0.total_cmp(&b.0));
         chart
@@ -298,15 +328,17 @@ impl ParetoFigure<'_> {
                 plot::series_color(1).stroke_width(2),
             ))
             .map_err(drawing_error)?;
+        if let Some(reference_s) = reference {
+            chart
+                .draw_series(LineSeries::new(
+                    [(reference_s, e_lo), (reference_s, e_hi)],
+                    BLACK.mix(0.5).stroke_width(1),
+                ))
+                .map_err(drawing_error)?;
+        }
         chart
-            .draw_series(LineSeries::new(
-                [(self.reference_s, e_lo), (self.reference_s, e_hi)],
-                BLACK.mix(0.5).stroke_width(1),
-            ))
-            .map_err(drawing_error)?;
-        chart
-            .draw_series((0..self.total.len()).filter(|&i| shown(i)).map(|i| {
-                EmptyElement::at((self.total[i], panel.errors[i]))
+            .draw_series((0..panel.x.len()).filter(|&i| shown(i)).map(|i| {
+                EmptyElement::at((panel.x[i], panel.errors[i]))
                     + Circle::new((0, 0), 4, plot::series_color(0).filled())
                     + Text::new(
                         self.labels[i].clone(),
@@ -351,7 +383,8 @@ mod tests {
             .map(|&(kind, n, _, error)| {
                 let table = Table::new()
                     .with("freq_error", vec![error])
-                    .with("rms", vec![-error]);
+                    .with("rms", vec![-error])
+                    .with(INDICATOR, vec![0.3 * error]);
                 (point(kind, n), Arc::new(Artifact::Table(table)))
             })
             .collect();
@@ -380,6 +413,11 @@ mod tests {
         };
         assert_eq!(front, [true, true, false], "|rms| is compared");
         assert!(matches!(table.column("kind"), Some(ColumnData::Str(_))));
+        let Artifact::Figure(figure) = &outputs["figure"] else {
+            panic!("no figure");
+        };
+        assert!(figure.svg.contains("|rms| against run time"));
+        assert!(figure.svg.contains("|rms| against the indicator"));
         // A point without a run time is named.
         let mut missing = inputs.clone();
         missing.0.insert(
