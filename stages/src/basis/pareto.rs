@@ -6,7 +6,8 @@
 //! `total_s = run_s + build_s`, `speed_up = reference_s / run_s` (the transient against the
 //! full transient, as the seed paper counts it), `speed_up_total` (counting the basis), every
 //! error column, and for each plotted error whether the point is on the Pareto front of
-//! `total_s` against `|error|` (no other point is both faster and more accurate).
+//! `total_s` against `|error|` (`1 − MAC` for a MAC; no other point is both faster and more
+//! accurate).
 //!
 //! The figure plots, per error, `|error|` against `total_s` (log–log), the front joined, each
 //! point labelled by its coordinates, the reference's run time as a vertical line; and, when
@@ -154,10 +155,10 @@ impl Stage for Pareto {
         let total = f64s(&table, "total_s")?;
         let mut panels = Vec::with_capacity(names.len());
         for name in &names {
-            let values: Vec<f64> = f64s(&table, name)?.iter().map(|e| e.abs()).collect();
+            let values = distances(&table, name)?;
             let front = pareto_front(&total, &values);
             panels.push(Panel {
-                name: name.clone(),
+                name: shown_name(name),
                 x: total.clone(),
                 x_name: "run time (s)",
                 errors: values,
@@ -167,9 +168,9 @@ impl Stage for Pareto {
         }
         if let Ok(indicator) = f64s(&table, INDICATOR) {
             for name in names.iter().filter(|name| name.as_str() != INDICATOR) {
-                let errors: Vec<f64> = f64s(&table, name)?.iter().map(|e| e.abs()).collect();
+                let errors = distances(&table, name)?;
                 panels.push(Panel {
-                    name: name.clone(),
+                    name: shown_name(name),
                     x: indicator.clone(),
                     x_name: INDICATOR,
                     front: vec![false; errors.len()],
@@ -210,6 +211,25 @@ fn f64s(table: &Table, name: &str) -> Result<Vec<f64>, StageError> {
         _ => Err(StageError::new(format!(
             "errors: no numeric column `{name}`"
         ))),
+    }
+}
+
+/// How far each point is from exact: `|error|`, or `1 − MAC` for a MAC (1 when exact).
+fn distances(table: &Table, name: &str) -> Result<Vec<f64>, StageError> {
+    let values = f64s(table, name)?;
+    Ok(if name.starts_with("mac") {
+        values.iter().map(|mac| 1.0 - mac).collect()
+    } else {
+        values.iter().map(|error| error.abs()).collect()
+    })
+}
+
+/// The quantity [`distances`] gives, as a caption names it.
+fn shown_name(name: &str) -> String {
+    if name.starts_with("mac") {
+        format!("1 − {name}")
+    } else {
+        format!("|{name}|")
     }
 }
 
@@ -290,9 +310,9 @@ impl ParetoFigure<'_> {
         let (t_lo, t_hi) = log_range(panel.x.iter().copied().chain(reference));
         let (e_lo, e_hi) = log_range(panel.errors.iter().copied());
         let caption = if against_time {
-            format!("|{}| against run time", panel.name)
+            format!("{} against run time", panel.name)
         } else {
-            format!("|{}| against the indicator", panel.name)
+            format!("{} against the indicator", panel.name)
         };
         let mut chart = ChartBuilder::on(area)
             .caption(caption, (plot::FONT, 16))
@@ -384,6 +404,7 @@ mod tests {
                 let table = Table::new()
                     .with("freq_error", vec![error])
                     .with("rms", vec![-error])
+                    .with("mac_min", vec![1.0 - 10.0 * error])
                     .with(INDICATOR, vec![0.3 * error]);
                 (point(kind, n), Arc::new(Artifact::Table(table)))
             })
@@ -402,7 +423,7 @@ mod tests {
         ]));
         let params = Params(BTreeMap::from([(
             "errors".to_string(),
-            Value::Str("freq_error, rms".into()),
+            Value::Str("freq_error, rms, mac_min".into()),
         )]));
         let outputs = Pareto.run(&params, &inputs).unwrap();
         let table = outputs["table"].as_table().unwrap();
@@ -412,12 +433,18 @@ mod tests {
             _ => panic!("no front column"),
         };
         assert_eq!(front, [true, true, false], "|rms| is compared");
+        let front = match table.column("front_mac_min") {
+            Some(ColumnData::Bool(front)) => front.clone(),
+            _ => panic!("no front column"),
+        };
+        assert_eq!(front, [true, true, false], "1 − MAC is compared");
         assert!(matches!(table.column("kind"), Some(ColumnData::Str(_))));
         let Artifact::Figure(figure) = &outputs["figure"] else {
             panic!("no figure");
         };
         assert!(figure.svg.contains("|rms| against run time"));
         assert!(figure.svg.contains("|rms| against the indicator"));
+        assert!(figure.svg.contains("1 − mac_min against run time"));
         // A point without a run time is named.
         let mut missing = inputs.clone();
         missing.0.insert(
