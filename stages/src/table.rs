@@ -102,6 +102,32 @@ impl Table {
         Table::default()
     }
 
+    /// The `value` of `name` in a table made by [`Table::quantities`].
+    pub fn quantity(&self, name: &str) -> Option<f64> {
+        match (self.column("quantity"), self.column("value")) {
+            (Some(ColumnData::Str(names)), Some(ColumnData::F64(values))) => names
+                .iter()
+                .position(|quantity| quantity == name)
+                .map(|row| values[row]),
+            _ => None,
+        }
+    }
+
+    /// A stage's summary: one row per named figure, columns `quantity` and `value`.
+    pub fn quantities(rows: &[(&str, f64)]) -> Table {
+        Table::new()
+            .with(
+                "quantity",
+                rows.iter()
+                    .map(|(name, _)| name.to_string())
+                    .collect::<Vec<String>>(),
+            )
+            .with(
+                "value",
+                rows.iter().map(|(_, value)| *value).collect::<Vec<f64>>(),
+            )
+    }
+
     /// Appends a column. Panics if its length differs from the others': a table with ragged
     /// columns is a bug in the stage that builds it.
     pub fn with(mut self, name: impl Into<String>, data: impl Into<ColumnData>) -> Self {

@@ -285,60 +285,8 @@ impl Stage for ReductionBasis {
             real_modes: inputs.get_optional("modes")?,
         };
         let cutoff_hz = cutoff(&params, &sources)?;
-        let mut candidates = Candidates::new();
-        let mut completion = Candidates::new();
-        match params.kind.as_str() {
-            "fc" | "modes" | "adaptive" => {
-                let wanted = if params.kind == "modes" {
-                    Wanted::Listed(list_of_modes(&params.modes)?)
-                } else {
-                    Wanted::Lowest {
-                        n_modes: params.n_modes as usize,
-                        cutoff_hz,
-                    }
-                };
-                candidates.complex_modes(&sources, &wanted, model.n_dofs())?;
-                if params.kind != "modes" {
-                    candidates.push(&equilibrium.u, "equilibrium", -1, 0.0, None);
-                    if params.complete
-                        && let Some(real_modes) = sources.real_modes
-                    {
-                        completion.real_modes(real_modes, params.n_modes as usize, cutoff_hz);
-                    }
-                }
-            }
-            "real" => {
-                let real_modes = sources.real_modes.ok_or_else(|| {
-                    StageError::new("basis: kind real needs the `modes` input (the modes stage)")
-                })?;
-                let n_modes = params.n_modes as usize;
-                if n_modes > real_modes.omega.len() {
-                    return Err(StageError::new(format!(
-                        "basis: n_modes = {n_modes}, the modes stage found {}",
-                        real_modes.omega.len()
-                    )));
-                }
-                let highest = real_modes.omega.last().copied().unwrap_or(0.0) / (2.0 * PI);
-                if n_modes == 0 && highest < cutoff_hz {
-                    return Err(StageError::new(format!(
-                        "basis: the modes stage reaches {highest:.1} Hz, below the cut-off {cutoff_hz:.1} Hz: raise its band or set n_modes"
-                    )));
-                }
-                candidates.real_modes(real_modes, n_modes, cutoff_hz);
-            }
-            _ => candidates.fixed_interface_modes(
-                model,
-                &interface,
-                params.n_modes as usize,
-                cutoff_hz,
-            )?,
-        }
-        if candidates.len() == 0 {
-            return Err(StageError::new(format!(
-                "basis: no {} vector below {cutoff_hz:.1} Hz",
-                params.kind
-            )));
-        }
+        let (mut candidates, mut completion) =
+            candidates_of(&params, model, equilibrium, &sources, &interface, cutoff_hz)?;
         let mut span = MSpan::with_capacity(model.n_dofs(), candidates.len() + completion.len());
         candidates.add_to(&mut span, &static_modes, &model.M, params.rank_tolerance);
         let kept_completion =
@@ -397,20 +345,7 @@ impl Stage for ReductionBasis {
             ("vectors".to_string(), Artifact::Table(vectors_table)),
             (
                 "summary".to_string(),
-                Artifact::Table(
-                    Table::new()
-                        .with(
-                            "quantity",
-                            summary
-                                .iter()
-                                .map(|(name, _)| name.to_string())
-                                .collect::<Vec<_>>(),
-                        )
-                        .with(
-                            "value",
-                            summary.iter().map(|(_, value)| *value).collect::<Vec<_>>(),
-                        ),
-                ),
+                Artifact::Table(Table::quantities(&summary)),
             ),
             (
                 "rounds".to_string(),
@@ -418,6 +353,72 @@ impl Stage for ReductionBasis {
             ),
         ]))
     }
+}
+
+/// The candidate vectors of `params.kind`, and the real modes that may complete them.
+fn candidates_of(
+    params: &BasisParams,
+    model: &Model,
+    equilibrium: &Equilibrium,
+    sources: &Sources,
+    interface: &[usize],
+    cutoff_hz: f64,
+) -> Result<(Candidates, Candidates), StageError> {
+    let mut candidates = Candidates::new();
+    let mut completion = Candidates::new();
+    match params.kind.as_str() {
+        "fc" | "modes" | "adaptive" => {
+            let wanted = if params.kind == "modes" {
+                Wanted::Listed(list_of_modes(&params.modes)?)
+            } else {
+                Wanted::Lowest {
+                    n_modes: params.n_modes as usize,
+                    cutoff_hz,
+                }
+            };
+            candidates.complex_modes(sources, &wanted, model.n_dofs())?;
+            if params.kind != "modes" {
+                candidates.push(&equilibrium.u, "equilibrium", -1, 0.0, None);
+                if params.complete
+                    && let Some(real_modes) = sources.real_modes
+                {
+                    completion.real_modes(real_modes, params.n_modes as usize, cutoff_hz);
+                }
+            }
+        }
+        "real" => {
+            let real_modes = sources.real_modes.ok_or_else(|| {
+                StageError::new("basis: kind real needs the `modes` input (the modes stage)")
+            })?;
+            let n_modes = params.n_modes as usize;
+            if n_modes > real_modes.omega.len() {
+                return Err(StageError::new(format!(
+                    "basis: n_modes = {n_modes}, the modes stage found {}",
+                    real_modes.omega.len()
+                )));
+            }
+            let highest = real_modes.omega.last().copied().unwrap_or(0.0) / (2.0 * PI);
+            if n_modes == 0 && highest < cutoff_hz {
+                return Err(StageError::new(format!(
+                    "basis: the modes stage reaches {highest:.1} Hz, below the cut-off {cutoff_hz:.1} Hz: raise its band or set n_modes"
+                )));
+            }
+            candidates.real_modes(real_modes, n_modes, cutoff_hz);
+        }
+        _ => candidates.fixed_interface_modes(
+            model,
+            interface,
+            params.n_modes as usize,
+            cutoff_hz,
+        )?,
+    }
+    if candidates.len() == 0 {
+        return Err(StageError::new(format!(
+            "basis: no {} vector below {cutoff_hz:.1} Hz",
+            params.kind
+        )));
+    }
+    Ok((candidates, completion))
 }
 
 /// The inputs vectors may come from.

@@ -50,12 +50,7 @@ fn real_modes(inputs: &Inputs, n_modes: usize, f_max_hz: f64) -> Artifact {
 }
 
 fn quantity(table: &Table, name: &str) -> f64 {
-    let names = match table.column("quantity") {
-        Some(ColumnData::Str(names)) => names,
-        _ => panic!("no quantity column"),
-    };
-    let row = names.iter().position(|n| n == name).unwrap();
-    f64_column(table, "value")[row]
+    table.quantity(name).unwrap()
 }
 
 /// `max |a − b| / max |b|` over the f64 columns `names` of two tables.
@@ -261,6 +256,27 @@ fn bad_requests_are_refused_with_what_is_missing() {
         .unwrap_err()
         .to_string();
     assert!(message.contains("`x`"), "{message}");
+    // An adaptive basis names a probe without steps, and a target it cannot reach with the
+    // indicator of every round.
+    let adaptive = |overrides: &[(&str, Value)]| {
+        let mut all = vec![
+            ("kind", Value::Str("adaptive".into())),
+            ("n_modes", Value::Int(2)),
+            ("probe_duration", Value::Float(2e-5)),
+        ];
+        all.extend(overrides.iter().cloned());
+        refuse(&all, &inputs)
+    };
+    let message = adaptive(&[("probe_duration", Value::Float(0.0))]);
+    assert!(message.contains("give no step"), "{message}");
+    let message = adaptive(&[
+        ("target", Value::Float(1e-12)),
+        ("max_rounds", Value::Int(2)),
+    ]);
+    assert!(
+        message.contains("after 2 rounds") && message.contains("per round: "),
+        "{message}"
+    );
 }
 
 #[test]

@@ -813,21 +813,7 @@ fn summary_table(
         Solver::FixedPoint => "fixed_point",
         Solver::SemismoothNewton => "newton",
     };
-    Table::new()
-        .with(
-            "quantity",
-            quantities
-                .iter()
-                .map(|(name, _)| name.to_string())
-                .collect::<Vec<String>>(),
-        )
-        .with(
-            "value",
-            quantities
-                .iter()
-                .map(|(_, value)| *value)
-                .collect::<Vec<f64>>(),
-        )
+    Table::quantities(&quantities)
         .with("solver", vec![solver.to_string(); quantities.len()])
         .with("load", vec![load.to_string(); quantities.len()])
 }

@@ -42,7 +42,7 @@ use super::uniform_series;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
-use crate::table::{ColumnData, Table};
+use crate::table::Table;
 
 /// The contact-zone averages compared by RMS.
 const FIELDS: [&str; 4] = ["u_n", "u_t", "v_n", "v_t"];
@@ -225,10 +225,12 @@ impl Stage for Compare {
             errors = errors.with("mac_min", vec![worst]);
         }
         if let Some(summary) = inputs.get_optional::<Table>("candidate_summary")? {
-            errors = errors.with(
-                "residual_indicator",
-                vec![summary_quantity(summary, "residual_indicator")?],
-            );
+            let indicator = summary.quantity("residual_indicator").ok_or_else(|| {
+                StageError::new(
+                    "candidate_summary: no `residual_indicator` (a transient's summary has it)",
+                )
+            })?;
+            errors = errors.with("residual_indicator", vec![indicator]);
         }
         let figure = plot::render(
             &CompareFigure {
@@ -243,26 +245,6 @@ impl Stage for Compare {
             ("figure".to_string(), Artifact::Figure(figure)),
         ]))
     }
-}
-
-/// The value of `quantity` in a `(quantity, value)` summary table.
-fn summary_quantity(summary: &Table, quantity: &str) -> Result<f64, StageError> {
-    let (Some(ColumnData::Str(names)), Some(ColumnData::F64(values))) =
-        (summary.column("quantity"), summary.column("value"))
-    else {
-        return Err(StageError::new(
-            "candidate_summary: not a summary table (quantity, value)",
-        ));
-    };
-    names
-        .iter()
-        .position(|name| name == quantity)
-        .map(|row| values[row])
-        .ok_or_else(|| {
-            StageError::new(format!(
-                "candidate_summary: no `{quantity}` (a transient's summary has it)"
-            ))
-        })
 }
 
 /// `max`, NaN if either is.

@@ -581,22 +581,7 @@ fn summary_table(solution: &Solution, settings: &Settings) -> Table {
         Method::Krylov => "krylov",
         Method::RealModeProjection { .. } => "real_mode_projection",
     };
-    Table::new()
-        .with(
-            "quantity",
-            quantities
-                .iter()
-                .map(|(name, _)| name.to_string())
-                .collect::<Vec<String>>(),
-        )
-        .with(
-            "value",
-            quantities
-                .iter()
-                .map(|(_, value)| *value)
-                .collect::<Vec<f64>>(),
-        )
-        .with("method", vec![method.to_string(); quantities.len()])
+    Table::quantities(&quantities).with("method", vec![method.to_string(); quantities.len()])
 }
 
 /// A dense complex matrix of mode shapes (one column per mode) from a shapes table.

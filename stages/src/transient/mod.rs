@@ -842,19 +842,5 @@ fn summary_table(settings: &Settings, run: &Run, indicator: Option<&Indicator>) 
             indicator.map_or(0.0, |indicator| indicator.value),
         ),
     ];
-    Table::new()
-        .with(
-            "quantity",
-            quantities
-                .iter()
-                .map(|(name, _)| name.to_string())
-                .collect::<Vec<String>>(),
-        )
-        .with(
-            "value",
-            quantities
-                .iter()
-                .map(|(_, value)| *value)
-                .collect::<Vec<f64>>(),
-        )
+    Table::quantities(&quantities)
 }
