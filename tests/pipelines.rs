@@ -251,6 +251,32 @@ fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
     );
 }
 
+/// Past the friction coefficient where the sliding contact problem stays well posed, the quick
+/// study's equilibrium says so, instead of a residual of inf or hundreds of cycling iterations.
+#[test]
+fn the_quick_study_names_why_its_equilibrium_fails_at_extreme_friction() {
+    let workspace = Workspace::new();
+    let study = pipeline("quick.yaml");
+    for (mu, expected) in [
+        ("5", "A[0,0] = -5.725e-7 <= 0 at pair 0"),
+        (
+            "2",
+            "cycles through 3 sets of closed pairs after 4 iterations",
+        ),
+    ] {
+        let set = format!("equilibrium.mu={mu}");
+        let output = workspace.squeal(&[
+            "run", &study, "--out", "out", "--cache", "cache", "--set", &set,
+        ]);
+        assert_eq!(output.status.code(), Some(1));
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            stderr.contains(expected) && stderr.contains("lower mu"),
+            "mu = {mu}: {stderr}"
+        );
+    }
+}
+
 /// The paper's study end to end, `pipelines/tgv_brake.yaml` (README, "Reproducing the paper",
 /// gives the figures): every complex mode below 17 kHz of the default brake, the transient
 /// growing from the most unstable one into its limit cycle, FC_200 against it. About eight

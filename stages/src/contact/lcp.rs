@@ -69,10 +69,32 @@ pub struct LcpError {
     pub iterations: usize,
     pub history: Vec<f64>,
     pub tolerance: f64,
+    /// The first pair whose diagonal `A_ii` is not positive (or NaN), when that is why the
+    /// solver could not start.
+    pub non_positive_diagonal: Option<(usize, f64)>,
+    /// The period of the active sets' cycle, when the active-set iteration came back to a set
+    /// it had left.
+    pub cycle: Option<usize>,
 }
 
 impl std::fmt::Display for LcpError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some((pair, value)) = self.non_positive_diagonal {
+            return write!(
+                f,
+                "{} cannot start: the condensed sliding-contact operator A = W_nn + mu W_nt has A[{pair},{pair}] = {value:.3e} <= 0 at pair {pair}: pressing that pair in opens it (the friction term outweighs the normal stiffness), so the sliding equilibrium is not unique, or does not exist, at this friction coefficient; lower mu",
+                self.solver
+            );
+        }
+        if let Some(period) = self.cycle {
+            return write!(
+                f,
+                "{} cycles through {period} sets of closed pairs after {} iterations (complementarity residual {:.3e}): at this friction coefficient the condensed sliding-contact operator A = W_nn + mu W_nt does not make the contact problem uniquely solvable; lower mu",
+                self.solver,
+                self.iterations,
+                self.history.last().copied().unwrap_or(f64::NAN)
+            );
+        }
         let shown: Vec<String> = self
             .history
             .iter()
@@ -187,16 +209,19 @@ fn residual(a: &Mat<f64>, q: &[f64], r: &[f64], g: &[f64], balance: &Balance) ->
 }
 
 fn check_diagonal(a: &Mat<f64>, solver: &'static str) -> Result<(), LcpError> {
-    // A non-positive (or NaN) diagonal leaves the augmentation parameters undefined.
-    if (0..a.nrows()).any(|i| a[(i, i)].is_nan() || a[(i, i)] <= 0.0) {
-        return Err(LcpError {
+    // A non-positive (or NaN) diagonal leaves the augmentation parameters undefined, and
+    // means the problem has lost the uniqueness a P-matrix gives.
+    match (0..a.nrows()).find(|&i| a[(i, i)].is_nan() || a[(i, i)] <= 0.0) {
+        Some(pair) => Err(LcpError {
             solver,
             iterations: 0,
-            history: vec![f64::INFINITY],
+            history: Vec::new(),
             tolerance: 0.0,
-        });
+            non_positive_diagonal: Some((pair, a[(pair, pair)])),
+            cycle: None,
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The projected fixed point of Loyer et al. (2011), in Jacobi form.
@@ -294,6 +319,8 @@ pub fn fixed_point_balanced(
         iterations: history.len(),
         history,
         tolerance: settings.tolerance,
+        non_positive_diagonal: None,
+        cycle: None,
     })
 }
 
@@ -331,7 +358,8 @@ pub fn semismooth_newton_balanced(
     let mut amplitudes = vec![0.0; m];
     let mut g = q.to_vec();
     let mut history = Vec::new();
-    let mut previous_closed: Option<Vec<bool>> = None;
+    let mut visited: Vec<Vec<bool>> = Vec::new();
+    let mut cycle = None;
     for iteration in 1..=settings.max_iterations.min(20 * n.max(1)) {
         // A pair is closed when its reaction, or the force its penetration would take, is
         // positive. Floating pads start pressed onto the disc: every pair closed.
@@ -375,17 +403,25 @@ pub fn semismooth_newton_balanced(
                 history,
             });
         }
-        // The same closed set twice without convergence: the iteration cycles or stalls.
-        if previous_closed.as_ref() == Some(&closed) || !residual.is_finite() {
+        // A closed set seen before without convergence: the iteration stalls (period 1) or
+        // cycles.
+        if let Some(seen) = visited.iter().position(|set| *set == closed) {
+            let period = visited.len() - seen;
+            cycle = (period > 1).then_some(period);
             break;
         }
-        previous_closed = Some(closed);
+        if !residual.is_finite() {
+            break;
+        }
+        visited.push(closed);
     }
     Err(LcpError {
         solver: SOLVER,
         iterations: history.len(),
         history,
         tolerance: settings.tolerance,
+        non_positive_diagonal: None,
+        cycle,
     })
 }
 
@@ -487,6 +523,30 @@ mod tests {
         );
         assert!(message.contains("last residuals:"), "{message}");
         assert!(semismooth_newton(&a, &q, &LcpSettings::default()).is_ok());
+    }
+
+    #[test]
+    fn a_non_positive_diagonal_is_named_as_a_loss_of_uniqueness() {
+        // Friction outweighing the normal stiffness at pair 1: A_11 = 1 − 1.5.
+        let a = Mat::from_fn(2, 2, |i, j| match (i, j) {
+            (0, 0) => 1.0,
+            (1, 1) => -0.5,
+            _ => 0.2,
+        });
+        let q = [-1.0, -1.0];
+        for err in [
+            fixed_point(&a, &q, &LcpSettings::default()).unwrap_err(),
+            semismooth_newton(&a, &q, &LcpSettings::default()).unwrap_err(),
+        ] {
+            assert_eq!(err.non_positive_diagonal, Some((1, -0.5)));
+            let message = err.to_string();
+            assert!(
+                message.contains("A[1,1] = -5.000e-1 <= 0 at pair 1")
+                    && message.contains("not unique, or does not exist")
+                    && !message.contains("inf"),
+                "{message}"
+            );
+        }
     }
 
     /// Eight pairs on one floating body pressed by a load P: a translation toward the disc
