@@ -1,7 +1,8 @@
 //! `kind: adaptive`: an `fc` basis enriched until the transient's residual indicator meets a
 //! target.
 //!
-//! Each round runs a short reduced probe (from the most unstable mode at `probe_amplitude`)
+//! Each round runs a short reduced probe (from the most unstable mode at `probe_amplitude`:
+//! by default the linear growth, where the enrichment converges; docs/science.md §5)
 //! and evaluates, at `probe_samples` steps, the residual `R_k` of the full step equation on the
 //! lifted reduced solution and the indicator `η` ([`crate::transient::reduced`]). While `η` is
 //! above the target, two vectors per sampled step join the basis:
@@ -14,8 +15,9 @@
 //! less their static parts and `M`-orthonormalised against the basis at the rank tolerance.
 //! `z_k` is the residual vector of component mode synthesis, which carries the low-frequency,
 //! quasi-static part of what the basis missed; `δv_k` is what the indicator measures, and
-//! carries the inertial part that dominates at impacts and stick–slip transitions (on the test
-//! brake the pair converges in half the rounds either family takes alone). `Tᵀ R_k = 0` makes
+//! carries the inertial part (on the test brake from FC_2, the pair takes the indicator from
+//! 0.37 to 0.005 in three rounds, where the residual vectors alone need four and the
+//! corrections alone stay above 0.02 after eight). `Tᵀ R_k = 0` makes
 //! both new to the span unless `R_k` vanishes, and the reduced matrices only gain rows and
 //! columns ([`super::Reduction::extend`]). No full run is needed: one factorisation of the full
 //! `J` and one solve per sampled step.

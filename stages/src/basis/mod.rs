@@ -113,7 +113,7 @@ impl Stage for ReductionBasis {
         2
     }
     fn doc(&self) -> &'static str {
-        "Reduction basis (complex modes FC_N, real modes, Craig-Bampton or a list of complex modes) with the interface's static modes, and the reduced M, C, K"
+        "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
@@ -162,7 +162,7 @@ impl Stage for ReductionBasis {
             ),
             ParamSpec::float(
                 "target",
-                0.05,
+                1e-3,
                 "",
                 "adaptive: the residual indicator to reach (see the transient's residual_indicator)",
             )
@@ -179,15 +179,15 @@ impl Stage for ReductionBasis {
                 .at_least(0.0),
             ParamSpec::float(
                 "probe_amplitude",
-                1e-5,
+                1e-9,
                 "m",
-                "adaptive: the probe starts from the most unstable mode at this amplitude (large, to reach the contact nonlinearity within the probe)",
+                "adaptive: the probe starts from the most unstable mode at this amplitude (small: the linear growth; a probe into the contact nonlinearity may not converge, docs/science.md section 5)",
             )
             .at_least(0.0),
             ParamSpec::int(
                 "probe_samples",
                 20,
-                "adaptive: steps of the probe checked against the full step equation; each gives one residual vector",
+                "adaptive: steps of the probe checked against the full step equation; each gives a residual vector and a correction",
             )
             .at_least(1.0),
         ]
