@@ -251,6 +251,95 @@ fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
     );
 }
 
+/// The machinery of `pipelines/basis_study.yaml` (which takes 25 minutes on the default brake)
+/// on the coarse brake of `transient.yaml`: a sweep of bases gathered by `pareto` with each
+/// run's compute time, and an adaptive basis with its defaults from the FC basis at the
+/// cut-off (measured: 3.1e-3, then 1.3e-4 after one round).
+#[test]
+fn a_basis_sweep_gathers_into_pareto_and_an_adaptive_basis_meets_its_default_target() {
+    let workspace = Workspace::new();
+    let transient = std::fs::read_to_string(pipeline("transient.yaml")).unwrap();
+    let head =
+        &transient[transient.find("stages:").unwrap()..transient.find("  transient:").unwrap()];
+    let study = format!(
+        "study: basis_sweep
+{head}  modes:
+    kind: modes
+    inputs: {{ model: model.model }}
+    params: {{ n_modes: 40 }}
+  basis:
+    kind: basis
+    inputs: &basis_inputs
+      model: model.model
+      equilibrium: equilibrium.equilibrium
+      eigenvalues: stability.eigenvalues
+      shapes: stability.shapes
+      modes: modes.modes
+    matrix: {{ kind: [fc, real], n_modes: [12, 40] }}
+  full:
+    kind: transient
+    inputs: &transient_inputs
+      model: model.model
+      equilibrium: equilibrium.equilibrium
+      eigenvalues: stability.eigenvalues
+      shapes: stability.shapes
+    params: &transient_params {{ tau: 2 us, duration: 4 ms, amplitude: 1 nm, output_every: 5 }}
+  reduced:
+    kind: transient
+    inputs:
+      <<: *transient_inputs
+      basis: basis.basis
+    params: *transient_params
+  compare:
+    kind: compare
+    inputs:
+      reference: full.history
+      candidate: reduced.history
+      candidate_summary: reduced.summary
+    params: {{ n_peaks: 1 }}
+  pareto:
+    kind: pareto
+    inputs:
+      errors: compare.errors
+      run_times: reduced.compute_s
+      build_times: basis.compute_s
+      reference_time: full.compute_s
+    params: {{ errors: \"freq_error, time_advance, residual_indicator\" }}
+  adaptive:
+    kind: basis
+    inputs: *basis_inputs
+    params: {{ kind: adaptive, probe_tau: 2 us }}
+"
+    );
+    workspace.write("basis_sweep.yaml", &study);
+    workspace.run_ok(&[
+        "run",
+        "basis_sweep.yaml",
+        "--out",
+        "out",
+        "--cache",
+        "cache",
+    ]);
+    let out = workspace.path().join("out");
+    let table = read_parquet(&out.join("pareto/table.parquet"));
+    assert_eq!(table.num_rows(), 4);
+    assert_eq!(
+        strings(&table, "kind"),
+        ["fc", "fc", "real", "real"],
+        "one row per basis"
+    );
+    for column in ["run_s", "build_s", "speed_up", "residual_indicator"] {
+        assert!(
+            floats(&table, column).iter().all(|value| *value > 0.0),
+            "{column}"
+        );
+    }
+    assert!(out.join("pareto/figure.png").exists());
+    let rounds = read_parquet(&out.join("adaptive/rounds.parquet"));
+    let indicators = floats(&rounds, "indicator");
+    assert!(*indicators.last().unwrap() <= 1e-3, "{indicators:?}");
+}
+
 /// Past the friction coefficient where the sliding contact problem stays well posed, the quick
 /// study's equilibrium says so, instead of a residual of inf or hundreds of cycling iterations.
 #[test]
