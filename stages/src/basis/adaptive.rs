@@ -30,7 +30,7 @@ use crate::table::Table;
 use crate::transient::contact::Solver;
 use crate::transient::reduced::FullStep;
 use crate::transient::scheme::Settings;
-use crate::transient::{self, most_unstable_start, run_reduced, spread_steps};
+use crate::transient::{self, MAX_STEPS, most_unstable_start, run_reduced, spread_steps};
 use squeal_linalg::gram_schmidt::MSpan;
 
 /// The probe run of each round.
@@ -74,13 +74,14 @@ pub(super) fn enrich(
             "basis: adaptive starts its probe from the most unstable mode: connect the stability stage's `eigenvalues` and `shapes`",
         ));
     };
-    let n_steps = (probe.duration / probe.tau).round() as usize;
-    if !(probe.tau > 0.0) || n_steps == 0 {
+    let steps = probe.duration / probe.tau;
+    if !(probe.tau > 0.0) || !(steps >= 0.5) || steps > MAX_STEPS as f64 {
         return Err(StageError::new(format!(
-            "basis: adaptive: probe_duration = {} s and probe_tau = {} s give no step",
+            "basis: adaptive: probe_duration = {} s and probe_tau = {} s give {steps:.3e} steps; a probe takes between 1 and {MAX_STEPS}",
             probe.duration, probe.tau
         )));
     }
+    let n_steps = steps.round() as usize;
     let (structure, contact_state) = transient::structure_of(model, probe.equilibrium)?;
     let theta = 0.5;
     let settings = Settings {

@@ -267,8 +267,10 @@ fn bad_requests_are_refused_with_what_is_missing() {
         all.extend(overrides.iter().cloned());
         refuse(&all, &inputs)
     };
-    let message = adaptive(&[("probe_duration", Value::Float(0.0))]);
-    assert!(message.contains("give no step"), "{message}");
+    for duration in [0.0, 1e3] {
+        let message = adaptive(&[("probe_duration", Value::Float(duration))]);
+        assert!(message.contains("between 1 and 10000000"), "{message}");
+    }
     let message = adaptive(&[
         ("target", Value::Float(1e-12)),
         ("max_rounds", Value::Int(2)),

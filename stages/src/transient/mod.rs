@@ -88,7 +88,7 @@ use scheme::{ContactState, Failure, Run, Settings, Structure};
 const PROGRESS_REPORTS: usize = 500;
 
 /// Most steps a run takes (a guard against a duration/step pair typed wrong).
-const MAX_STEPS: usize = 10_000_000;
+pub const MAX_STEPS: usize = 10_000_000;
 
 pub struct Transient;
 
