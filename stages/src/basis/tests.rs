@@ -5,7 +5,6 @@
 //! vanishes on a full basis and tracks the true error of the others, and the adaptive basis
 //! meets its target; clear errors.
 
-use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -13,23 +12,12 @@ use faer::linalg::solvers::Solve;
 
 use super::*;
 use crate::artifact::basis::{StaticModes, interface_dofs};
+use crate::assemble::tests::params_of;
 use crate::modes::Modes;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
 use crate::transient::Transient;
 use crate::transient::tests::{brake_inputs, f64_column, growth_rate, stage_params};
-
-fn params_of(stage: &dyn Stage, overrides: &[(&str, Value)]) -> Params {
-    let mut values: BTreeMap<String, Value> = stage
-        .params()
-        .into_iter()
-        .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
-        .collect();
-    for (name, value) in overrides {
-        values.insert(name.to_string(), value.clone());
-    }
-    Params(values)
-}
 
 fn insert(inputs: &mut Inputs, port: &str, artifact: Artifact) {
     inputs

@@ -336,15 +336,7 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
 }
 
 pub(crate) fn stage_params(overrides: &[(&str, Value)]) -> Params {
-    let mut values: BTreeMap<String, Value> = Transient
-        .params()
-        .into_iter()
-        .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
-        .collect();
-    for (name, value) in overrides {
-        values.insert(name.to_string(), value.clone());
-    }
-    Params(values)
+    crate::assemble::tests::params_of(&Transient, overrides)
 }
 
 /// A coarse brake through equilibrium and stability, as the transient's inputs.
