@@ -480,17 +480,7 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
     let model = Arc::new(Artifact::Model(Box::new(model)));
-    let params = |stage: &dyn Stage, overrides: &[(&str, Value)]| {
-        let mut values: BTreeMap<String, Value> = stage
-            .params()
-            .into_iter()
-            .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
-            .collect();
-        for (name, value) in overrides {
-            values.insert(name.to_string(), value.clone());
-        }
-        Params(values)
-    };
+    let params = crate::assemble::tests::params_of;
     let mut eigenvalue_points = Vec::new();
     let mut shape_points = Vec::new();
     for mu in [0.3, 0.45, 0.6] {
