@@ -180,6 +180,15 @@ impl CscMatrix {
             .fold(0.0, f64::max)
     }
 
+    /// The dense matrix (entries of a repeated (row, col) add up).
+    pub fn to_dense(&self) -> Mat<f64> {
+        let mut dense = Mat::<f64>::zeros(self.n_rows, self.n_cols);
+        for (row, col, value) in self.triplets() {
+            dense[(row, col)] += value;
+        }
+        dense
+    }
+
     /// The entries as (row, col, value).
     pub fn triplets(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
         (0..self.n_cols).flat_map(move |col| {

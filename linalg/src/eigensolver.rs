@@ -317,18 +317,9 @@ fn refine(
 
 /// All eigenpairs of a small model, densely: λ ascending, `M`-orthonormal vectors.
 fn dense_candidates(K: &CscMatrix, M: &CscMatrix, par: Par) -> Result<(Vec<f64>, Mat<f64>), Error> {
-    let to_dense = |A: &CscMatrix| {
-        let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
-        for j in 0..A.n_cols {
-            for entry in A.col_ptr[j]..A.col_ptr[j + 1] {
-                dense[(A.row_idx[entry], j)] = A.values[entry];
-            }
-        }
-        dense
-    };
     generalized_symmetric_eigen(
-        symmetrised(to_dense(K).as_ref()).as_ref(),
-        symmetrised(to_dense(M).as_ref()).as_ref(),
+        symmetrised(K.to_dense().as_ref()).as_ref(),
+        symmetrised(M.to_dense().as_ref()).as_ref(),
         par,
     )
 }

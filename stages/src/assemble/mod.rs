@@ -285,20 +285,18 @@ fn summary_table(
         .with("mass_kg", masses)
 }
 
-/// `assemble` with default materials (some overridden) and the node sets of `clamped`
-/// (comma-separated), for tests.
-#[cfg(test)]
-pub(crate) fn test_model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> (Model, Params) {
+/// `assemble` with default materials (some overridden by name) and the node sets of
+/// `clamped` (comma-separated): the model of a verification case or a benchmark.
+pub fn with_default_materials(
+    mesh: &Mesh,
+    clamped: &str,
+    overrides: &[(&str, f64)],
+) -> Result<(Model, Params), StageError> {
     use crate::stage::Value;
     let mut values: std::collections::BTreeMap<String, Value> = Assemble
         .params()
         .into_iter()
-        .map(|spec| {
-            (
-                spec.name.to_string(),
-                spec.default.expect("assemble has defaults"),
-            )
-        })
+        .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
         .collect();
     for (name, value) in overrides {
         values.insert(name.to_string(), Value::Float(*value));
@@ -309,5 +307,12 @@ pub(crate) fn test_model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) 
         .filter(|name| !name.is_empty())
         .collect();
     let params = Params(values);
-    (assemble_model(mesh, &params, &clamped).unwrap().0, params)
+    Ok((assemble_model(mesh, &params, &clamped)?.0, params))
+}
+
+/// [`with_default_materials`], for tests.
+#[cfg(test)]
+pub(crate) fn test_model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> (Model, Params) {
+    with_default_materials(mesh, clamped, overrides)
+        .unwrap_or_else(|err| panic!("assembly failed: {err}"))
 }

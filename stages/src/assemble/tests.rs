@@ -4,15 +4,10 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
-
 use super::Assemble;
 use crate::artifact::Artifact;
 use crate::artifact::Mesh;
-use crate::artifact::{CscMatrix, Model};
-use crate::fem::hex8;
-use crate::fem::material::Material;
+use crate::artifact::Model;
 use crate::mesh::structured;
 use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
 use crate::table::{ColumnData, Table};
@@ -52,16 +47,6 @@ pub(crate) fn try_assemble(mesh: &Mesh, clamped: &str) -> Result<(Model, Table),
 
 pub(crate) fn assemble(mesh: &Mesh, clamped: &str) -> (Model, Table) {
     try_assemble(mesh, clamped).unwrap_or_else(|err| panic!("assembly failed: {err}"))
-}
-
-pub(crate) fn to_dense(A: &CscMatrix) -> Mat<f64> {
-    let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
-    for col in 0..A.n_cols {
-        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-            dense[(A.row_idx[entry], col)] = A.values[entry];
-        }
-    }
-    dense
 }
 
 /// `rᵀ M r` for the unit translation `r` along x: the total (free) mass.
@@ -136,7 +121,7 @@ fn matrices_are_exactly_symmetric_and_identical_between_runs() {
         Artifact::Model(Box::new(second)).encode()
     );
     for A in [&first.K, &first.M, &first.C] {
-        let dense = to_dense(A);
+        let dense = A.to_dense();
         for i in 0..A.n_rows {
             for j in 0..i {
                 assert_eq!(dense[(i, j)].to_bits(), dense[(j, i)].to_bits());
@@ -189,107 +174,6 @@ fn rayleigh_damping_is_taken_per_part() {
         other => panic!("{other:?}"),
     };
     assert!((masses[0] - 7850.0).abs() < 1e-9 && (masses[1] - 5102.0).abs() < 1e-9);
-}
-
-/// Moves the interior nodes of a 3×3×3 block, imposes a linear displacement on the boundary,
-/// solves for the interior: the solution must be the linear field, the strain constant.
-#[test]
-fn constant_strain_patch_test_on_a_distorted_mesh() {
-    let mut mesh = structured::block([1.0, 1.0, 1.0], [3, 3, 3], "disc");
-    let boundary: std::collections::BTreeSet<u32> = ["x0", "x1", "y0", "y1", "z0", "z1"]
-        .iter()
-        .flat_map(|face| mesh.node_sets[*face].iter().copied())
-        .collect();
-    let interior: Vec<usize> = (0..mesh.n_nodes())
-        .filter(|node| !boundary.contains(&(*node as u32)))
-        .collect();
-    assert_eq!(interior.len(), 8);
-    for (count, &node) in interior.iter().enumerate() {
-        let shift = |k: usize| 0.09 * (((count * 7 + k * 3) % 5) as f64 / 2.0 - 1.0);
-        for direction in 0..3 {
-            mesh.nodes[node][direction] += shift(direction);
-        }
-    }
-    let gradient = [
-        [1.0e-3, 2.0e-4, -3.0e-4],
-        [5.0e-4, -2.0e-3, 1.0e-4],
-        [-1.0e-4, 3.0e-4, 1.5e-3],
-    ];
-    let offset = [1e-4, -2e-4, 3e-4];
-    let exact = |x: [f64; 3]| -> [f64; 3] {
-        std::array::from_fn(|i| offset[i] + (0..3).map(|j| gradient[i][j] * x[j]).sum::<f64>())
-    };
-    let (model, _) = assemble(&mesh, "");
-    let K = to_dense(&model.K);
-    let interior_dofs: Vec<usize> = interior
-        .iter()
-        .flat_map(|&node| (0..3).map(move |d| 3 * node + d))
-        .collect();
-    let mut prescribed = vec![0.0; model.n_dofs()];
-    for &node in &boundary {
-        let value = exact(mesh.nodes[node as usize]);
-        for d in 0..3 {
-            prescribed[3 * node as usize + d] = value[d];
-        }
-    }
-    let n_interior = interior_dofs.len();
-    let K_interior = Mat::from_fn(n_interior, n_interior, |i, j| {
-        K[(interior_dofs[i], interior_dofs[j])]
-    });
-    let rhs = Mat::from_fn(n_interior, 1, |i, _| {
-        -(0..model.n_dofs())
-            .map(|j| K[(interior_dofs[i], j)] * prescribed[j])
-            .sum::<f64>()
-    });
-    let solution = K_interior.llt(Side::Lower).unwrap().solve(&rhs);
-    let mut displacement = prescribed.clone();
-    for (i, &dof) in interior_dofs.iter().enumerate() {
-        displacement[dof] = solution[(i, 0)];
-    }
-    let scale = 2e-3;
-    for &node in &interior {
-        let want = exact(mesh.nodes[node]);
-        for d in 0..3 {
-            let error = (displacement[3 * node + d] - want[d]).abs();
-            assert!(
-                error <= 1e-10 * scale,
-                "node {node} dir {d}: error {error:e}"
-            );
-        }
-    }
-    // Constant strain ε = sym(∇u) (engineering shears), hence constant stress σ = D ε.
-    let expected_strain = [
-        gradient[0][0],
-        gradient[1][1],
-        gradient[2][2],
-        gradient[0][1] + gradient[1][0],
-        gradient[1][2] + gradient[2][1],
-        gradient[2][0] + gradient[0][2],
-    ];
-    let material = Material::from_params(&params_of(&Assemble, &[]), "disc").unwrap();
-    let D = material.elasticity();
-    let stress = |strain: &[f64; 6]| -> [f64; 6] {
-        std::array::from_fn(|i| (0..6).map(|j| D[i][j] * strain[j]).sum())
-    };
-    let expected_stress = stress(&expected_strain);
-    let stress_scale = expected_stress.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-    for hex in &mesh.hexes {
-        let coords = hex.map(|node| mesh.nodes[node as usize]);
-        let element_displacement: [f64; 24] =
-            std::array::from_fn(|dof| displacement[3 * hex[dof / 3] as usize + dof % 3]);
-        let strains = hex8::gauss_point_strains(&coords, &D, &element_displacement).unwrap();
-        for strain in strains {
-            let got = stress(&strain);
-            for s in 0..6 {
-                assert!(
-                    (got[s] - expected_stress[s]).abs() <= 1e-10 * stress_scale,
-                    "stress {s}: {} vs {}",
-                    got[s],
-                    expected_stress[s]
-                );
-            }
-        }
-    }
 }
 
 #[test]

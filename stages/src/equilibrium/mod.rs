@@ -823,10 +823,9 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
-    use crate::artifact::mesh::{ContactPair, Mesh};
-    use crate::assemble::assemble_model;
+    use crate::artifact::mesh::Mesh;
     use crate::mesh::brake::{BrakeGeometry, brake};
-    use crate::mesh::structured::block;
+    use crate::mesh::structured::stacked_blocks;
     use crate::stage::Value;
 
     fn coarse_brake() -> Mesh {
@@ -835,31 +834,7 @@ mod tests {
 
     /// `assemble` with default materials (optionally overridden) and `clamped`.
     fn model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> Model {
-        model_and_params(mesh, clamped, overrides).0
-    }
-
-    fn model_and_params(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> (Model, Params) {
-        let assemble = crate::assemble::Assemble;
-        let mut values: BTreeMap<String, Value> = assemble
-            .params()
-            .into_iter()
-            .map(|spec| {
-                (
-                    spec.name.to_string(),
-                    spec.default.expect("assemble has defaults"),
-                )
-            })
-            .collect();
-        for (name, value) in overrides {
-            values.insert(name.to_string(), Value::Float(*value));
-        }
-        let clamped: Vec<String> = clamped
-            .split(',')
-            .map(|name| name.trim().to_string())
-            .filter(|name| !name.is_empty())
-            .collect();
-        let params = Params(values);
-        (assemble_model(mesh, &params, &clamped).unwrap().0, params)
+        crate::assemble::test_model(mesh, clamped, overrides).0
     }
 
     fn settings() -> LcpSettings {
@@ -869,7 +844,7 @@ mod tests {
     #[test]
     fn contact_forces_balance_the_support_reactions_of_each_pad() {
         let mesh = coarse_brake();
-        let (model, params) = model_and_params(&mesh, "hub, pad_backs", &[]);
+        let (model, params) = crate::assemble::test_model(&mesh, "hub, pad_backs", &[]);
         let (equilibrium, report) = solve(
             &model,
             0.38,
@@ -991,106 +966,6 @@ mod tests {
             assert!((a - b).abs() <= 1e-8 * largest, "{a} vs {b}");
         }
         assert!(newton_report.lcp.iterations < fixed_report.lcp.iterations);
-    }
-
-    /// A disc block (base `base`) under a pad block (back `pad_backs`), both `width` square,
-    /// stacked along z with node-to-node pairs on the shared face, one metre off the axis
-    /// (for a sliding direction).
-    fn two_blocks(width: f64, l_disc: f64, l_pad: f64) -> Mesh {
-        let mut disc = block([width, width, l_disc], [2, 2, 3], "disc");
-        let pad = block([width, width, l_pad], [2, 2, 2], "pad");
-        // Move the pair away from the rotation axis (for a sliding direction) and stack them.
-        let offset = 1.0;
-        for node in &mut disc.nodes {
-            node[0] += offset;
-        }
-        let n_disc = disc.nodes.len() as u32;
-        disc.nodes.extend(
-            pad.nodes
-                .iter()
-                .map(|p| [p[0] + offset, p[1], p[2] + l_disc]),
-        );
-        disc.hexes
-            .extend(pad.hexes.iter().map(|hex| hex.map(|node| node + n_disc)));
-        disc.hex_part.extend(vec![1; pad.hexes.len()]);
-        disc.parts.push("pad".into());
-        let top = disc.node_sets["z1"].clone();
-        let pad_bottom: Vec<u32> = pad.node_sets["z0"]
-            .iter()
-            .map(|node| node + n_disc)
-            .collect();
-        let cell = width / 2.0;
-        for (&disc_node, &pad_node) in top.iter().zip(&pad_bottom) {
-            let x = disc.nodes[disc_node as usize];
-            let corners = |c: f64| {
-                if (c - offset).abs() < 1e-12
-                    || (c - offset - width).abs() < 1e-12
-                    || c.abs() < 1e-12
-                    || (c - width).abs() < 1e-12
-                {
-                    0.5
-                } else {
-                    1.0
-                }
-            };
-            let area = cell * cell * corners(x[0]) * corners(x[1]);
-            disc.contact_pairs.push(ContactPair {
-                disc_node,
-                pad_node,
-                normal: [0.0, 0.0, 1.0],
-                area,
-            });
-        }
-        let pad_top: Vec<u32> = pad.node_sets["z1"]
-            .iter()
-            .map(|node| node + n_disc)
-            .collect();
-        let disc_bottom = disc.node_sets["z0"].clone();
-        disc.node_sets = BTreeMap::from([
-            ("base".to_string(), disc_bottom),
-            ("pad_backs".to_string(), pad_top),
-        ]);
-        disc
-    }
-
-    /// Two blocks in series, pressed by an interference, with ν = 0 so that the stress is
-    /// uniaxial: F = δ / (L₁/(E₁A) + L₂/(E₂A)).
-    #[test]
-    fn two_bars_in_contact_match_the_series_spring_formula() {
-        let (width, l_disc, l_pad) = (0.02, 0.03, 0.01);
-        let disc = two_blocks(width, l_disc, l_pad);
-        let (e_disc, e_pad) = (2.0e11, 3.0e8);
-        let model = model(
-            &disc,
-            "base, pad_backs",
-            &[
-                ("nu_disc", 0.0),
-                ("nu_pad", 0.0),
-                ("E_disc", e_disc),
-                ("E_pad", e_pad),
-            ],
-        );
-        let delta = 1e-5;
-        let (equilibrium, _) = solve(
-            &model,
-            0.0,
-            4.0,
-            Load::Interference(delta),
-            Solver::SemismoothNewton,
-            &settings(),
-        )
-        .unwrap();
-        let area = width * width;
-        let expected = delta / (l_disc / (e_disc * area) + l_pad / (e_pad * area));
-        let total: f64 = equilibrium.r_n.iter().sum();
-        assert!(
-            (total - expected).abs() <= 1e-9 * expected,
-            "{total} vs {expected}"
-        );
-        // Uniform pressure: every pair carries its tributary share.
-        for (r, pair) in equilibrium.r_n.iter().zip(&disc.contact_pairs) {
-            assert!((r / pair.area - expected / area).abs() <= 1e-8 * expected / area);
-        }
     }
 
     #[test]
@@ -1261,7 +1136,7 @@ mod tests {
     #[test]
     fn two_blocks_pressed_by_a_pressure_match_the_uniaxial_solution() {
         let (width, l_disc, l_pad) = (0.02, 0.03, 0.01);
-        let mesh = two_blocks(width, l_disc, l_pad);
+        let mesh = stacked_blocks(width, l_disc, l_pad);
         let (e_disc, e_pad) = (2.0e11, 3.0e8);
         let model = model(
             &mesh,

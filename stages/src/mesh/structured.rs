@@ -1,9 +1,11 @@
-//! Structured hexahedral meshes: a rectangular block and an annulus (a disc with a hole).
-//! Building blocks for `mesh.brake` and for verification cases (cantilevers, plates).
+//! Structured hexahedral meshes: a rectangular block, an annulus (a disc with a hole) and two
+//! blocks stacked in contact. Building blocks for `mesh.brake` and for verification cases
+//! (cantilevers, plates, bars in series).
 
 use std::collections::BTreeMap;
 
 use crate::artifact::Mesh;
+use crate::artifact::mesh::ContactPair;
 
 /// A block [0, lx] × [0, ly] × [0, lz] with nx × ny × nz hexahedra, all in part `part`.
 /// Node sets: `x0`, `x1`, `y0`, `y1`, `z0`, `z1` (the six faces).
@@ -140,6 +142,66 @@ fn hex(node: &dyn Fn(usize, usize, usize) -> u32) -> [u32; 8] {
         node(1, 1, 1),
         node(0, 1, 1),
     ]
+}
+
+/// A disc block (base `base`) under a pad block (back `pad_backs`), both `width` square,
+/// stacked along z with node-to-node pairs on the shared face, one metre off the axis
+/// (for a sliding direction).
+pub fn stacked_blocks(width: f64, l_disc: f64, l_pad: f64) -> Mesh {
+    let mut disc = block([width, width, l_disc], [2, 2, 3], "disc");
+    let pad = block([width, width, l_pad], [2, 2, 2], "pad");
+    // Move the pair away from the rotation axis (for a sliding direction) and stack them.
+    let offset = 1.0;
+    for node in &mut disc.nodes {
+        node[0] += offset;
+    }
+    let n_disc = disc.nodes.len() as u32;
+    disc.nodes.extend(
+        pad.nodes
+            .iter()
+            .map(|p| [p[0] + offset, p[1], p[2] + l_disc]),
+    );
+    disc.hexes
+        .extend(pad.hexes.iter().map(|hex| hex.map(|node| node + n_disc)));
+    disc.hex_part.extend(vec![1; pad.hexes.len()]);
+    disc.parts.push("pad".into());
+    let top = disc.node_sets["z1"].clone();
+    let pad_bottom: Vec<u32> = pad.node_sets["z0"]
+        .iter()
+        .map(|node| node + n_disc)
+        .collect();
+    let cell = width / 2.0;
+    for (&disc_node, &pad_node) in top.iter().zip(&pad_bottom) {
+        let x = disc.nodes[disc_node as usize];
+        let corners = |c: f64| {
+            if (c - offset).abs() < 1e-12
+                || (c - offset - width).abs() < 1e-12
+                || c.abs() < 1e-12
+                || (c - width).abs() < 1e-12
+            {
+                0.5
+            } else {
+                1.0
+            }
+        };
+        let area = cell * cell * corners(x[0]) * corners(x[1]);
+        disc.contact_pairs.push(ContactPair {
+            disc_node,
+            pad_node,
+            normal: [0.0, 0.0, 1.0],
+            area,
+        });
+    }
+    let pad_top: Vec<u32> = pad.node_sets["z1"]
+        .iter()
+        .map(|node| node + n_disc)
+        .collect();
+    let disc_bottom = disc.node_sets["z0"].clone();
+    disc.node_sets = BTreeMap::from([
+        ("base".to_string(), disc_bottom),
+        ("pad_backs".to_string(), pad_top),
+    ]);
+    disc
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 
 use std::f64::consts::PI;
 
-use faer::{Mat, c64};
+use faer::c64;
 
 use super::figure::stability_diagram;
 use super::{EigenPair, eigenvalue_table};
@@ -19,14 +19,6 @@ use squeal_linalg::matrix_market::read_matrix_market;
 
 /// Largest model the dense solve accepts.
 pub const MAX_DOFS: usize = 2000;
-
-fn dense(A: &CscMatrix) -> Mat<f64> {
-    let mut dense = Mat::<f64>::zeros(A.n_rows, A.n_cols);
-    for (row, col, value) in A.triplets() {
-        dense[(row, col)] += value;
-    }
-    dense
-}
 
 /// Every finite eigenpair with `Im λ ≥ 0` of the dense problem, by increasing frequency, each
 /// with its residual; an error if any residual exceeds `tolerance`.
@@ -54,9 +46,9 @@ pub fn solve_matrices(
     let norms = [M.norm_1(), C.norm_1(), K.norm_1()];
     let omega_max = 2.0 * PI * f_max_hz;
     let mut pairs: Vec<EigenPair> = super::dense::quadratic_eigen(
-        dense(M).as_ref(),
-        dense(C).as_ref(),
-        dense(K).as_ref(),
+        M.to_dense().as_ref(),
+        C.to_dense().as_ref(),
+        K.to_dense().as_ref(),
         |lambda| lambda.im > 0.0 && (f_max_hz <= 0.0 || lambda.im <= omega_max),
     )?
     .into_iter()

@@ -122,7 +122,9 @@ pub struct Solution {
     pub report: SolveReport,
 }
 
-fn in_band(lambda: c64, settings: &Settings) -> bool {
+/// Whether `lambda` lies in the band of `settings`: `0 < Im λ ≤ 2π f_max` and
+/// `2 |Re λ| ≤ max_divergence_rate · Im λ`.
+pub fn in_band(lambda: c64, settings: &Settings) -> bool {
     let omega_max = 2.0 * PI * settings.f_max_hz;
     lambda.im > 0.0
         && lambda.im <= omega_max

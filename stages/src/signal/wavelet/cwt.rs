@@ -458,13 +458,15 @@ impl MorletCwt {
         power
     }
 
-    #[cfg(test)]
-    fn uses_blocks(&self, scale_idx: usize) -> bool {
+    /// Whether scale `scale_idx` is evaluated in overlap-save blocks (else on the whole
+    /// record): the verification covers every route.
+    pub fn uses_blocks(&self, scale_idx: usize) -> bool {
         matches!(self.routes[scale_idx].domain, Domain::Blocks(_))
     }
 
-    #[cfg(test)]
-    fn uses_envelope(&self, scale_idx: usize) -> bool {
+    /// Whether the power of scale `scale_idx` comes from its sampled envelope (else from the
+    /// complex coefficients).
+    pub fn uses_envelope(&self, scale_idx: usize) -> bool {
         self.routes[scale_idx].envelope.is_some()
     }
 }
@@ -772,155 +774,6 @@ pub fn next_fast_len(min_len: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::signal::log_spaced;
-    use crate::signal::wavelet::scale_of_frequency;
-
-    const K0: f64 = 6.0;
-
-    /// `W(a, t_m) = Δt Σ_n s_n a^{−1/2} φ*((t_n − t_m)/a)`, written out: the independent code
-    /// path. Terms beyond |t_n − t_m| = 12 a (envelope e^{−72} ≈ 5e−32) are left out.
-    fn direct_cwt(signal: &[f64], dt: f64, scale: f64, k0: f64) -> Vec<Complex64> {
-        let reach = (12.0 * scale / dt).ceil() as usize;
-        (0..signal.len())
-            .map(|m| {
-                let first = m.saturating_sub(reach);
-                let end = (m + reach + 1).min(signal.len());
-                (first..end)
-                    .map(|n| {
-                        let x = (n as f64 - m as f64) * dt / scale;
-                        let mother = Complex64::from_polar((-0.5 * x * x).exp(), k0 * x);
-                        signal[n] * mother.conj() * dt / scale.sqrt()
-                    })
-                    .sum()
-            })
-            .collect()
-    }
-
-    fn max_norm(values: &[Complex64]) -> f64 {
-        values.iter().map(|v| v.norm()).fold(0.0, f64::max)
-    }
-
-    /// A deterministic broadband signal: every scale sees content.
-    fn broadband(n: usize) -> Vec<f64> {
-        let mut random = squeal_linalg::rng::SplitMix64::new(0x2545_f491_4f6c_dd1d);
-        (0..n).map(|_| 0.5 * random.next_signed()).collect()
-    }
-
-    /// Which evaluation a scale must take: overlap-save blocks or the whole record, and for
-    /// the power the sampled envelope or the complex transform.
-    #[derive(Debug, Clone, Copy, PartialEq)]
-    struct Expected {
-        blocks: bool,
-        envelope: bool,
-    }
-
-    const RECORD: Expected = Expected {
-        blocks: false,
-        envelope: false,
-    };
-    const RECORD_ENVELOPE: Expected = Expected {
-        blocks: false,
-        envelope: true,
-    };
-    const BLOCKS: Expected = Expected {
-        blocks: true,
-        envelope: false,
-    };
-    const BLOCKS_ENVELOPE: Expected = Expected {
-        blocks: true,
-        envelope: true,
-    };
-
-    /// Checks every scale of `freqs` against [`direct_cwt`], the coefficients and the power;
-    /// `expected` says which evaluation each scale must take, so every code path is covered.
-    fn check_against_direct_sum(n: usize, dt: f64, freqs: &[f64], expected: &[Expected]) {
-        // Tolerance: 1e-9 of the largest coefficient (power) of each scale; round-off is
-        // ~1e-14.
-        let signal = broadband(n);
-        let scales: Vec<f64> = freqs.iter().map(|&f| scale_of_frequency(K0, f)).collect();
-        let cwt = MorletCwt::new(&signal, dt, K0, &scales, 1);
-        let power = cwt.power();
-        for (scale_idx, (&freq, &scale)) in freqs.iter().zip(&scales).enumerate() {
-            let route = Expected {
-                blocks: cwt.uses_blocks(scale_idx),
-                envelope: cwt.uses_envelope(scale_idx),
-            };
-            assert_eq!(route, expected[scale_idx], "{freq} Hz");
-            let fast = cwt.coefficients(scale_idx);
-            let direct = direct_cwt(&signal, dt, scale, K0);
-            let error: Vec<Complex64> = fast.iter().zip(&direct).map(|(a, b)| a - b).collect();
-            let relative = max_norm(&error) / max_norm(&direct);
-            assert!(relative < 1e-9, "{freq} Hz: relative error {relative:e}");
-
-            let row = &power[scale_idx * n..][..n];
-            let peak = max_norm(&direct).powi(2);
-            let power_error = row
-                .iter()
-                .zip(&direct)
-                .map(|(p, d)| (p - d.norm_sqr()).abs())
-                .fold(0.0, f64::max);
-            assert!(
-                power_error < 1e-9 * peak,
-                "{freq} Hz: power error {:e} of the peak",
-                power_error / peak
-            );
-        }
-    }
-
-    #[test]
-    fn whole_record_evaluation_equals_the_direct_sum() {
-        // Up to Nyquist (500 Hz), where the aliased images of the daughter's spectrum matter
-        // and the band is too wide for the envelope.
-        let freqs = log_spaced(5.0, 500.0, 7);
-        let expected = [
-            RECORD_ENVELOPE,
-            RECORD_ENVELOPE,
-            RECORD_ENVELOPE,
-            RECORD,
-            RECORD,
-            RECORD,
-            RECORD,
-        ];
-        check_against_direct_sum(600, 1e-3, &freqs, &expected);
-    }
-
-    #[test]
-    fn envelope_of_a_long_record_equals_the_direct_sum() {
-        // Wide scales on a long record: narrow bands, sampled at a few hundred points of the
-        // padded length.
-        check_against_direct_sum(40_000, 1e-3, &[3.0, 8.0], &[RECORD_ENVELOPE; 2]);
-    }
-
-    #[test]
-    fn block_evaluation_equals_the_direct_sum() {
-        // Short scales on a long record go through overlap-save blocks of 1024 (sharing the
-        // margin of the wider one); the widest scale through the whole record.
-        let freqs = [40.0, 150.0, 500.0];
-        check_against_direct_sum(4200, 1e-3, &freqs, &[RECORD_ENVELOPE, BLOCKS, BLOCKS]);
-    }
-
-    #[test]
-    fn block_envelope_equals_the_direct_sum() {
-        // Blocks of 2048 for 40 Hz, whose band covers an eighth of them: the envelope route.
-        check_against_direct_sum(20_000, 1e-3, &[40.0, 500.0], &[BLOCKS_ENVELOPE, BLOCKS]);
-    }
-
-    #[test]
-    fn decimated_output_is_every_dth_sample_of_the_full_one() {
-        // Tolerance: 1e-12 relative; folding the spectrum is exact up to round-off.
-        let (n, dt) = (1000, 1e-3);
-        let signal = broadband(n);
-        let scale = scale_of_frequency(K0, 40.0);
-        let full = MorletCwt::new(&signal, dt, K0, &[scale], 1).coefficients(0);
-        let decimation = 7;
-        let decimated = MorletCwt::new(&signal, dt, K0, &[scale], decimation).coefficients(0);
-        assert_eq!(decimated.len(), (n - 1) / decimation + 1);
-        let peak = max_norm(&full);
-        for (q, value) in decimated.iter().enumerate() {
-            let error = (value - full[q * decimation]).norm() / peak;
-            assert!(error < 1e-12, "sample {q}: {error:e}");
-        }
-    }
 
     #[test]
     fn next_fast_len_has_small_factors() {

@@ -1,0 +1,101 @@
+//! Annular plate, clamped inside and free outside: the frequencies of the modes with 0 to 4
+//! nodal diameters against Kirchhoff plate theory.
+
+use serde::Deserialize;
+use squeal_stages::artifact::Model;
+use squeal_stages::artifact::mesh::Mesh;
+use squeal_stages::assemble::with_default_materials;
+use squeal_stages::mesh::structured;
+
+use crate::real_modes::{STEEL_E, STEEL_RHO, check_residuals_and_normalisation, lowest};
+use crate::reference;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Plate {
+    outer_radius_m: f64,
+    inner_radius_m: f64,
+    thickness_m: f64,
+    poisson: f64,
+    /// Hexahedra (radial, angular, through the thickness) of each mesh tried.
+    meshes: Vec<[usize; 3]>,
+    /// Frequency parameter λ² = ω a² √(ρh/D) of the lowest mode with n nodal diameters,
+    /// n = 0, 1, 2, …
+    lambda_squared: Vec<f64>,
+    /// |ω − ω_Kirchhoff| / ω_Kirchhoff.
+    tolerance: f64,
+}
+
+/// Number of nodal diameters of a plate mode: the dominant Fourier harmonic of the
+/// out-of-plane displacement around the outer rim (top face).
+fn nodal_diameters(model: &Model, mesh: &Mesh, shape: &[f64], max_n: usize) -> usize {
+    let rim: Vec<u32> = mesh.node_sets["outer"]
+        .iter()
+        .copied()
+        .filter(|node| mesh.node_sets["top"].binary_search(node).is_ok())
+        .collect();
+    let samples: Vec<(f64, f64)> = rim
+        .iter()
+        .map(|&node| {
+            let [x, y, _] = mesh.nodes[node as usize];
+            let w = model.dof_of_node[node as usize][2].map_or(0.0, |dof| shape[dof as usize]);
+            (y.atan2(x), w)
+        })
+        .collect();
+    // Amplitude of harmonic n: |Σ w| / N for n = 0, 2 |Σ w e^{inθ}| / N otherwise.
+    let amplitude = |n: usize| {
+        let (c, s) = samples.iter().fold((0.0, 0.0), |(c, s), (theta, w)| {
+            (
+                c + w * (n as f64 * theta).cos(),
+                s + w * (n as f64 * theta).sin(),
+            )
+        });
+        let factor = if n == 0 { 1.0 } else { 2.0 };
+        factor * (c * c + s * s).sqrt() / samples.len() as f64
+    };
+    (0..=max_n)
+        .max_by(|&m, &n| amplitude(m).total_cmp(&amplitude(n)))
+        .unwrap_or(0)
+}
+
+#[test]
+fn annular_plate_matches_kirchhoff_theory() {
+    let case: Plate = reference::load("annular_plate");
+    let (a, b, h, nu) = (
+        case.outer_radius_m,
+        case.inner_radius_m,
+        case.thickness_m,
+        case.poisson,
+    );
+    let max_n = case.lambda_squared.len() - 1;
+    // n = 0 once, every n ≥ 1 as a repeated pair.
+    let n_modes = 2 * max_n + 1;
+    for counts in case.meshes {
+        let mesh = structured::annulus(b, a, 0.0, h, counts, "disc");
+        let (model, _) =
+            with_default_materials(&mesh, "inner", &[("nu_disc", nu)]).expect("assembly");
+        let solution = lowest(&model, n_modes);
+        check_residuals_and_normalisation(&model, &solution);
+        let rigidity = STEEL_E * h.powi(3) / (12.0 * (1.0 - nu * nu));
+        let theory =
+            |lambda_squared: f64| lambda_squared / (a * a) * (rigidity / (STEEL_RHO * h)).sqrt();
+        let mut seen = vec![0usize; max_n + 1];
+        for mode in 0..solution.lambda.len() {
+            let shape: Vec<f64> = solution.shapes.col(mode).iter().copied().collect();
+            let n = nodal_diameters(&model, &mesh, &shape, 2 * max_n);
+            assert!(n <= max_n, "{counts:?}: mode {mode} has {n} nodal diameters");
+            seen[n] += 1;
+            let omega = solution.lambda[mode].sqrt();
+            let exact = theory(case.lambda_squared[n]);
+            let error = (omega - exact).abs() / exact;
+            assert!(
+                error < case.tolerance,
+                "{counts:?}: mode {mode}, n = {n}: omega = {omega}, Kirchhoff {exact} ({:.2} %)",
+                100.0 * error
+            );
+        }
+        let mut expected = vec![2; max_n + 1];
+        expected[0] = 1;
+        assert_eq!(seen, expected, "{counts:?}");
+    }
+}
