@@ -159,25 +159,18 @@ pub fn block_lanczos(
         M_vectors: M_locked.as_ref(),
     };
 
-    // Vectors locked in this run (converged before a restart), with their θ.
-    let mut found_theta: Vec<f64> = Vec::new();
-    let mut found = Mat::<f64>::zeros(n, 0);
-    let mut M_found = Mat::<f64>::zeros(n, 0);
+    let mut found = Found {
+        theta: Vec::new(),
+        vectors: Mat::zeros(n, 0),
+        M_vectors: Mat::zeros(n, 0),
+    };
 
     let mut V = Mat::<f64>::zeros(n, max_basis);
     let mut MV = Mat::<f64>::zeros(n, max_basis);
     let mut T = Mat::<f64>::zeros(max_basis, max_basis);
-    // A start block in the range of Op: smooth, with no components Op cannot produce.
-    let mut start = op.apply(random.block(n, b).as_ref());
-    let empty = Mat::<f64>::zeros(n, 0);
-    let no_basis = Orthonormal {
-        vectors: empty.as_ref(),
-        M_vectors: empty.as_ref(),
-    };
-    let start_products =
-        orthonormalize_block(&mut start, &[locked], no_basis, 0, M, &mut random, par)?;
+    let (start, M_start) = start_block(op, locked, b, &mut random)?;
     set_columns(V.as_mut(), 0, start.as_ref());
-    set_columns(MV.as_mut(), 0, start_products.M_vectors.as_ref());
+    set_columns(MV.as_mut(), 0, M_start.as_ref());
     let mut basis_size = b;
     let mut largest_basis = b;
     let mut restarts = 0;
@@ -188,29 +181,23 @@ pub fn block_lanczos(
         let block_start = basis_size - b;
         let mut W = op.apply_to_product(MV.as_ref().subcols(block_start, b));
         let started = Instant::now();
+        // Against every locked vector, and (in exact arithmetic, only) the last two blocks.
         let Orthonormalized {
             M_vectors: MW,
             coefficients,
             R,
-        } = {
-            let found_basis = Orthonormal {
-                vectors: found.as_ref(),
-                M_vectors: M_found.as_ref(),
-            };
-            let basis = Orthonormal {
+        } = orthonormalize_block(
+            &mut W,
+            &[locked, found.basis()],
+            Orthonormal {
                 vectors: V.as_ref().subcols(0, basis_size),
                 M_vectors: MV.as_ref().subcols(0, basis_size),
-            };
-            orthonormalize_block(
-                &mut W,
-                &[locked, found_basis],
-                basis,
-                basis_size.saturating_sub(2 * b),
-                M,
-                &mut random,
-                par,
-            )?
-        };
+            },
+            basis_size.saturating_sub(2 * b),
+            M,
+            &mut random,
+            par,
+        )?;
         orthogonalize_seconds += started.elapsed().as_secs_f64();
         T.as_mut()
             .submatrix_mut(0, block_start, basis_size, b)
@@ -221,20 +208,18 @@ pub fn block_lanczos(
         if basis_full || blocks_since_check >= check_every {
             blocks_since_check = 0;
             let started = Instant::now();
-            let T_m = symmetrised(T.as_ref().submatrix(0, 0, basis_size, basis_size));
-            let (theta_ascending, Y_ascending) = symmetric_eigen(T_m.as_ref(), par)?;
-            // Descending θ: nearest above σ first.
-            let order: Vec<usize> = (0..basis_size).rev().collect();
-            let theta: Vec<f64> = order.iter().map(|&i| theta_ascending[i]).collect();
-            let Y = select_columns(Y_ascending.as_ref(), &order);
-            // Op V_m Y = V_m Y Θ + V_{m+1} (R Y_last): the residual of each Ritz pair.
-            let S = &R * Y.as_ref().subrows(block_start, b);
-            // Lanczos cannot resolve a Ritz value better than roundoff in the largest one.
-            let floor = 64.0 * f64::EPSILON * theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
-            let converged_prefix = (0..basis_size)
-                .take_while(|&i| S.col(i).norm_l2() <= options.tolerance * theta[i].abs() + floor)
-                .count();
-            let mut all_theta: Vec<f64> = found_theta.clone();
+            let RitzCheck {
+                theta,
+                Y,
+                S,
+                converged_prefix,
+            } = ritz_check(
+                T.as_ref().submatrix(0, 0, basis_size, basis_size),
+                R.as_ref(),
+                options.tolerance,
+                par,
+            )?;
+            let mut all_theta: Vec<f64> = found.theta.clone();
             all_theta.extend_from_slice(&theta[..converged_prefix]);
             all_theta.sort_by(|a, b| b.total_cmp(a));
             let finished = done(&all_theta) || (basis_full && converged_prefix == basis_size);
@@ -249,25 +234,20 @@ pub fn block_lanczos(
                         .min(max_basis / 2)
                         .min(max_basis - 2 * b)
                 };
-                let columns: Vec<usize> = (0..converged_prefix + n_keep).collect();
-                let Y_kept = select_columns(Y.as_ref(), &columns);
-                let ritz_vectors = times(V.as_ref().subcols(0, basis_size), Y_kept.as_ref());
-                let M_ritz_vectors = times(MV.as_ref().subcols(0, basis_size), Y_kept.as_ref());
-                append_columns(
-                    &mut found,
+                let Y_kept = Y.as_ref().subcols(0, converged_prefix + n_keep);
+                let ritz_vectors = times(V.as_ref().subcols(0, basis_size), Y_kept);
+                let M_ritz_vectors = times(MV.as_ref().subcols(0, basis_size), Y_kept);
+                found.lock(
+                    &theta[..converged_prefix],
                     ritz_vectors.as_ref().subcols(0, converged_prefix),
-                );
-                append_columns(
-                    &mut M_found,
                     M_ritz_vectors.as_ref().subcols(0, converged_prefix),
                 );
-                found_theta.extend_from_slice(&theta[..converged_prefix]);
                 ritz_seconds += started.elapsed().as_secs_f64();
                 if finished {
                     return Ok(RitzPairs {
-                        theta: found_theta,
-                        vectors: found,
-                        M_vectors: M_found,
+                        theta: found.theta,
+                        vectors: found.vectors,
+                        M_vectors: found.M_vectors,
                         basis_size: largest_basis,
                         restarts,
                         solve_seconds: op.solve_seconds(),
@@ -279,30 +259,26 @@ pub fn block_lanczos(
                 if restarts > options.max_restarts {
                     return Err(Error::NotConverged(format!(
                         "Lanczos did not converge: {} Ritz pairs converged after {} restarts with a basis of {max_basis} vectors",
-                        found_theta.len(),
+                        found.theta.len(),
                         options.max_restarts
                     )));
                 }
                 // Thick restart: [X_keep, V_{m+1}] with the arrowhead projection.
-                set_columns(
-                    V.as_mut(),
-                    0,
-                    ritz_vectors.as_ref().subcols(converged_prefix, n_keep),
+                let kept = converged_prefix..converged_prefix + n_keep;
+                let next = Orthonormal {
+                    vectors: W.as_ref(),
+                    M_vectors: MW.as_ref(),
+                };
+                thick_restart(
+                    [V.as_mut(), MV.as_mut(), T.as_mut()],
+                    Orthonormal {
+                        vectors: ritz_vectors.as_ref().subcols(kept.start, n_keep),
+                        M_vectors: M_ritz_vectors.as_ref().subcols(kept.start, n_keep),
+                    },
+                    &theta[kept.clone()],
+                    S.as_ref().subcols(kept.start, n_keep),
+                    next,
                 );
-                set_columns(
-                    MV.as_mut(),
-                    0,
-                    M_ritz_vectors.as_ref().subcols(converged_prefix, n_keep),
-                );
-                set_columns(V.as_mut(), n_keep, W.as_ref());
-                set_columns(MV.as_mut(), n_keep, MW.as_ref());
-                T.fill(0.0);
-                for k in 0..n_keep {
-                    T[(k, k)] = theta[converged_prefix + k];
-                }
-                T.as_mut()
-                    .submatrix_mut(n_keep, 0, b, n_keep)
-                    .copy_from(S.as_ref().subcols(converged_prefix, n_keep));
                 basis_size = n_keep + b;
                 continue;
             }
@@ -315,4 +291,108 @@ pub fn block_lanczos(
         basis_size += b;
         largest_basis = largest_basis.max(basis_size);
     }
+}
+
+/// A start block in the range of Op, `M`-orthonormal and orthogonal to `locked`, with its
+/// `M` products: Op applied to random vectors is smooth, with no components Op cannot
+/// produce.
+fn start_block(
+    op: &ShiftInvert<'_>,
+    locked: Orthonormal<'_>,
+    b: usize,
+    random: &mut SplitMix64,
+) -> Result<(Mat<f64>, Mat<f64>), Error> {
+    let n = op.M.n_rows;
+    let mut start = op.apply(random.block(n, b).as_ref());
+    let empty = Mat::<f64>::zeros(n, 0);
+    let no_basis = Orthonormal {
+        vectors: empty.as_ref(),
+        M_vectors: empty.as_ref(),
+    };
+    let products = orthonormalize_block(&mut start, &[locked], no_basis, 0, op.M, random, op.par)?;
+    Ok((start, products.M_vectors))
+}
+
+/// Ritz pairs locked in this run (converged before a restart).
+struct Found {
+    theta: Vec<f64>,
+    vectors: Mat<f64>,
+    M_vectors: Mat<f64>,
+}
+
+impl Found {
+    fn basis(&self) -> Orthonormal<'_> {
+        Orthonormal {
+            vectors: self.vectors.as_ref(),
+            M_vectors: self.M_vectors.as_ref(),
+        }
+    }
+
+    fn lock(&mut self, theta: &[f64], vectors: MatRef<'_, f64>, M_vectors: MatRef<'_, f64>) {
+        self.theta.extend_from_slice(theta);
+        append_columns(&mut self.vectors, vectors);
+        append_columns(&mut self.M_vectors, M_vectors);
+    }
+}
+
+/// The Ritz pairs of a Lanczos basis: θ descending (nearest above σ first), their
+/// coordinates `Y` in the basis, the residual coefficients `S = R Y_last`, and how many
+/// pairs, from the first, have converged.
+struct RitzCheck {
+    theta: Vec<f64>,
+    Y: Mat<f64>,
+    S: Mat<f64>,
+    converged_prefix: usize,
+}
+
+/// The Ritz pairs of the projection `T_m` whose last block of rows is coupled to the next
+/// block by `R`.
+fn ritz_check(
+    T_m: MatRef<'_, f64>,
+    R: MatRef<'_, f64>,
+    tolerance: f64,
+    par: Par,
+) -> Result<RitzCheck, Error> {
+    let basis_size = T_m.nrows();
+    let b = R.nrows();
+    let (theta_ascending, Y_ascending) = symmetric_eigen(symmetrised(T_m).as_ref(), par)?;
+    let order: Vec<usize> = (0..basis_size).rev().collect();
+    let theta: Vec<f64> = order.iter().map(|&i| theta_ascending[i]).collect();
+    let Y = select_columns(Y_ascending.as_ref(), &order);
+    // Op V_m Y = V_m Y Θ + V_{m+1} (R Y_last): the residual of each Ritz pair.
+    let S = R * Y.as_ref().subrows(basis_size - b, b);
+    // Lanczos cannot resolve a Ritz value better than roundoff in the largest one.
+    let floor = 64.0 * f64::EPSILON * theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+    let converged_prefix = (0..basis_size)
+        .take_while(|&i| S.col(i).norm_l2() <= tolerance * theta[i].abs() + floor)
+        .count();
+    Ok(RitzCheck {
+        theta,
+        Y,
+        S,
+        converged_prefix,
+    })
+}
+
+/// Restarts the basis `[V, MV]` and its projection `T` as `[X_keep, V_{m+1}]`: the kept Ritz
+/// vectors, then the next block; `T` becomes the arrowhead `diag(θ_keep)` with the kept
+/// pairs' residual coefficients `S_keep` as its last block of rows.
+fn thick_restart(
+    [mut V, mut MV, mut T]: [MatMut<'_, f64>; 3],
+    kept: Orthonormal<'_>,
+    theta_kept: &[f64],
+    S_kept: MatRef<'_, f64>,
+    next: Orthonormal<'_>,
+) {
+    let n_keep = theta_kept.len();
+    set_columns(V.as_mut(), 0, kept.vectors);
+    set_columns(MV.as_mut(), 0, kept.M_vectors);
+    set_columns(V.as_mut(), n_keep, next.vectors);
+    set_columns(MV.as_mut(), n_keep, next.M_vectors);
+    T.fill(0.0);
+    for (k, &theta) in theta_kept.iter().enumerate() {
+        T[(k, k)] = theta;
+    }
+    T.submatrix_mut(n_keep, 0, S_kept.nrows(), n_keep)
+        .copy_from(S_kept);
 }

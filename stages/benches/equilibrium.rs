@@ -2,24 +2,15 @@
 //! factorisation, condensation and iteration times, and the iteration counts of both solvers.
 //! Run with `cargo bench -p squeal-stages --bench equilibrium`.
 
-use std::collections::BTreeMap;
-
-use squeal_stages::assemble::{Assemble, assemble_model};
+use squeal_stages::assemble::with_default_materials;
 use squeal_stages::contact::lcp::LcpSettings;
 use squeal_stages::equilibrium::{Load, Solver, solve};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
-use squeal_stages::{Params, Stage, Value};
 
 fn main() {
     let mesh = brake(&BrakeGeometry::default()).expect("default brake");
-    let values: BTreeMap<String, Value> = Assemble
-        .params()
-        .into_iter()
-        .map(|spec| (spec.name.to_string(), spec.default.expect("defaults")))
-        .collect();
-    let clamped = vec!["hub".to_string(), "pad_backs".to_string()];
     let started = std::time::Instant::now();
-    let (model, _) = assemble_model(&mesh, &Params(values), &clamped).expect("assembly");
+    let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &[]).expect("assembly");
     println!(
         "default brake: {} free DOFs, {} contact pairs; assembly {:.3} s",
         model.n_dofs(),

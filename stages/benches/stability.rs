@@ -12,7 +12,6 @@
 //! eigenvalues found (`eigenvalues.csv`) are written there for `scipy_eigs.py`, which times
 //! scipy's shift-invert `eigs` on the same problem.
 
-use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -22,16 +21,16 @@ use squeal_linalg::lblt::Lblt;
 use squeal_linalg::matrix_market::write_matrix_market;
 use squeal_stages::artifact::Equilibrium;
 use squeal_stages::artifact::Model;
-use squeal_stages::assemble::{Assemble, assemble_model};
+use squeal_stages::assemble::with_default_materials;
 use squeal_stages::contact::lcp::LcpSettings;
 use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::stability::shift_invert::EmbeddedPattern;
 use squeal_stages::stability::sliding::{Part, SlidingSystem};
 use squeal_stages::stability::{
-    KrylovOptions, Method, Settings, divergence_rate, is_unstable, nearest_relative_errors, solve,
+    KrylovOptions, Method, Settings, Solution, divergence_rate, is_unstable,
+    nearest_relative_errors, solve,
 };
-use squeal_stages::{Params, Stage, Value};
 
 /// Peak resident memory of this process (MiB), from /proc.
 fn peak_memory_mib() -> f64 {
@@ -157,13 +156,7 @@ fn main() {
         .with_writer(std::io::stderr)
         .init();
     let mesh = brake(&BrakeGeometry::default()).expect("default brake");
-    let values: BTreeMap<String, Value> = Assemble
-        .params()
-        .into_iter()
-        .map(|spec| (spec.name.to_string(), spec.default.expect("defaults")))
-        .collect();
-    let clamped = vec!["hub".to_string(), "pad_backs".to_string()];
-    let (model, _) = assemble_model(&mesh, &Params(values), &clamped).expect("assembly");
+    let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &[]).expect("assembly");
     let (equilibrium, _) = equilibrium(
         &model,
         0.38,
@@ -201,6 +194,17 @@ fn main() {
     let started = Instant::now();
     let solution = solve(&model, &equilibrium, &settings).expect("krylov");
     let seconds = started.elapsed().as_secs_f64();
+    print_band(&solution, &settings, seconds);
+    if env_or("PROJECTION", 1) != 0 {
+        compare_projection(&model, &equilibrium, &solution, &settings);
+    }
+    if let Ok(dir) = std::env::var("SQUEAL_EXPORT_DIR") {
+        export(&solution, std::path::Path::new(&dir));
+    }
+}
+
+/// The band's figures: wall time and its parts, each shift, the unstable modes.
+fn print_band(solution: &Solution, settings: &Settings, seconds: f64) {
     let report = &solution.report;
     let worst = solution
         .pairs
@@ -259,63 +263,70 @@ fn main() {
             100.0 * divergence_rate(pair.lambda)
         );
     }
+}
 
-    if env_or("PROJECTION", 1) != 0 {
-        let started = Instant::now();
-        let projected = solve(
-            &model,
-            &equilibrium,
-            &Settings {
-                method: Method::RealModeProjection { n_real_modes: 0 },
-                ..settings
-            },
-        )
-        .expect("projection");
-        let projection_seconds = started.elapsed().as_secs_f64();
-        let mut sorted = nearest_relative_errors(&solution.pairs, &projected.pairs);
-        sorted.sort_by(f64::total_cmp);
-        println!(
-            "real_mode_projection: {:.1} s with {} real modes; eigenvalue error against krylov: median {:.1e}, max {:.1e}; {} unstable",
-            projection_seconds,
-            projected.report.real_modes,
-            sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
-            sorted.last().copied().unwrap_or(f64::NAN),
-            projected
-                .pairs
-                .iter()
-                .filter(|pair| is_unstable(pair.lambda))
-                .count()
-        );
-    }
+/// The real-mode projection's run time and its eigenvalue errors against `solution`.
+fn compare_projection(
+    model: &Model,
+    equilibrium: &Equilibrium,
+    solution: &Solution,
+    settings: &Settings,
+) {
+    let started = Instant::now();
+    let projected = solve(
+        model,
+        equilibrium,
+        &Settings {
+            method: Method::RealModeProjection { n_real_modes: 0 },
+            ..*settings
+        },
+    )
+    .expect("projection");
+    let projection_seconds = started.elapsed().as_secs_f64();
+    let mut sorted = nearest_relative_errors(&solution.pairs, &projected.pairs);
+    sorted.sort_by(f64::total_cmp);
+    println!(
+        "real_mode_projection: {:.1} s with {} real modes; eigenvalue error against krylov: median {:.1e}, max {:.1e}; {} unstable",
+        projection_seconds,
+        projected.report.real_modes,
+        sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
+        sorted.last().copied().unwrap_or(f64::NAN),
+        projected
+            .pairs
+            .iter()
+            .filter(|pair| is_unstable(pair.lambda))
+            .count()
+    );
+}
 
-    if let Ok(dir) = std::env::var("SQUEAL_EXPORT_DIR") {
-        let dir = std::path::PathBuf::from(dir);
-        std::fs::create_dir_all(&dir).expect("export folder");
-        for (name, part) in [("M", Part::M), ("C", Part::C), ("K", Part::K)] {
-            let matrix = solution.system.reduced_matrix(part);
-            let text = write_matrix_market(&matrix, "squeal stability: reduced sliding problem")
-                .expect("matrix market");
-            std::fs::write(dir.join(format!("{name}.mtx")), text).expect("write");
-        }
-        let mut csv = String::from("re,im,residual\n");
-        for pair in &solution.pairs {
-            csv.push_str(&format!(
-                "{:.17e},{:.17e},{:.3e}\n",
-                pair.lambda.re, pair.lambda.im, pair.residual
-            ));
-        }
-        std::fs::write(dir.join("eigenvalues.csv"), csv).expect("write");
-        let mut shifts = String::from("frequency_hz,radius,converged\n");
-        for shift in &report.band.shifts {
-            shifts.push_str(&format!(
-                "{},{},{}\n",
-                shift.frequency_hz, shift.radius, shift.found
-            ));
-        }
-        std::fs::write(dir.join("shifts.csv"), shifts).expect("write");
-        println!(
-            "exported M.mtx, C.mtx, K.mtx, eigenvalues.csv and shifts.csv to {}",
-            dir.display()
-        );
+/// M, C, K of the reduced sliding problem (Matrix Market), the eigenvalues and the shifts
+/// (CSV), for the scipy comparison.
+fn export(solution: &Solution, dir: &std::path::Path) {
+    std::fs::create_dir_all(dir).expect("export folder");
+    for (name, part) in [("M", Part::M), ("C", Part::C), ("K", Part::K)] {
+        let matrix = solution.system.reduced_matrix(part);
+        let text = write_matrix_market(&matrix, "squeal stability: reduced sliding problem")
+            .expect("matrix market");
+        std::fs::write(dir.join(format!("{name}.mtx")), text).expect("write");
     }
+    let mut csv = String::from("re,im,residual\n");
+    for pair in &solution.pairs {
+        csv.push_str(&format!(
+            "{:.17e},{:.17e},{:.3e}\n",
+            pair.lambda.re, pair.lambda.im, pair.residual
+        ));
+    }
+    std::fs::write(dir.join("eigenvalues.csv"), csv).expect("write");
+    let mut shifts = String::from("frequency_hz,radius,converged\n");
+    for shift in &solution.report.band.shifts {
+        shifts.push_str(&format!(
+            "{},{},{}\n",
+            shift.frequency_hz, shift.radius, shift.found
+        ));
+    }
+    std::fs::write(dir.join("shifts.csv"), shifts).expect("write");
+    println!(
+        "exported M.mtx, C.mtx, K.mtx, eigenvalues.csv and shifts.csv to {}",
+        dir.display()
+    );
 }

@@ -12,20 +12,19 @@
 //! the initial velocity are written there for `transient_scipy.py`, the same scheme
 //! written with scipy.
 
-use std::collections::BTreeMap;
 use std::io::Write;
 use std::time::Instant;
 
 use faer::{Mat, Par};
 use squeal_linalg::matrix_market::write_matrix_market;
-use squeal_stages::assemble::{Assemble, assemble_model};
+use squeal_stages::NoCheckpoints;
+use squeal_stages::assemble::with_default_materials;
 use squeal_stages::contact::lcp::LcpSettings;
 use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::transient::contact::Solver as ContactSolver;
 use squeal_stages::transient::scheme::{Settings, factorise_J, integrate};
 use squeal_stages::transient::{kick, structure_of};
-use squeal_stages::{NoCheckpoints, Params, Stage, Value};
 
 /// Peak resident memory of this process (MiB), from /proc.
 fn peak_memory_mib() -> f64 {
@@ -50,13 +49,7 @@ fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
 
 fn main() {
     let mesh = brake(&BrakeGeometry::default()).expect("default brake");
-    let values: BTreeMap<String, Value> = Assemble
-        .params()
-        .into_iter()
-        .map(|spec| (spec.name.to_string(), spec.default.expect("defaults")))
-        .collect();
-    let clamped = vec!["hub".to_string(), "pad_backs".to_string()];
-    let (model, _) = assemble_model(&mesh, &Params(values), &clamped).expect("assembly");
+    let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &[]).expect("assembly");
     let (equilibrium, _) = equilibrium(
         &model,
         0.38,

@@ -51,7 +51,11 @@ fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
 fn the_matrices_stage_reads_matrix_market_files() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../pipelines/hoffmann");
     let mut params = BTreeMap::new();
-    for (name, file) in [("m_path", "M.mtx"), ("c_path", "C.mtx"), ("k_path", "K.mtx")] {
+    for (name, file) in [
+        ("m_path", "M.mtx"),
+        ("c_path", "C.mtx"),
+        ("k_path", "K.mtx"),
+    ] {
         params.insert(
             name.to_string(),
             Value::Str(dir.join(file).display().to_string()),

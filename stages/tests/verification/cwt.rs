@@ -170,9 +170,6 @@ fn decimated_output_is_every_dth_sample_of_the_full_one() {
     let peak = max_norm(&full);
     for (q, value) in decimated.iter().enumerate() {
         let error = (value - full[q * decimation]).norm() / peak;
-        assert!(
-            error < case.decimation_tolerance,
-            "sample {q}: {error:e}"
-        );
+        assert!(error < case.decimation_tolerance, "sample {q}: {error:e}");
     }
 }

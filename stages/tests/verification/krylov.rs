@@ -5,10 +5,10 @@
 use faer::c64;
 use serde::Deserialize;
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
+use squeal_stages::artifact::Equilibrium;
 use squeal_stages::artifact::Model;
 use squeal_stages::assemble::with_default_materials;
 use squeal_stages::contact::lcp::LcpSettings;
-use squeal_stages::artifact::Equilibrium;
 use squeal_stages::equilibrium::{self, Load, Solver};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::stability::sliding::SlidingSystem;
@@ -196,8 +196,7 @@ fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes()
         ("alpha_pad", 0.0),
         ("beta_pad", 0.0),
     ];
-    let (model, _) =
-        with_default_materials(&mesh, "hub, pad_backs", &undamped).expect("assembly");
+    let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &undamped).expect("assembly");
     let equilibrium = equilibrium_of(&model, 0.0);
     let settings = Settings {
         f_max_hz: case.f_max_hz,
@@ -235,8 +234,7 @@ fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes()
     assert_eq!(solution.report.conservative_count, found.len());
 
     // With the default Rayleigh damping, still nothing unstable at μ = 0.
-    let (damped_model, _) =
-        with_default_materials(&mesh, "hub, pad_backs", &[]).expect("assembly");
+    let (damped_model, _) = with_default_materials(&mesh, "hub, pad_backs", &[]).expect("assembly");
     let damped = solve(
         &damped_model,
         &equilibrium_of(&damped_model, 0.0),

@@ -83,7 +83,10 @@ fn annular_plate_matches_kirchhoff_theory() {
         for mode in 0..solution.lambda.len() {
             let shape: Vec<f64> = solution.shapes.col(mode).iter().copied().collect();
             let n = nodal_diameters(&model, &mesh, &shape, 2 * max_n);
-            assert!(n <= max_n, "{counts:?}: mode {mode} has {n} nodal diameters");
+            assert!(
+                n <= max_n,
+                "{counts:?}: mode {mode} has {n} nodal diameters"
+            );
             seen[n] += 1;
             let omega = solution.lambda[mode].sqrt();
             let exact = theory(case.lambda_squared[n]);

@@ -96,12 +96,8 @@ pub(super) fn solve_shift(
     // A random start block, its two halves side by side.
     let start_coordinates = half.extend(random.complex_block(m, 2 * b));
     let mut W = interleave(start_coordinates.as_ref(), b);
-    orthonormalise(
-        U.submatrix(0, 0, W.nrows(), 0),
-        &mut W,
-        &mut random,
-        options.par,
-    );
+    let no_basis = U.submatrix(0, 0, W.nrows(), 0);
+    orthonormalise(no_basis, &mut W, &mut random, options.par);
     U.submatrix_mut(0, 0, W.nrows(), b).copy_from(&W);
     let mut k = b;
     let mut next_check = options.basis.max(MIN_BLOCK_STEPS * b).min(max_basis).max(b);
@@ -176,9 +172,8 @@ pub(super) fn solve_shift(
             .filter(|&i| wanted(eigenvalue(i)))
             .collect();
         let lambdas: Vec<c64> = reported.iter().map(|&i| eigenvalue(i)).collect();
-        let selected = Mat::<c64>::from_fn(k, reported.len(), |row, col| S[(row, reported[col])]);
         let coordinates =
-            deinterleave((U.submatrix(0, 0, 2 * half.rank(), k) * &selected).as_ref());
+            ritz_coordinates(U.submatrix(0, 0, 2 * half.rank(), k), S.as_ref(), &reported);
         let pairs = eigenpairs(system, &half, coordinates.as_ref(), &lambdas, scale);
         seconds.vectors = phase.elapsed().as_secs_f64();
         report.seconds_arnoldi += clock.elapsed().as_secs_f64();
@@ -282,6 +277,13 @@ fn ritz_check(
         converged,
         radius,
     })
+}
+
+/// The coordinates in `Q` of the Ritz vectors `columns` of `S` (Schur vectors of the Arnoldi
+/// section) over the basis `U` (interleaved): first halves, then second halves, side by side.
+fn ritz_coordinates(U: MatRef<'_, c64>, S: MatRef<'_, c64>, columns: &[usize]) -> Mat<c64> {
+    let selected = Mat::<c64>::from_fn(S.nrows(), columns.len(), |row, col| S[(row, columns[col])]);
+    deinterleave((U * &selected).as_ref())
 }
 
 /// The eigenpairs `λ` of the Ritz vectors whose Arnoldi coordinates are `coordinates` (the
