@@ -540,8 +540,9 @@ fn chosen_mode(
     Ok((c64::new(re[chosen], im[chosen]), shape))
 }
 
-/// `u = Re φ`, `v = Re(λ φ)`, `φ` turned so its largest component is real, `amplitude`.
-fn mode_start(lambda: c64, shape: &[c64], amplitude: f64) -> (Vec<f64>, Vec<f64>) {
+/// The start on complex mode `(λ, φ)`: `u = Re φ`, `v = Re(λ φ)`, `φ` turned so its largest
+/// component is real, of size `amplitude`.
+pub fn mode_start(lambda: c64, shape: &[c64], amplitude: f64) -> (Vec<f64>, Vec<f64>) {
     let largest = shape
         .iter()
         .copied()

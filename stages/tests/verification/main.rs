@@ -19,3 +19,4 @@ mod patch_test;
 mod plate;
 mod real_modes;
 mod reference;
+mod theta_method;

@@ -1,0 +1,571 @@
+//! The θ-method with contact impulses (`transient` stage's scheme) on small models with exact
+//! solutions: energy conservation and the modal response with its order of convergence, a
+//! mass dropped on a plane, the stick–slip oscillator, and Hoffmann's model growing at its
+//! linear rate into a limit cycle. (The brake's growth rate against its most unstable mode
+//! shares the stage tests' fixture and stays in `transient/tests.rs`.)
+
+use std::f64::consts::PI;
+
+use faer::{Mat, Side};
+use serde::Deserialize;
+use squeal_stages::NoCheckpoints;
+use squeal_stages::artifact::CscMatrix;
+use squeal_stages::stability::lumped::solve_matrices;
+use squeal_stages::transient::contact::Solver;
+use squeal_stages::transient::mode_start;
+use squeal_stages::transient::scheme::{self, ContactState, Settings, Structure, integrate};
+
+use crate::reference;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Chain {
+    /// θ = ½, no damping, no contact: a run of `energy_duration` s at `energy_tau`.
+    energy_tau: f64,
+    energy_duration: f64,
+    /// Kinetic + strain energy and the balance error against the initial energy, relative.
+    energy_tolerance: f64,
+    /// The response at `order_duration` against the exact modal solution, for each step of
+    /// `order_taus`, and the fitted order for each [θ, expected order].
+    order_duration: f64,
+    order_taus: Vec<f64>,
+    orders: Vec<[f64; 2]>,
+    order_tolerance: f64,
+    /// Error of θ = ½ at the finest step.
+    finest_error: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Drop {
+    mass: f64,
+    gap: f64,
+    fall_speed: f64,
+    sliding_speed: f64,
+    mu: f64,
+    tau: f64,
+    n_steps: usize,
+    thetas: Vec<f64>,
+    /// Penetration, rebound velocity, final velocity and energies (m, m/s, J): round-off.
+    tolerance: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StickSlip {
+    mass: f64,
+    stiffness: f64,
+    normal_force: f64,
+    mu: f64,
+    belt_speed: f64,
+    /// Centre, amplitude, peak velocity and period of the cycle, relative.
+    tolerance: f64,
+    /// Steps of the last period that may stick.
+    most_sticking_steps: usize,
+    /// Balance error against the strain energy at the equilibrium, relative.
+    balance_tolerance: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HoffmannOnABelt {
+    mass: f64,
+    contact_node_mass: f64,
+    contact_stiffness: f64,
+    angles_deg: [f64; 2],
+    mu: f64,
+    normal_force: f64,
+    belt_speed: f64,
+    /// Fitted growth rate of the first 15 periods against Re λ, relative.
+    growth_tolerance: f64,
+    /// The largest peak of the last 30 periods against the largest of periods 40–60.
+    saturation_ratio: f64,
+}
+
+fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
+    Settings {
+        theta,
+        tau,
+        n_steps,
+        solver: Solver::ActiveSet,
+        tolerance: 1e-12,
+        max_iterations: 5000,
+        output_every: 1,
+        record_pairs: Vec::new(),
+        snapshot_steps: Vec::new(),
+        sample_steps: Vec::new(),
+    }
+}
+
+fn no_contact() -> ContactState {
+    ContactState {
+        gap: Vec::new(),
+        sliding_speed: Vec::new(),
+        r_e: Vec::new(),
+        mu: 0.0,
+    }
+}
+
+/// A chain of three unit masses between two walls, springs 1, 2, 3, 4 (ω from 1 to 2.6 rad/s).
+fn chain() -> (CscMatrix, CscMatrix, CscMatrix) {
+    let springs = [1.0, 2.0, 3.0, 4.0];
+    let mut K = Vec::new();
+    for i in 0..3 {
+        K.push((i, i, springs[i] + springs[i + 1]));
+        if i + 1 < 3 {
+            K.push((i, i + 1, -springs[i + 1]));
+            K.push((i + 1, i, -springs[i + 1]));
+        }
+    }
+    let M = CscMatrix::from_triplets(3, 3, (0..3).map(|i| (i, i, 1.0)).collect());
+    let C = CscMatrix::from_triplets(3, 3, Vec::new());
+    (M, CscMatrix::from_triplets(3, 3, K), C)
+}
+
+/// The exact free response of `ü + K u = 0` (M = I) at time t.
+fn exact_chain(K: &CscMatrix, u0: &[f64], v0: &[f64], t: f64) -> Vec<f64> {
+    let dense = Mat::from_fn(3, 3, |i, j| {
+        K.triplets()
+            .filter(|&(r, c, _)| r == i && c == j)
+            .map(|(_, _, v)| v)
+            .sum::<f64>()
+    });
+    let eigen = dense.self_adjoint_eigen(Side::Lower).unwrap();
+    let (values, vectors) = (eigen.S(), eigen.U());
+    let mut u = vec![0.0; 3];
+    for k in 0..3 {
+        let omega = values[k].sqrt();
+        let phi: Vec<f64> = (0..3).map(|i| vectors[(i, k)]).collect();
+        let a: f64 = (0..3).map(|i| phi[i] * u0[i]).sum();
+        let b: f64 = (0..3).map(|i| phi[i] * v0[i]).sum();
+        let q = a * (omega * t).cos() + b / omega * (omega * t).sin();
+        for i in 0..3 {
+            u[i] += phi[i] * q;
+        }
+    }
+    u
+}
+
+fn run_chain(theta: f64, tau: f64, duration: f64) -> (Vec<f64>, scheme::Run) {
+    let (M, K, C) = chain();
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows: Vec::new(),
+    };
+    let n_steps = (duration / tau).round() as usize;
+    let mut settings = settings(theta, tau, n_steps);
+    settings.snapshot_steps = vec![n_steps];
+    let run = integrate(
+        &structure,
+        &no_contact(),
+        &settings,
+        vec![1.0, 0.0, -0.5],
+        vec![0.0, 0.3, 0.0],
+        &NoCheckpoints,
+        |_| {},
+    )
+    .unwrap();
+    (run.snapshots[0].u.clone(), run)
+}
+
+#[test]
+fn undamped_scheme_without_contact_conserves_energy_exactly() {
+    let case: Chain = reference::load("theta_method_chain");
+    let (_, run) = run_chain(0.5, case.energy_tau, case.energy_duration);
+    assert_eq!(run.history.len(), 10_001);
+    let initial = run.history[0].energy.kinetic + run.history[0].energy.strain;
+    for row in &run.history {
+        let total = row.energy.kinetic + row.energy.strain;
+        assert!(
+            (total - initial).abs() < case.energy_tolerance * initial,
+            "t = {}: {total} vs {initial}",
+            row.t
+        );
+        assert!(row.energy.balance_error.abs() < case.energy_tolerance * initial);
+        assert_eq!(row.energy.scheme, 0.0);
+    }
+}
+
+#[test]
+fn the_response_converges_to_the_exact_modal_solution_at_the_scheme_order() {
+    let case: Chain = reference::load("theta_method_chain");
+    let (_, K, _) = chain();
+    let duration = case.order_duration;
+    let exact = exact_chain(&K, &[1.0, 0.0, -0.5], &[0.0, 0.3, 0.0], duration);
+    for &[theta, expected_order] in &case.orders {
+        let errors: Vec<(f64, f64)> = case
+            .order_taus
+            .iter()
+            .map(|&tau| {
+                let (u, _) = run_chain(theta, tau, duration);
+                let error = u
+                    .iter()
+                    .zip(&exact)
+                    .map(|(a, b)| (a - b).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                (tau, error)
+            })
+            .collect();
+        // Least-squares slope of log(error) against log(tau).
+        let points: Vec<(f64, f64)> = errors.iter().map(|(t, e)| (t.ln(), e.ln())).collect();
+        let mean_x = points.iter().map(|p| p.0).sum::<f64>() / points.len() as f64;
+        let mean_y = points.iter().map(|p| p.1).sum::<f64>() / points.len() as f64;
+        let slope = points
+            .iter()
+            .map(|(x, y)| (x - mean_x) * (y - mean_y))
+            .sum::<f64>()
+            / points
+                .iter()
+                .map(|(x, _)| (x - mean_x).powi(2))
+                .sum::<f64>();
+        assert!(
+            (slope - expected_order).abs() < case.order_tolerance,
+            "theta = {theta}: order {slope}, errors {errors:?}"
+        );
+        if theta == 0.5 {
+            assert!(errors[3].1 < case.finest_error, "{errors:?}");
+        }
+    }
+}
+
+/// `M`, `K`, `C` and the rows of `H`.
+type LumpedStructure = (CscMatrix, CscMatrix, CscMatrix, Vec<Vec<(usize, f64)>>);
+
+/// One pad node (3 DOFs, mass `m`) over a rigid plane z = 0 whose material slides at `speed`
+/// along y; frame n = e_z, t = e_y, b = n × t = −e_x.
+fn point_on_plane(m: f64, stiffness: [f64; 3]) -> LumpedStructure {
+    let M = CscMatrix::from_triplets(3, 3, (0..3).map(|i| (i, i, m)).collect());
+    let K = CscMatrix::from_triplets(3, 3, (0..3).map(|i| (i, i, stiffness[i])).collect());
+    let C = CscMatrix::from_triplets(3, 3, Vec::new());
+    let H_rows = vec![vec![(2, 1.0)], vec![(1, 1.0)], vec![(0, -1.0)]];
+    (M, K, C, H_rows)
+}
+
+#[test]
+fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
+    let case: Drop = reference::load("mass_dropped_on_a_plane");
+    let (M, K, C, H_rows) = point_on_plane(case.mass, [0.0; 3]);
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows,
+    };
+    let gap = case.gap;
+    let contact_state = ContactState {
+        gap: vec![gap],
+        sliding_speed: vec![case.sliding_speed],
+        r_e: vec![0.0; 3],
+        mu: case.mu,
+    };
+    let tolerance = case.tolerance;
+    for &theta in &case.thetas {
+        let tau = case.tau;
+        let mut settings = settings(theta, tau, case.n_steps);
+        settings.record_pairs = vec![0];
+        let run = integrate(
+            &structure,
+            &contact_state,
+            &settings,
+            vec![0.0; 3],
+            vec![0.0, 0.0, -case.fall_speed],
+            &NoCheckpoints,
+            |_| {},
+        )
+        .unwrap();
+        let impact = run
+            .history
+            .iter()
+            .position(|row| gap + row.points[0].0 <= tolerance)
+            .expect("the mass reaches the plane");
+        for row in &run.history {
+            let (displacement, velocity) = row.points[0];
+            assert!(
+                gap + displacement >= -tolerance,
+                "theta = {theta}: penetration {}",
+                -(gap + displacement)
+            );
+            if row.t > run.history[impact].t + 1.5 * tau {
+                // Inelastic: at rest on the plane from the step after contact on.
+                assert!(
+                    velocity.abs() < tolerance,
+                    "theta = {theta}, t = {}: v_n = {velocity}",
+                    row.t
+                );
+            }
+        }
+        assert!(run.peak_penetration <= tolerance);
+        // The normal kinetic energy ½ m v² is lost in the impact, and the friction impulse,
+        // μ times the normal one, drags the mass to μ v along the sliding disc (slower than
+        // the disc: it slides throughout).
+        let last = run.history.last().unwrap();
+        let dragged = case.mu * case.fall_speed;
+        assert!(dragged < case.sliding_speed);
+        assert!(
+            (last.v_t - dragged).abs() < tolerance,
+            "theta = {theta}: {last:?}"
+        );
+        assert!(
+            (last.energy.kinetic - 0.5 * case.mass * dragged * dragged).abs() < tolerance,
+            "{last:?}"
+        );
+        // θ = ½ books the whole loss to the impact; θ > ½ shares it with its own
+        // dissipation (the balance holds either way).
+        if theta == 0.5 {
+            let impact_loss = 0.5 * case.mass * case.fall_speed * case.fall_speed;
+            assert!(
+                (last.energy.normal + impact_loss).abs() < tolerance,
+                "{last:?}"
+            );
+            assert_eq!(last.energy.scheme, 0.0);
+        } else {
+            assert!(last.energy.scheme > 0.0, "{last:?}");
+        }
+        assert!(last.energy.balance_error.abs() < tolerance, "{last:?}");
+    }
+}
+
+#[test]
+fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
+    // m ẍ + k x = μ N while sliding on a belt at V: the limit cycle oscillates about μN/k with
+    // amplitude V/ω, its velocity touching V once per period 2π/ω.
+    let case: StickSlip = reference::load("stick_slip_oscillator");
+    let (m, k, normal_force, mu, belt) = (
+        case.mass,
+        case.stiffness,
+        case.normal_force,
+        case.mu,
+        case.belt_speed,
+    );
+    let relative = case.tolerance;
+    let (M, K, C, H_rows) = point_on_plane(m, [k, k, 1e4]);
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows,
+    };
+    let contact_state = ContactState {
+        gap: vec![0.0],
+        sliding_speed: vec![belt],
+        r_e: vec![normal_force, mu * normal_force, 0.0],
+        mu,
+    };
+    let omega = (k / m).sqrt();
+    let period = 2.0 * PI / omega;
+    let tau = period / 2000.0;
+    let n_steps = 8 * 2000;
+    let mut settings = settings(0.5, tau, n_steps);
+    settings.snapshot_steps = (n_steps - 2 * 2000..=n_steps).collect();
+    // From rest at x = 0: the departure from the sliding equilibrium x_e = μN/k is −x_e.
+    let x_e = mu * normal_force / k;
+    let run = integrate(
+        &structure,
+        &contact_state,
+        &settings,
+        vec![0.0, -x_e, 0.0],
+        vec![0.0; 3],
+        &NoCheckpoints,
+        |_| {},
+    )
+    .unwrap();
+    let last_period = &run.snapshots[run.snapshots.len() - 2001..];
+    let x: Vec<f64> = last_period.iter().map(|s| x_e + s.u[1]).collect();
+    let v: Vec<f64> = last_period.iter().map(|s| s.v[1]).collect();
+    let (x_min, x_max) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+    let v_max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let amplitude = belt / omega;
+    assert!(
+        ((x_max + x_min) / 2.0 - x_e).abs() < relative * x_e,
+        "centre {}",
+        (x_max + x_min) / 2.0
+    );
+    assert!(
+        ((x_max - x_min) / 2.0 - amplitude).abs() < relative * amplitude,
+        "amplitude {}",
+        (x_max - x_min) / 2.0
+    );
+    assert!((v_max - belt).abs() < relative * belt, "v_max {v_max}");
+    // Period: upward zero crossings of the velocity over the last two periods, interpolated.
+    let crossings: Vec<f64> = run.snapshots[run.snapshots.len() - 2 * 2000..]
+        .windows(2)
+        .filter(|pair| pair[0].v[1] < 0.0 && pair[1].v[1] >= 0.0)
+        .map(|pair| {
+            let (v0, v1) = (pair[0].v[1], pair[1].v[1]);
+            pair[0].t + (pair[1].t - pair[0].t) * (-v0) / (v1 - v0)
+        })
+        .collect();
+    assert!(crossings.len() >= 2, "{crossings:?}");
+    let measured_period = crossings[crossings.len() - 1] - crossings[crossings.len() - 2];
+    assert!(
+        (measured_period - period).abs() < relative * period,
+        "period {measured_period} against {period}"
+    );
+    // With one friction coefficient the cycle only touches the belt's speed: it sticks for
+    // no longer than a few steps per period.
+    let sticking = run.history[run.history.len() - 2000..]
+        .iter()
+        .filter(|row| row.stick > 0.0)
+        .count();
+    assert!(
+        sticking <= case.most_sticking_steps,
+        "{sticking} steps of the last period stick"
+    );
+    assert!(
+        run.history.last().unwrap().energy.balance_error.abs()
+            < case.balance_tolerance * 0.5 * k * x_e * x_e
+    );
+}
+
+/// Hoffmann's two-DOF model on a belt: a mass (x along the belt, y normal) held by springs k1,
+/// k2 at 150° and 20°, pressed by a normal force N through a contact spring k3 onto a light
+/// contact node (mass m_B, sharing x, its own normal DOF y_B) that slides on the belt at V.
+/// DOFs: x, y_A, y_B. While the contact node slides, y_B = 0 and the linearised problem is
+/// Hoffmann's: `diag(m + m_B, m) q̈ + [[k11, k12 + μ k3], [k12, k22 + k3]] q = 0`.
+#[test]
+fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
+    let case: HoffmannOnABelt = reference::load("hoffmann_transient");
+    let (m, m_b, k3, mu, normal_force, belt) = (
+        case.mass,
+        case.contact_node_mass,
+        case.contact_stiffness,
+        case.mu,
+        case.normal_force,
+        case.belt_speed,
+    );
+    let [a1, a2] = case.angles_deg.map(f64::to_radians);
+    let k11 = a1.cos().powi(2) + a2.cos().powi(2);
+    let k12 = a1.cos() * a1.sin() + a2.cos() * a2.sin();
+    let k22 = a1.sin().powi(2) + a2.sin().powi(2);
+    let M = CscMatrix::from_triplets(3, 3, vec![(0, 0, m + m_b), (1, 1, m), (2, 2, m_b)]);
+    let K = CscMatrix::from_triplets(
+        3,
+        3,
+        vec![
+            (0, 0, k11),
+            (0, 1, k12),
+            (1, 0, k12),
+            (1, 1, k22 + k3),
+            (1, 2, -k3),
+            (2, 1, -k3),
+            (2, 2, k3),
+        ],
+    );
+    let C = CscMatrix::from_triplets(3, 3, Vec::new());
+    // The linearised sliding problem and its most unstable eigenpair.
+    let reduced_M = CscMatrix::from_triplets(2, 2, vec![(0, 0, m + m_b), (1, 1, m)]);
+    let reduced_K = CscMatrix::from_triplets(
+        2,
+        2,
+        vec![
+            (0, 0, k11),
+            (0, 1, k12 + mu * k3),
+            (1, 0, k12),
+            (1, 1, k22 + k3),
+        ],
+    );
+    let no_damping = CscMatrix::from_triplets(2, 2, Vec::new());
+    let pairs =
+        solve_matrices(&reduced_M, &no_damping, &reduced_K, 0.0, 1e-12).expect("eigenvalues");
+    let lambda = pairs
+        .iter()
+        .map(|pair| pair.lambda)
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .unwrap();
+    assert!(lambda.re > 0.0);
+    // Its shape: the null vector of λ² M + K, scaled to 1e-5.
+    let a11 = lambda * lambda * (m + m_b) + k11;
+    let a12 = faer::c64::new(k12 + mu * k3, 0.0);
+    let shape = [-a12, a11, faer::c64::new(0.0, 0.0)];
+    let (u0, v0) = mode_start(lambda, &shape, 1e-8);
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows: vec![vec![(2, 1.0)], vec![(0, 1.0)], Vec::new()],
+    };
+    let contact_state = ContactState {
+        gap: vec![0.0],
+        sliding_speed: vec![belt],
+        r_e: vec![normal_force, mu * normal_force, 0.0],
+        mu,
+    };
+    let period = 2.0 * PI / lambda.im;
+    let steps_per_period = 400;
+    let tau = period / steps_per_period as f64;
+    let n_periods = 90;
+    let settings = settings(0.5, tau, n_periods * steps_per_period);
+    let run = integrate(
+        &structure,
+        &contact_state,
+        &settings,
+        u0,
+        v0,
+        &NoCheckpoints,
+        |_| {},
+    )
+    .unwrap();
+    let peaks: Vec<(f64, f64)> = run
+        .history
+        .chunks(steps_per_period)
+        .filter(|chunk| chunk.len() == steps_per_period)
+        .map(|chunk| {
+            let row = chunk
+                .iter()
+                .max_by(|a, b| a.kinetic.total_cmp(&b.kinetic))
+                .unwrap();
+            (row.t, row.kinetic)
+        })
+        .collect();
+    // Linear growth while the contact slides throughout: the per-period peaks of the kinetic
+    // energy grow as e^{2 Re λ t}, fitted over the first 15 periods.
+    let early = &peaks[1..16];
+    assert!(
+        run.history[..16 * steps_per_period]
+            .iter()
+            .all(|row| row.slide == 1.0)
+    );
+    let n = early.len() as f64;
+    let mean_t = early.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_y = early.iter().map(|p| p.1.ln()).sum::<f64>() / n;
+    let slope = early
+        .iter()
+        .map(|(t, e)| (t - mean_t) * (e.ln() - mean_y))
+        .sum::<f64>()
+        / early.iter().map(|(t, _)| (t - mean_t).powi(2)).sum::<f64>();
+    let growth = slope / 2.0;
+    assert!(
+        (growth - lambda.re).abs() < case.growth_tolerance * lambda.re,
+        "growth rate {growth} against Re lambda {}",
+        lambda.re
+    );
+    // Saturation: the contact node lifts off the belt once the normal vibration outgrows the
+    // preload, and the energy stays bounded (the peaks of the last 30 periods below 1.05 times
+    // the first maximum, where the linear growth would have gone on by more than six decades).
+    assert!(
+        run.history.iter().any(|row| row.open > 0.0),
+        "the contact never opens"
+    );
+    let first_maximum = peaks[40..60].iter().map(|p| p.1).fold(0.0, f64::max);
+    let later_maximum = peaks[60..].iter().map(|p| p.1).fold(0.0, f64::max);
+    assert!(
+        later_maximum <= case.saturation_ratio * first_maximum,
+        "{later_maximum} after {first_maximum}"
+    );
+    let linear = peaks[0].1 * (2.0 * lambda.re * (peaks.last().unwrap().0 - peaks[0].0)).exp();
+    assert!(
+        first_maximum < 1e-6 * linear,
+        "{first_maximum} against {linear}"
+    );
+}
