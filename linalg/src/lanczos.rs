@@ -151,35 +151,32 @@ pub fn block_lanczos(
     let b = options.block_size;
     let max_basis = options.max_basis.max(4 * b);
     let mut random = SplitMix64::new(options.seed);
-    let mut orthogonalize_seconds = 0.0;
-    let mut ritz_seconds = 0.0;
+    let mut stats = Stats::default();
     let M_locked = symmetric_mul(M, locked);
     let locked = Orthonormal {
         vectors: locked,
         M_vectors: M_locked.as_ref(),
     };
-
     let mut found = Found {
         theta: Vec::new(),
         vectors: Mat::zeros(n, 0),
         M_vectors: Mat::zeros(n, 0),
     };
-
-    let mut V = Mat::<f64>::zeros(n, max_basis);
-    let mut MV = Mat::<f64>::zeros(n, max_basis);
-    let mut T = Mat::<f64>::zeros(max_basis, max_basis);
+    let mut basis = Basis {
+        V: Mat::zeros(n, max_basis),
+        MV: Mat::zeros(n, max_basis),
+        T: Mat::zeros(max_basis, max_basis),
+        size: 0,
+    };
     let (start, M_start) = start_block(op, locked, b, &mut random)?;
-    set_columns(V.as_mut(), 0, start.as_ref());
-    set_columns(MV.as_mut(), 0, M_start.as_ref());
-    let mut basis_size = b;
-    let mut largest_basis = b;
-    let mut restarts = 0;
+    basis.append(start.as_ref(), M_start.as_ref(), None);
+    stats.largest_basis = b;
     let mut blocks_since_check = 0usize;
     let check_every = (max_basis / (4 * b)).max(1);
 
     loop {
-        let block_start = basis_size - b;
-        let mut W = op.apply_to_product(MV.as_ref().subcols(block_start, b));
+        let block_start = basis.size - b;
+        let mut W = op.apply_to_product(basis.MV.as_ref().subcols(block_start, b));
         let started = Instant::now();
         // Against every locked vector, and (in exact arithmetic, only) the last two blocks.
         let Orthonormalized {
@@ -189,107 +186,78 @@ pub fn block_lanczos(
         } = orthonormalize_block(
             &mut W,
             &[locked, found.basis()],
-            Orthonormal {
-                vectors: V.as_ref().subcols(0, basis_size),
-                M_vectors: MV.as_ref().subcols(0, basis_size),
-            },
-            basis_size.saturating_sub(2 * b),
+            basis.vectors(),
+            basis.size.saturating_sub(2 * b),
             M,
             &mut random,
             par,
         )?;
-        orthogonalize_seconds += started.elapsed().as_secs_f64();
-        T.as_mut()
-            .submatrix_mut(0, block_start, basis_size, b)
+        stats.orthogonalize_seconds += started.elapsed().as_secs_f64();
+        basis
+            .T
+            .as_mut()
+            .submatrix_mut(0, block_start, basis.size, b)
             .copy_from(&coefficients);
         blocks_since_check += 1;
 
-        let basis_full = basis_size + b > max_basis;
+        let basis_full = basis.size + b > max_basis;
         if basis_full || blocks_since_check >= check_every {
             blocks_since_check = 0;
             let started = Instant::now();
-            let RitzCheck {
-                theta,
-                Y,
-                S,
-                converged_prefix,
-            } = ritz_check(
-                T.as_ref().submatrix(0, 0, basis_size, basis_size),
+            let check = ritz_check(
+                basis.T.as_ref().submatrix(0, 0, basis.size, basis.size),
                 R.as_ref(),
                 options.tolerance,
                 par,
             )?;
-            let mut all_theta: Vec<f64> = found.theta.clone();
-            all_theta.extend_from_slice(&theta[..converged_prefix]);
-            all_theta.sort_by(|a, b| b.total_cmp(a));
-            let finished = done(&all_theta) || (basis_full && converged_prefix == basis_size);
-            if !(finished || basis_full) {
-                ritz_seconds += started.elapsed().as_secs_f64();
-            } else {
+            let converged = check.converged_prefix;
+            let finished = done(&found.theta_with(&check.theta[..converged]))
+                || (basis_full && converged == basis.size);
+            if finished || basis_full {
                 // Ritz vectors of the converged prefix, and on a restart those kept.
                 let n_keep = if finished {
                     0
                 } else {
-                    (basis_size - converged_prefix)
+                    (basis.size - converged)
                         .min(max_basis / 2)
                         .min(max_basis - 2 * b)
                 };
-                let Y_kept = Y.as_ref().subcols(0, converged_prefix + n_keep);
-                let ritz_vectors = times(V.as_ref().subcols(0, basis_size), Y_kept);
-                let M_ritz_vectors = times(MV.as_ref().subcols(0, basis_size), Y_kept);
+                let ritz = basis.ritz_vectors(check.Y.as_ref().subcols(0, converged + n_keep));
                 found.lock(
-                    &theta[..converged_prefix],
-                    ritz_vectors.as_ref().subcols(0, converged_prefix),
-                    M_ritz_vectors.as_ref().subcols(0, converged_prefix),
+                    &check.theta[..converged],
+                    ritz.vectors.as_ref().subcols(0, converged),
+                    ritz.M_vectors.as_ref().subcols(0, converged),
                 );
-                ritz_seconds += started.elapsed().as_secs_f64();
+                stats.ritz_seconds += started.elapsed().as_secs_f64();
                 if finished {
-                    return Ok(RitzPairs {
-                        theta: found.theta,
-                        vectors: found.vectors,
-                        M_vectors: found.M_vectors,
-                        basis_size: largest_basis,
-                        restarts,
-                        solve_seconds: op.solve_seconds(),
-                        orthogonalize_seconds,
-                        ritz_seconds,
-                    });
+                    return Ok(found.into_pairs(stats, op.solve_seconds()));
                 }
-                restarts += 1;
-                if restarts > options.max_restarts {
+                stats.restarts += 1;
+                if stats.restarts > options.max_restarts {
                     return Err(Error::NotConverged(format!(
                         "Lanczos did not converge: {} Ritz pairs converged after {} restarts with a basis of {max_basis} vectors",
                         found.theta.len(),
                         options.max_restarts
                     )));
                 }
-                // Thick restart: [X_keep, V_{m+1}] with the arrowhead projection.
-                let kept = converged_prefix..converged_prefix + n_keep;
-                let next = Orthonormal {
-                    vectors: W.as_ref(),
-                    M_vectors: MW.as_ref(),
-                };
-                thick_restart(
-                    [V.as_mut(), MV.as_mut(), T.as_mut()],
+                basis.thick_restart(
                     Orthonormal {
-                        vectors: ritz_vectors.as_ref().subcols(kept.start, n_keep),
-                        M_vectors: M_ritz_vectors.as_ref().subcols(kept.start, n_keep),
+                        vectors: ritz.vectors.as_ref().subcols(converged, n_keep),
+                        M_vectors: ritz.M_vectors.as_ref().subcols(converged, n_keep),
                     },
-                    &theta[kept.clone()],
-                    S.as_ref().subcols(kept.start, n_keep),
-                    next,
+                    &check.theta[converged..converged + n_keep],
+                    check.S.as_ref().subcols(converged, n_keep),
+                    Orthonormal {
+                        vectors: W.as_ref(),
+                        M_vectors: MW.as_ref(),
+                    },
                 );
-                basis_size = n_keep + b;
                 continue;
             }
+            stats.ritz_seconds += started.elapsed().as_secs_f64();
         }
-        set_columns(V.as_mut(), basis_size, W.as_ref());
-        set_columns(MV.as_mut(), basis_size, MW.as_ref());
-        T.as_mut()
-            .submatrix_mut(basis_size, block_start, b, b)
-            .copy_from(&R);
-        basis_size += b;
-        largest_basis = largest_basis.max(basis_size);
+        basis.append(W.as_ref(), MW.as_ref(), Some(R.as_ref()));
+        stats.largest_basis = stats.largest_basis.max(basis.size);
     }
 }
 
@@ -328,11 +296,113 @@ impl Found {
         }
     }
 
+    /// The locked θ and `more`, descending.
+    fn theta_with(&self, more: &[f64]) -> Vec<f64> {
+        let mut all = self.theta.clone();
+        all.extend_from_slice(more);
+        all.sort_by(|a, b| b.total_cmp(a));
+        all
+    }
+
     fn lock(&mut self, theta: &[f64], vectors: MatRef<'_, f64>, M_vectors: MatRef<'_, f64>) {
         self.theta.extend_from_slice(theta);
         append_columns(&mut self.vectors, vectors);
         append_columns(&mut self.M_vectors, M_vectors);
     }
+
+    fn into_pairs(self, stats: Stats, solve_seconds: f64) -> RitzPairs {
+        RitzPairs {
+            theta: self.theta,
+            vectors: self.vectors,
+            M_vectors: self.M_vectors,
+            basis_size: stats.largest_basis,
+            restarts: stats.restarts,
+            solve_seconds,
+            orthogonalize_seconds: stats.orthogonalize_seconds,
+            ritz_seconds: stats.ritz_seconds,
+        }
+    }
+}
+
+/// Figures of a run, for [`RitzPairs`].
+#[derive(Default)]
+struct Stats {
+    largest_basis: usize,
+    restarts: usize,
+    orthogonalize_seconds: f64,
+    ritz_seconds: f64,
+}
+
+/// The Lanczos basis `V` (its first `size` columns), `M V`, and the projection `T` of `Op`.
+struct Basis {
+    V: Mat<f64>,
+    MV: Mat<f64>,
+    T: Mat<f64>,
+    size: usize,
+}
+
+impl Basis {
+    fn vectors(&self) -> Orthonormal<'_> {
+        Orthonormal {
+            vectors: self.V.as_ref().subcols(0, self.size),
+            M_vectors: self.MV.as_ref().subcols(0, self.size),
+        }
+    }
+
+    /// Appends the block `W` (`M W`), coupled to the last block by `R` (`T`'s subdiagonal).
+    fn append(&mut self, W: MatRef<'_, f64>, MW: MatRef<'_, f64>, R: Option<MatRef<'_, f64>>) {
+        let b = W.ncols();
+        set_columns(self.V.as_mut(), self.size, W);
+        set_columns(self.MV.as_mut(), self.size, MW);
+        if let Some(R) = R {
+            self.T
+                .as_mut()
+                .submatrix_mut(self.size, self.size - b, b, b)
+                .copy_from(R);
+        }
+        self.size += b;
+    }
+
+    /// The Ritz vectors `V Y` and their `M` products.
+    fn ritz_vectors(&self, Y: MatRef<'_, f64>) -> RitzVectors {
+        let Orthonormal { vectors, M_vectors } = self.vectors();
+        RitzVectors {
+            vectors: times(vectors, Y),
+            M_vectors: times(M_vectors, Y),
+        }
+    }
+
+    /// Restarts as `[X_keep, V_{m+1}]`: the kept Ritz vectors, then the next block; `T`
+    /// becomes the arrowhead `diag(θ_keep)` with the kept pairs' residual coefficients
+    /// `S_keep` as its last block of rows.
+    fn thick_restart(
+        &mut self,
+        kept: Orthonormal<'_>,
+        theta_kept: &[f64],
+        S_kept: MatRef<'_, f64>,
+        next: Orthonormal<'_>,
+    ) {
+        let n_keep = theta_kept.len();
+        set_columns(self.V.as_mut(), 0, kept.vectors);
+        set_columns(self.MV.as_mut(), 0, kept.M_vectors);
+        set_columns(self.V.as_mut(), n_keep, next.vectors);
+        set_columns(self.MV.as_mut(), n_keep, next.M_vectors);
+        self.T.fill(0.0);
+        for (k, &theta) in theta_kept.iter().enumerate() {
+            self.T[(k, k)] = theta;
+        }
+        self.T
+            .as_mut()
+            .submatrix_mut(n_keep, 0, S_kept.nrows(), n_keep)
+            .copy_from(S_kept);
+        self.size = n_keep + next.vectors.ncols();
+    }
+}
+
+/// Ritz vectors and their `M` products (columns).
+struct RitzVectors {
+    vectors: Mat<f64>,
+    M_vectors: Mat<f64>,
 }
 
 /// The Ritz pairs of a Lanczos basis: θ descending (nearest above σ first), their
@@ -372,27 +442,4 @@ fn ritz_check(
         S,
         converged_prefix,
     })
-}
-
-/// Restarts the basis `[V, MV]` and its projection `T` as `[X_keep, V_{m+1}]`: the kept Ritz
-/// vectors, then the next block; `T` becomes the arrowhead `diag(θ_keep)` with the kept
-/// pairs' residual coefficients `S_keep` as its last block of rows.
-fn thick_restart(
-    [mut V, mut MV, mut T]: [MatMut<'_, f64>; 3],
-    kept: Orthonormal<'_>,
-    theta_kept: &[f64],
-    S_kept: MatRef<'_, f64>,
-    next: Orthonormal<'_>,
-) {
-    let n_keep = theta_kept.len();
-    set_columns(V.as_mut(), 0, kept.vectors);
-    set_columns(MV.as_mut(), 0, kept.M_vectors);
-    set_columns(V.as_mut(), n_keep, next.vectors);
-    set_columns(MV.as_mut(), n_keep, next.M_vectors);
-    T.fill(0.0);
-    for (k, &theta) in theta_kept.iter().enumerate() {
-        T[(k, k)] = theta;
-    }
-    T.submatrix_mut(n_keep, 0, S_kept.nrows(), n_keep)
-        .copy_from(S_kept);
 }

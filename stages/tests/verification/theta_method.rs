@@ -6,7 +6,7 @@
 
 use std::f64::consts::PI;
 
-use faer::{Mat, Side};
+use faer::{Mat, Side, c64};
 use serde::Deserialize;
 use squeal_stages::NoCheckpoints;
 use squeal_stages::artifact::CscMatrix;
@@ -66,6 +66,7 @@ struct StickSlip {
     balance_tolerance: f64,
 }
 
+/// Hoffmann's model on a belt, its two springs of unit stiffness.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct HoffmannOnABelt {
@@ -427,6 +428,52 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
     );
 }
 
+impl HoffmannOnABelt {
+    /// `[k11, k12, k22]` of the two unit springs at `angles_deg`.
+    fn spring_stiffness(&self) -> [f64; 3] {
+        let [a1, a2] = self.angles_deg.map(f64::to_radians);
+        [
+            a1.cos().powi(2) + a2.cos().powi(2),
+            a1.cos() * a1.sin() + a2.cos() * a2.sin(),
+            a1.sin().powi(2) + a2.sin().powi(2),
+        ]
+    }
+
+    /// The most unstable eigenpair of the linearised sliding problem, its shape over
+    /// (x, y_A, y_B): the null vector of `λ² M + K`, with y_B = 0.
+    fn linear_mode(&self) -> (c64, [c64; 3]) {
+        let [k11, k12, k22] = self.spring_stiffness();
+        let (m, m_b, k3, mu) = (
+            self.mass,
+            self.contact_node_mass,
+            self.contact_stiffness,
+            self.mu,
+        );
+        let reduced_M = CscMatrix::from_triplets(2, 2, vec![(0, 0, m + m_b), (1, 1, m)]);
+        let reduced_K = CscMatrix::from_triplets(
+            2,
+            2,
+            vec![
+                (0, 0, k11),
+                (0, 1, k12 + mu * k3),
+                (1, 0, k12),
+                (1, 1, k22 + k3),
+            ],
+        );
+        let no_damping = CscMatrix::from_triplets(2, 2, Vec::new());
+        let lambda = solve_matrices(&reduced_M, &no_damping, &reduced_K, 0.0, 1e-12)
+            .expect("eigenvalues")
+            .iter()
+            .map(|pair| pair.lambda)
+            .max_by(|a, b| a.re.total_cmp(&b.re))
+            .expect("two eigenvalues");
+        assert!(lambda.re > 0.0, "unstable at mu = {mu}");
+        let a11 = lambda * lambda * (m + m_b) + k11;
+        let a12 = c64::new(k12 + mu * k3, 0.0);
+        (lambda, [-a12, a11, c64::new(0.0, 0.0)])
+    }
+}
+
 /// Hoffmann's two-DOF model on a belt: a mass (x along the belt, y normal) held by springs k1,
 /// k2 at 150° and 20°, pressed by a normal force N through a contact spring k3 onto a light
 /// contact node (mass m_B, sharing x, its own normal DOF y_B) that slides on the belt at V.
@@ -443,10 +490,7 @@ fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
         case.normal_force,
         case.belt_speed,
     );
-    let [a1, a2] = case.angles_deg.map(f64::to_radians);
-    let k11 = a1.cos().powi(2) + a2.cos().powi(2);
-    let k12 = a1.cos() * a1.sin() + a2.cos() * a2.sin();
-    let k22 = a1.sin().powi(2) + a2.sin().powi(2);
+    let [k11, k12, k22] = case.spring_stiffness();
     let M = CscMatrix::from_triplets(3, 3, vec![(0, 0, m + m_b), (1, 1, m), (2, 2, m_b)]);
     let K = CscMatrix::from_triplets(
         3,
@@ -462,31 +506,7 @@ fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
         ],
     );
     let C = CscMatrix::from_triplets(3, 3, Vec::new());
-    // The linearised sliding problem and its most unstable eigenpair.
-    let reduced_M = CscMatrix::from_triplets(2, 2, vec![(0, 0, m + m_b), (1, 1, m)]);
-    let reduced_K = CscMatrix::from_triplets(
-        2,
-        2,
-        vec![
-            (0, 0, k11),
-            (0, 1, k12 + mu * k3),
-            (1, 0, k12),
-            (1, 1, k22 + k3),
-        ],
-    );
-    let no_damping = CscMatrix::from_triplets(2, 2, Vec::new());
-    let pairs =
-        solve_matrices(&reduced_M, &no_damping, &reduced_K, 0.0, 1e-12).expect("eigenvalues");
-    let lambda = pairs
-        .iter()
-        .map(|pair| pair.lambda)
-        .max_by(|a, b| a.re.total_cmp(&b.re))
-        .unwrap();
-    assert!(lambda.re > 0.0);
-    // Its shape: the null vector of λ² M + K, scaled to 1e-5.
-    let a11 = lambda * lambda * (m + m_b) + k11;
-    let a12 = faer::c64::new(k12 + mu * k3, 0.0);
-    let shape = [-a12, a11, faer::c64::new(0.0, 0.0)];
+    let (lambda, shape) = case.linear_mode();
     let (u0, v0) = mode_start(lambda, &shape, 1e-8);
     let structure = Structure {
         M: &M,

@@ -141,18 +141,16 @@ fn contact_group<'e>(
     Ok(group)
 }
 
-/// Pairs the coincident nodes of the disc and pad contact surfaces, with the disc's outward
-/// normal and tributary area at each pair.
-pub(super) fn pair_contact_nodes(
-    mesh: &Mesh,
-    elements: &Elements,
+/// The disc's and the pad's contact nodes (sorted indices), with the disc's group: both
+/// surfaces must have quadrangles and share no node.
+fn interface_nodes<'e>(
+    elements: &'e Elements,
     index_of_tag: &HashMap<u64, u32>,
+    tag_of_index: &HashMap<u32, u64>,
     contact: &ContactGroups,
-) -> Result<Vec<ContactPair>, MshError> {
+) -> Result<(&'e BoundaryGroup, Vec<u32>, Vec<u32>), MshError> {
     let disc_group = contact_group(elements, &contact.disc, "contact_disc")?;
     let pad_group = contact_group(elements, &contact.pad, "contact_pad")?;
-    let tag_of_index: HashMap<u32, u64> =
-        index_of_tag.iter().map(|(tag, idx)| (*idx, *tag)).collect();
     let indices = |group: &BoundaryGroup| {
         let mut set: Vec<u32> = group
             .node_tags
@@ -184,6 +182,21 @@ pub(super) fn pair_contact_nodes(
             tag_of_index[shared], contact.disc, contact.pad
         )));
     }
+    Ok((disc_group, disc_nodes, pad_nodes))
+}
+
+/// Pairs the coincident nodes of the disc and pad contact surfaces, with the disc's outward
+/// normal and tributary area at each pair.
+pub(super) fn pair_contact_nodes(
+    mesh: &Mesh,
+    elements: &Elements,
+    index_of_tag: &HashMap<u64, u32>,
+    contact: &ContactGroups,
+) -> Result<Vec<ContactPair>, MshError> {
+    let tag_of_index: HashMap<u32, u64> =
+        index_of_tag.iter().map(|(tag, idx)| (*idx, *tag)).collect();
+    let (disc_group, disc_nodes, pad_nodes) =
+        interface_nodes(elements, index_of_tag, &tag_of_index, contact)?;
 
     let (integrals, shortest_edge) =
         integrate_disc_faces(mesh, disc_group, &disc_nodes, index_of_tag, &contact.disc)?;

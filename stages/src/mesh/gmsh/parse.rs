@@ -485,6 +485,40 @@ fn boundary_nodes_per_element(
     }
 }
 
+/// An element line `elementTag nodeTag…`: its tag and its `n_nodes` node tags, each in
+/// `$Nodes`.
+fn parse_element_line(
+    fields: &[&str],
+    line_no: usize,
+    element_type: u32,
+    n_nodes: usize,
+    nodes: &Nodes,
+) -> Result<(u64, Vec<u64>), MshError> {
+    let element_tag: u64 = parse_number(fields.first(), line_no, "element tag")?;
+    if fields.len() != 1 + n_nodes {
+        return Err(MshError::at(
+            line_no,
+            format!(
+                "element {element_tag} ({}) needs {n_nodes} nodes, found {}",
+                element_type_name(element_type),
+                fields.len() - 1
+            ),
+        ));
+    }
+    let mut node_tags = Vec::with_capacity(n_nodes);
+    for field in &fields[1..] {
+        let tag: u64 = parse_number(Some(field), line_no, "node tag")?;
+        if !nodes.coords.contains_key(&tag) {
+            return Err(MshError::at(
+                line_no,
+                format!("element {element_tag} refers to node {tag}, which is not in $Nodes"),
+            ));
+        }
+        node_tags.push(tag);
+    }
+    Ok((element_tag, node_tags))
+}
+
 pub(super) fn parse_elements(
     section: &Section,
     nodes: &Nodes,
@@ -544,30 +578,8 @@ pub(super) fn parse_elements(
             if dim < 3 && groups.is_empty() {
                 continue;
             }
-            let element_tag: u64 = parse_number(fields.first(), line_no, "element tag")?;
-            if fields.len() != 1 + n_nodes {
-                return Err(MshError::at(
-                    line_no,
-                    format!(
-                        "element {element_tag} ({}) needs {n_nodes} nodes, found {}",
-                        element_type_name(element_type),
-                        fields.len() - 1
-                    ),
-                ));
-            }
-            let mut node_tags = Vec::with_capacity(n_nodes);
-            for field in &fields[1..] {
-                let tag: u64 = parse_number(Some(field), line_no, "node tag")?;
-                if !nodes.coords.contains_key(&tag) {
-                    return Err(MshError::at(
-                        line_no,
-                        format!(
-                            "element {element_tag} refers to node {tag}, which is not in $Nodes"
-                        ),
-                    ));
-                }
-                node_tags.push(tag);
-            }
+            let (element_tag, node_tags) =
+                parse_element_line(&fields, line_no, element_type, n_nodes, nodes)?;
             if dim == 3 {
                 elements.hexes.push(HexRecord {
                     tag: element_tag,
