@@ -25,6 +25,7 @@ pub mod ldlt;
 pub mod matrix_market;
 pub mod ordering;
 pub mod rng;
+pub mod sweeps;
 pub mod tall;
 pub mod toar;
 

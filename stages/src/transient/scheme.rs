@@ -10,7 +10,8 @@
 //! ```
 //!
 //! solved as in [`squeal_linalg::cholesky`]: one forward sweep, the contact problem on the
-//! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep. `C v` and `K v` come from one pass over
+//! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep (the independent subtrees of J's elimination
+//! tree in parallel, [`squeal_linalg::sweeps`]). `C v` and `K v` come from one pass over
 //! their union pattern; `M v` from the step's own equation,
 //!
 //! ```text
@@ -21,7 +22,7 @@
 //! product with two matrices. (The solve's backward error, ε‖J‖‖v‖ per step, is all that
 //! separates the derived `M v` from the product.)
 
-use faer::{MatMut, Par};
+use faer::Par;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::CscMatrix;
@@ -391,8 +392,7 @@ impl<'s> Operators<'s> {
         }
         self.cholesky.permute(&work.rhs, &mut work.y);
         let clock = std::time::Instant::now();
-        let y = MatMut::from_column_major_slice_mut(&mut work.y, work.rhs.len(), 1);
-        self.cholesky.forward_in_place(y, Par::Seq);
+        self.cholesky.forward_vector(&mut work.y);
         timings.sweeps += clock.elapsed().as_secs_f64();
         self.interface_solve.project(&work.y, &mut work.w_free);
         // The equivalent gap B̃ = g + τ(1−θ) w_n (Signorini on the end-of-step velocity).
@@ -430,8 +430,7 @@ impl<'s> Operators<'s> {
             self.interface_solve.lift(&state.r, &mut work.y);
         }
         let clock = std::time::Instant::now();
-        let y = MatMut::from_column_major_slice_mut(&mut work.y, work.rhs.len(), 1);
-        self.cholesky.backward_in_place(y, Par::Seq);
+        self.cholesky.backward_vector(&mut work.y);
         timings.sweeps += clock.elapsed().as_secs_f64();
         self.cholesky.unpermute(&work.y, &mut work.v_new);
         if work.v_new.iter().any(|value| !value.is_finite()) {

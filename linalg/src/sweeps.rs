@@ -1,0 +1,288 @@
+//! The two triangular sweeps of a supernodal Cholesky factor on one vector, `L y = b` and
+//! `Lᵀ x = y`, with independent subtrees of the elimination tree swept in parallel.
+//!
+//! A supernode's columns update only rows of its ancestors in the elimination tree, so the
+//! subtrees below a set of supernodes closed under taking ancestors (the *top*) are
+//! independent of one another. The forward sweep runs each such subtree as one task on a
+//! copy of its own entries, its updates of the top's rows summed in a buffer of its own and
+//! subtracted afterwards in task order; then it sweeps the top alone. The backward sweep runs
+//! the top first, then the subtrees, each reading the top's values.
+//!
+//! A sweep is bound by reading the factor from memory, once per sweep: two cores read it at
+//! nearly twice the rate of one. The partition depends on the tree alone, never on the
+//! thread count, and so does every sum: the result is bit-identical on any number of threads
+//! (it differs from a sequential sweep in the last bits, by the order of the top's sums).
+
+use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+use faer::{Accum, MatMut, MatRef, Par};
+use rayon::prelude::*;
+
+/// Subtrees swept as separate tasks, at most. Fixed, so that the partition and the sums do not
+/// depend on the thread count; enough to balance a few cores.
+const TASKS: usize = 8;
+
+/// One task: a whole subtree, its supernodes (ascending) and their columns, in that order.
+#[derive(Debug, Clone)]
+struct Task {
+    supernodes: Vec<usize>,
+    columns: Vec<usize>,
+}
+
+/// Where a row lives: a task's copy, or the top.
+const TOP: u32 = u32::MAX;
+
+/// The partition of a factor's supernodes into parallel subtrees and the sequential top.
+#[derive(Debug, Clone, Default)]
+pub struct SubtreeSweeps {
+    tasks: Vec<Task>,
+    /// Supernodes swept alone, ascending.
+    top: Vec<usize>,
+    /// Rows of the top supernodes, ascending.
+    top_rows: Vec<usize>,
+    /// Per row: the task whose copy holds it, or [`TOP`]; and its position in that copy, or
+    /// in `top_rows`.
+    owner: Vec<u32>,
+    slot: Vec<u32>,
+}
+
+/// One supernode's block: its first column, its diagonal block, the block below it and the
+/// rows of that block.
+struct Block<'a> {
+    start: usize,
+    diagonal: MatRef<'a, f64>,
+    below: MatRef<'a, f64>,
+    rows: &'a [usize],
+}
+
+fn block<'a>(L: SupernodalLltRef<'a, usize, f64>, s: usize) -> Block<'a> {
+    let supernode = L.supernode(s);
+    let values = supernode.val();
+    let (diagonal, below) = values.split_at_row(values.ncols());
+    Block {
+        start: supernode.start(),
+        diagonal,
+        below,
+        rows: supernode.pattern(),
+    }
+}
+
+impl SubtreeSweeps {
+    /// Splits the elimination forest of `L` (`n` unknowns): starting from its roots, the
+    /// heaviest subtree (in factor entries) is replaced by its children, its root joining the
+    /// top, until none outweighs half a task's share or the heaviest is a single supernode;
+    /// the subtrees are then packed into [`TASKS`] tasks.
+    pub fn new(L: SupernodalLltRef<'_, usize, f64>, n: usize) -> SubtreeSweeps {
+        let symbolic = L.symbolic();
+        let n_supernodes = symbolic.n_supernodes();
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        let mut supernode_of_column = vec![0usize; n];
+        for s in 0..n_supernodes {
+            supernode_of_column[begin[s]..end[s]].fill(s);
+        }
+        let mut children = vec![Vec::new(); n_supernodes];
+        let mut roots = Vec::new();
+        let mut weight = vec![0usize; n_supernodes];
+        // A supernode updates only later ones (its ancestors): one ascending pass sums
+        // subtrees.
+        for s in 0..n_supernodes {
+            let b = block(L, s);
+            weight[s] += b.diagonal.ncols() * (b.diagonal.ncols() + b.rows.len());
+            match b.rows.first() {
+                Some(&row) => {
+                    let parent = supernode_of_column[row];
+                    children[parent].push(s);
+                    weight[parent] += weight[s];
+                }
+                None => roots.push(s),
+            }
+        }
+        // Split the heaviest subtree while it outweighs a share of the whole, then pack the
+        // subtrees into TASKS bins, heaviest first into the lightest bin.
+        let total: usize = roots.iter().map(|&root| weight[root]).sum();
+        let mut frontier = roots;
+        let mut top = Vec::new();
+        let heaviest_of = |frontier: &[usize]| {
+            frontier
+                .iter()
+                .copied()
+                .enumerate()
+                .max_by_key(|&(_, s)| (weight[s], std::cmp::Reverse(s)))
+        };
+        while let Some((position, heaviest)) = heaviest_of(&frontier) {
+            if weight[heaviest] * 2 * TASKS <= total || children[heaviest].is_empty() {
+                break;
+            }
+            frontier.swap_remove(position);
+            frontier.extend_from_slice(&children[heaviest]);
+            top.push(heaviest);
+        }
+        frontier.sort_unstable_by_key(|&s| (std::cmp::Reverse(weight[s]), s));
+        let mut bins: Vec<(usize, Vec<usize>)> = vec![(0, Vec::new()); TASKS.min(frontier.len())];
+        for &root in &frontier {
+            let lightest = (0..bins.len())
+                .min_by_key(|&bin| (bins[bin].0, bin))
+                .expect("a bin");
+            bins[lightest].0 += weight[root];
+            bins[lightest].1.push(root);
+        }
+        top.sort_unstable();
+        let mut owner = vec![TOP; n];
+        let mut slot = vec![0u32; n];
+        let tasks: Vec<Task> = bins
+            .into_iter()
+            .enumerate()
+            .map(|(task, (_, roots))| {
+                let mut supernodes = roots;
+                let mut next = 0;
+                while next < supernodes.len() {
+                    supernodes.extend_from_slice(&children[supernodes[next]]);
+                    next += 1;
+                }
+                supernodes.sort_unstable();
+                let columns: Vec<usize> =
+                    supernodes.iter().flat_map(|&s| begin[s]..end[s]).collect();
+                for (position, &column) in columns.iter().enumerate() {
+                    owner[column] = task as u32;
+                    slot[column] = position as u32;
+                }
+                Task {
+                    supernodes,
+                    columns,
+                }
+            })
+            .collect();
+        let top_rows: Vec<usize> = top.iter().flat_map(|&s| begin[s]..end[s]).collect();
+        for (position, &row) in top_rows.iter().enumerate() {
+            slot[row] = position as u32;
+        }
+        SubtreeSweeps {
+            tasks,
+            top,
+            top_rows,
+            owner,
+            slot,
+        }
+    }
+
+    /// Subtrees swept in parallel.
+    pub fn n_tasks(&self) -> usize {
+        self.tasks.len()
+    }
+
+    /// `y = L⁻¹ b` in place (`x` in elimination order).
+    pub fn forward(&self, L: SupernodalLltRef<'_, usize, f64>, x: &mut [f64]) {
+        let n_top = self.top_rows.len();
+        let swept: Vec<(Vec<f64>, Vec<f64>)> = self
+            .tasks
+            .par_iter()
+            .enumerate()
+            .map(|(task_id, task)| {
+                let mut local: Vec<f64> = task.columns.iter().map(|&column| x[column]).collect();
+                let mut top_updates = vec![0.0; n_top];
+                let mut product = Vec::new();
+                for &s in &task.supernodes {
+                    let b = block(L, s);
+                    let offset = self.slot[b.start] as usize;
+                    solve_diagonal(&b, &mut local[offset..], &mut product);
+                    for (&row, &value) in b.rows.iter().zip(&product) {
+                        let slot = self.slot[row] as usize;
+                        if self.owner[row] == task_id as u32 {
+                            local[slot] -= value;
+                        } else {
+                            top_updates[slot] += value;
+                        }
+                    }
+                }
+                (local, top_updates)
+            })
+            .collect();
+        for (task, (local, top_updates)) in self.tasks.iter().zip(&swept) {
+            for (&column, &value) in task.columns.iter().zip(local) {
+                x[column] = value;
+            }
+            for (&row, &value) in self.top_rows.iter().zip(top_updates) {
+                x[row] -= value;
+            }
+        }
+        let mut product = Vec::new();
+        for &s in &self.top {
+            let b = block(L, s);
+            solve_diagonal(&b, &mut x[b.start..], &mut product);
+            for (&row, &value) in b.rows.iter().zip(&product) {
+                x[row] -= value;
+            }
+        }
+    }
+
+    /// `x = L⁻ᵀ y` in place (`x` in elimination order).
+    pub fn backward(&self, L: SupernodalLltRef<'_, usize, f64>, x: &mut [f64]) {
+        let mut below = Vec::new();
+        for &s in self.top.iter().rev() {
+            let b = block(L, s);
+            below.clear();
+            below.extend(b.rows.iter().map(|&row| x[row]));
+            solve_diagonal_transposed(&b, &mut x[b.start..], &below);
+        }
+        let shared: &[f64] = x;
+        let swept: Vec<Vec<f64>> = self
+            .tasks
+            .par_iter()
+            .enumerate()
+            .map(|(task_id, task)| {
+                let mut local: Vec<f64> =
+                    task.columns.iter().map(|&column| shared[column]).collect();
+                let mut below = Vec::new();
+                for &s in task.supernodes.iter().rev() {
+                    let b = block(L, s);
+                    below.clear();
+                    below.extend(b.rows.iter().map(|&row| {
+                        if self.owner[row] == task_id as u32 {
+                            local[self.slot[row] as usize]
+                        } else {
+                            shared[row]
+                        }
+                    }));
+                    let offset = self.slot[b.start] as usize;
+                    solve_diagonal_transposed(&b, &mut local[offset..], &below);
+                }
+                local
+            })
+            .collect();
+        for (task, local) in self.tasks.iter().zip(&swept) {
+            for (&column, &value) in task.columns.iter().zip(local) {
+                x[column] = value;
+            }
+        }
+    }
+}
+
+/// `x_s = L_ss⁻¹ x_s` on the supernode's leading entries of `x`, and `product = L_below x_s`.
+fn solve_diagonal(b: &Block<'_>, x: &mut [f64], product: &mut Vec<f64>) {
+    let size = b.diagonal.ncols();
+    let mut x_s = MatMut::from_column_major_slice_mut(&mut x[..size], size, 1);
+    solve_lower_triangular_in_place(b.diagonal, x_s.as_mut(), Par::Seq);
+    product.clear();
+    product.resize(b.rows.len(), 0.0);
+    let target = MatMut::from_column_major_slice_mut(product, b.rows.len(), 1);
+    matmul(target, Accum::Replace, b.below, x_s.as_ref(), 1.0, Par::Seq);
+}
+
+/// `x_s = L_ss⁻ᵀ (x_s − L_belowᵀ below)` on the supernode's leading entries of `x`.
+fn solve_diagonal_transposed(b: &Block<'_>, x: &mut [f64], below: &[f64]) {
+    let size = b.diagonal.ncols();
+    let mut x_s = MatMut::from_column_major_slice_mut(&mut x[..size], size, 1);
+    let below = MatRef::from_column_major_slice(below, below.len(), 1);
+    matmul(
+        x_s.as_mut(),
+        Accum::Add,
+        b.below.transpose(),
+        below,
+        -1.0,
+        Par::Seq,
+    );
+    solve_upper_triangular_in_place(b.diagonal.transpose(), x_s.as_mut(), Par::Seq);
+}
