@@ -140,17 +140,13 @@ pub(super) fn solve_shift(
         }
         // Ritz values of the k × k section, nearest σ (largest |θ|) first.
         let phase = Instant::now();
-        let RitzCheck {
-            theta,
-            S,
-            converged,
-            radius,
-        } = ritz_check(H.as_ref(), k, b, sigma, options.arnoldi_tolerance)?;
+        let check = ritz_check(H.as_ref(), k, b, sigma, options.arnoldi_tolerance)?;
+        let radius = check.radius;
         seconds.ritz += phase.elapsed().as_secs_f64();
         tracing::debug!(
             "stability: shift {:.0} Hz, basis {k}, {} converged, trusted radius {:.0} Hz, {:.1} s",
             sigma.im / (2.0 * PI),
-            converged.len(),
+            check.converged.len(),
             radius / (2.0 * PI),
             clock.elapsed().as_secs_f64()
         );
@@ -163,25 +159,16 @@ pub(super) fn solve_shift(
             continue;
         }
         let phase = Instant::now();
-        let eigenvalue = |i: usize| sigma + theta[i].inv();
-        // Eigenvectors only for the eigenvalues the band reports (the others, damped beyond
-        // d_max, only bound the disk).
-        let reported: Vec<usize> = converged
-            .iter()
-            .copied()
-            .filter(|&i| wanted(eigenvalue(i)))
-            .collect();
-        let lambdas: Vec<c64> = reported.iter().map(|&i| eigenvalue(i)).collect();
-        let coordinates =
-            ritz_coordinates(U.submatrix(0, 0, 2 * half.rank(), k), S.as_ref(), &reported);
-        let pairs = eigenpairs(system, &half, coordinates.as_ref(), &lambdas, scale);
+        let basis = U.submatrix(0, 0, 2 * half.rank(), k);
+        let (converged, pairs) =
+            shift_eigenpairs(system, &half, basis, &check, sigma, wanted, scale);
         seconds.vectors = phase.elapsed().as_secs_f64();
         report.seconds_arnoldi += clock.elapsed().as_secs_f64();
         return Ok(ShiftResult {
             sigma,
             radius: 0.99 * radius,
             basis: k,
-            converged: converged.iter().map(|&i| eigenvalue(i)).collect(),
+            converged,
             pairs,
             seconds,
         });
@@ -277,6 +264,32 @@ fn ritz_check(
         converged,
         radius,
     })
+}
+
+/// The converged eigenvalues `λ = σ + 1/θ` of a shift, and the eigenpairs of those that
+/// `wanted` selects (the others, damped beyond d_max, only bound the disk), from the Arnoldi
+/// `basis` (interleaved coordinates).
+fn shift_eigenpairs(
+    system: &SlidingSystem,
+    half: &HalfBasis,
+    basis: MatRef<'_, c64>,
+    check: &RitzCheck,
+    sigma: c64,
+    wanted: &dyn Fn(c64) -> bool,
+    scale: f64,
+) -> (Vec<c64>, Vec<EigenPair>) {
+    let eigenvalue = |i: usize| sigma + check.theta[i].inv();
+    let reported: Vec<usize> = check
+        .converged
+        .iter()
+        .copied()
+        .filter(|&i| wanted(eigenvalue(i)))
+        .collect();
+    let lambdas: Vec<c64> = reported.iter().map(|&i| eigenvalue(i)).collect();
+    let coordinates = ritz_coordinates(basis, check.S.as_ref(), &reported);
+    let pairs = eigenpairs(system, half, coordinates.as_ref(), &lambdas, scale);
+    let converged = check.converged.iter().map(|&i| eigenvalue(i)).collect();
+    (converged, pairs)
 }
 
 /// The coordinates in `Q` of the Ritz vectors `columns` of `S` (Schur vectors of the Arnoldi
