@@ -223,8 +223,8 @@ stages:
     };
     assert_eq!(digests("out_a"), digests("out_b"));
     assert_eq!(digests("out_a").len(), 9);
-    let a = std::fs::read(workspace.path().join("out_a/gathered/table.parquet")).unwrap();
-    let b = std::fs::read(workspace.path().join("out_b/gathered/table.parquet")).unwrap();
+    let a = std::fs::read(workspace.path().join("out_a/gathered/gathered.parquet")).unwrap();
+    let b = std::fs::read(workspace.path().join("out_b/gathered/gathered.parquet")).unwrap();
     assert_eq!(a, b);
     let verify = workspace.squeal(&["cache", "verify", "--cache", ".squeal/cache"]);
     assert!(verify.status.success());
@@ -249,7 +249,7 @@ stages:
     inputs: { table: source.table }
 ";
     workspace.write("fail.yaml", study);
-    let output = workspace.squeal(&["run", "fail.yaml", "--out", "out"]);
+    let output = workspace.squeal(&["run", "fail.yaml", "--out", "out", "-v"]);
     assert_eq!(output.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
@@ -258,6 +258,13 @@ stages:
         ),
         "{stderr}"
     );
+    assert_eq!(
+        stderr.matches("solver did not converge").count(),
+        1,
+        "the failure is printed once: {stderr}"
+    );
+    // Written to a pipe, the log carries no colour codes.
+    assert!(!stderr.contains('\x1b'), "{stderr:?}");
     assert!(
         stderr.contains("skipped after_broken: `broken` did not complete"),
         "{stderr}"

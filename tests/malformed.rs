@@ -145,7 +145,7 @@ fn references() {
     );
     check_file(
         "wrong_output_type.yaml",
-        "9:22: stages.scaled.inputs.table: `view.vtu` is a document, but input `table` takes a table",
+        "9:22: stages.scaled.inputs.table: `view.mesh` is a document, but input `table` takes a table",
     );
 }
 

@@ -110,7 +110,7 @@ fn gathered_tables_carry_the_swept_parameters_as_columns() {
     let workspace = Workspace::new();
     workspace.write("sweep.yaml", SWEEP);
     workspace.run_ok(&["run", "sweep.yaml", "--out", "out"]);
-    let gathered = read_parquet(&workspace.path().join("out/gathered/table.parquet"));
+    let gathered = read_parquet(&workspace.path().join("out/gathered/gathered.parquet"));
     let columns: Vec<String> = gathered
         .schema()
         .fields()
@@ -190,7 +190,7 @@ stages:
         3
     );
     assert!(names.contains(&"right[value=2,decimals=1]"), "{names:?}");
-    let gathered = read_parquet(&workspace.path().join("out/both/table.parquet"));
+    let gathered = read_parquet(&workspace.path().join("out/both/gathered.parquet"));
     assert_eq!(gathered.num_rows(), 6);
     assert_eq!(floats(&gathered, "value"), [1.0, 1.0, 2.0, 2.0, 3.0, 3.0]);
 }
@@ -236,7 +236,7 @@ stages:
 ",
     );
     workspace.run_ok(&["run", "timed.yaml", "--out", "out"]);
-    let times = read_parquet(&workspace.path().join("out/times/table.parquet"));
+    let times = read_parquet(&workspace.path().join("out/times/gathered.parquet"));
     let manifest = read_parquet(&workspace.path().join("out/manifest.parquet"));
     let stages = strings(&manifest, "stage");
     let compute = floats(&manifest, "compute_s");
@@ -291,7 +291,7 @@ stages:
 ",
     );
     workspace.run_ok(&["run", "front.yaml", "--out", "out"]);
-    let front = read_parquet(&workspace.path().join("out/front/table.parquet"));
+    let front = read_parquet(&workspace.path().join("out/front/points.parquet"));
     assert_eq!(floats(&front, "value"), [0.5, 0.25]);
     assert_eq!(floats(&front, "x"), [0.5, 0.25]);
     let speed_up = floats(&front, "speed_up");
@@ -299,5 +299,40 @@ stages:
         speed_up.iter().all(|s| s.is_finite() && *s > 0.0),
         "{speed_up:?}"
     );
-    assert!(workspace.path().join("out/front/figure.png").exists());
+    assert!(workspace.path().join("out/front/fronts.png").exists());
+}
+
+#[test]
+fn a_study_naming_a_renamed_output_loads_with_a_warning_giving_the_new_name() {
+    let workspace = Workspace::new();
+    workspace.write(
+        "renamed.yaml",
+        "\
+stages:
+  mesh:
+    kind: mesh.brake
+  model:
+    kind: assemble
+    inputs: { mesh: mesh.mesh }
+  modes:
+    kind: modes
+    inputs: { model: model.model }
+  all_modes:
+    kind: table.gather
+    inputs: { tables: modes.table }
+",
+    );
+    let stderr = workspace.run_ok(&["validate", "renamed.yaml"]);
+    assert!(
+        stderr.contains(
+            "renamed.yaml:12:23: stages.all_modes.inputs.tables: output `modes.table` is now \
+             `modes.frequencies`; the old name is read until the next release"
+        ),
+        "{stderr}"
+    );
+    let dag = workspace.squeal(&["dag", "renamed.yaml", "--format", "dot"]);
+    assert!(
+        String::from_utf8_lossy(&dag.stdout).contains("frequencies"),
+        "the old name resolves to the new output"
+    );
 }

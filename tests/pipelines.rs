@@ -37,7 +37,7 @@ fn quick_study_runs_and_is_coarse() {
     assert_eq!(dofs, 3 * (5 * 48 * 3 + 4 * 27));
     assert!(dofs < 3_000);
 
-    let modes = read_parquet(&workspace.path().join("out/modes/table.parquet"));
+    let modes = read_parquet(&workspace.path().join("out/modes/frequencies.parquet"));
     assert_eq!(modes.num_rows(), 12);
     let frequencies = floats(&modes, "freq_hz");
     assert!(
@@ -71,8 +71,8 @@ fn quick_study_runs_and_is_coarse() {
     );
     let contact = read_parquet(&workspace.path().join("out/equilibrium/contact.parquet"));
     assert_eq!(contact.num_rows(), 4 * 9);
-    assert!(workspace.path().join("out/mode_shapes/vtu.vtu").exists());
-    let vtu = std::fs::read_to_string(workspace.path().join("out/equilibrium/vtu.vtu")).unwrap();
+    assert!(workspace.path().join("out/mode_shapes/modes.vtu").exists());
+    let vtu = std::fs::read_to_string(workspace.path().join("out/equilibrium/fields.vtu")).unwrap();
     assert!(vtu.contains("Name=\"contact_pressure\"") && vtu.contains("Name=\"displacement\""));
     let png = std::fs::read(workspace.path().join("out/equilibrium/pressure.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -94,7 +94,7 @@ fn quick_study_runs_and_is_coarse() {
         "diagram.png",
         "diagram.svg",
         "shapes.parquet",
-        "unstable_vtu.vtu",
+        "unstable_modes.vtu",
     ] {
         assert!(
             workspace.path().join("out/stability").join(file).exists(),
@@ -127,7 +127,7 @@ fn the_mu_sweep_tracks_modes_across_mu() {
     assert!(unstable_at(0.6));
     let png = std::fs::read(workspace.path().join("out/tracked/coalescence.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    let gathered = read_parquet(&workspace.path().join("out/eigenvalues/table.parquet"));
+    let gathered = read_parquet(&workspace.path().join("out/eigenvalues/gathered.parquet"));
     assert_eq!(gathered.num_rows(), tracked.num_rows());
 }
 
@@ -229,7 +229,7 @@ fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
         "spectrum/peaks.parquet",
         "wavelet/power.parquet",
         "projection/projection.parquet",
-        "compare/figure.png",
+        "compare/spectra.png",
     ] {
         assert!(out.join(output).exists(), "{output}");
     }
@@ -321,7 +321,7 @@ fn a_basis_sweep_gathers_into_pareto_and_an_adaptive_basis_meets_its_default_tar
         "cache",
     ]);
     let out = workspace.path().join("out");
-    let table = read_parquet(&out.join("pareto/table.parquet"));
+    let table = read_parquet(&out.join("pareto/points.parquet"));
     assert_eq!(table.num_rows(), 4);
     assert_eq!(
         strings(&table, "kind"),
@@ -334,7 +334,7 @@ fn a_basis_sweep_gathers_into_pareto_and_an_adaptive_basis_meets_its_default_tar
             "{column}"
         );
     }
-    assert!(out.join("pareto/figure.png").exists());
+    assert!(out.join("pareto/fronts.png").exists());
     let rounds = read_parquet(&out.join("adaptive/rounds.parquet"));
     let indicators = floats(&rounds, "indicator");
     assert!(*indicators.last().unwrap() <= 1e-3, "{indicators:?}");
@@ -412,10 +412,10 @@ fn the_tgv_brake_study_runs_from_mesh_to_wavelet_with_57_unstable_modes() {
     assert!(advance.abs() < 5e-4, "time advance {advance} s");
     for figure in [
         "wavelet/map.png",
-        "spectrum/figure.png",
-        "velocity_spectrum/figure.png",
-        "projection/figure.png",
-        "compare/figure.png",
+        "spectrum/spectrum_figure.png",
+        "velocity_spectrum/spectrum_figure.png",
+        "projection/projection_figure.png",
+        "compare/spectra.png",
     ] {
         assert!(out.join(figure).exists(), "{figure}");
     }

@@ -341,7 +341,8 @@ impl Executor<'_> {
                         report.compute_s = compute_s;
                     }
                     Err(message) => {
-                        tracing::error!(stage = %instance.name, "{message}");
+                        // The caller prints the failure once, with the run's summary.
+                        tracing::debug!(stage = %instance.name, "failed: {message}");
                         report.status = Status::Failed(message);
                         return report;
                     }

@@ -391,8 +391,21 @@ impl Validator<'_> {
             let from = *stage_index.get(from_name).ok_or_else(|| {
                 reference.error(&input_path, format!("no stage named `{from_name}`"))
             })?;
+            let mut output = output;
             // The upstream kind was validated or will be: look it up without failing twice.
             if let Some(upstream) = registry.get(&raw_stages[from].1.kind.value) {
+                if let Some((_, new)) = upstream
+                    .renamed_outputs()
+                    .iter()
+                    .find(|(old, _)| *old == output)
+                {
+                    let message = format!(
+                        "output `{from_name}.{output}` is now `{from_name}.{new}`; \
+                         the old name is read until the next release"
+                    );
+                    tracing::warn!("{}", reference.error(&input_path, message));
+                    output = new;
+                }
                 let out = upstream
                     .outputs()
                     .into_iter()

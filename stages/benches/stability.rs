@@ -13,6 +13,7 @@
 //! scipy's shift-invert `eigs` on the same problem.
 
 use std::f64::consts::PI;
+use std::io::IsTerminal;
 use std::time::Instant;
 
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
@@ -154,6 +155,7 @@ fn main() {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
         .init();
     let mesh = brake(&BrakeGeometry::default()).expect("default brake");
     let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &[]).expect("assembly");

@@ -457,6 +457,11 @@ pub trait Stage: Send + Sync {
     fn params(&self) -> Vec<ParamSpec>;
     fn inputs(&self) -> Vec<PortSpec>;
     fn outputs(&self) -> Vec<PortSpec>;
+    /// Outputs renamed since the last release, `(old, new)`: a study naming the old one still
+    /// loads, with a warning, until the release after.
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[]
+    }
     fn pure(&self) -> bool {
         true
     }

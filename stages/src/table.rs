@@ -237,9 +237,12 @@ impl Stage for Gather {
             "the table of every sweep point",
         )]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("table", "gathered")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
-            "table",
+            "gathered",
             ArtifactType::Table,
             "all points, coordinates first",
         )]
@@ -257,7 +260,7 @@ impl Stage for Gather {
             .collect::<Result<_, StageError>>()?;
         let table = Table::gather(&tables)?;
         Ok(Outputs::from([(
-            "table".to_string(),
+            "gathered".to_string(),
             Artifact::Table(table),
         )]))
     }
@@ -295,7 +298,7 @@ mod tests {
             Input::Many(points),
         )]));
         let outputs = Gather.run(&Params::default(), &inputs).unwrap();
-        let table = outputs["table"].as_table().unwrap();
+        let table = outputs["gathered"].as_table().unwrap();
         assert_eq!(
             table.column("mu"),
             Some(&ColumnData::F64(vec![0.1, 0.1, 0.2]))

@@ -676,7 +676,7 @@ mod tests {
         let outputs = ModesVtu
             .run(&max_modes(20), &stage_inputs(&model, &modes))
             .unwrap();
-        let Artifact::Document(vtu) = &outputs["vtu"] else {
+        let Artifact::Document(vtu) = &outputs["modes"] else {
             panic!("not a document")
         };
         assert_eq!(vtu.extension, "vtu");
@@ -709,7 +709,7 @@ mod tests {
         let outputs = ModesVtu
             .run(&max_modes(1), &stage_inputs(&model, &modes))
             .unwrap();
-        let Artifact::Document(vtu) = &outputs["vtu"] else {
+        let Artifact::Document(vtu) = &outputs["modes"] else {
             panic!("not a document")
         };
         let (_, arrays) = parse_vtu(std::str::from_utf8(&vtu.bytes).unwrap());

@@ -73,15 +73,18 @@ impl Stage for Pareto {
             ),
         ]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("table", "points"), ("figure", "fronts")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
-                "table",
+                "points",
                 ArtifactType::Table,
                 "one row per point: coordinates, run_s, build_s, total_s, speed_up, speed_up_total, errors, front_<error>",
             ),
             PortSpec::one(
-                "figure",
+                "fronts",
                 ArtifactType::Figure,
                 "each error against the total run time, Pareto fronts joined",
             ),
@@ -188,8 +191,8 @@ impl Stage for Pareto {
             (1000, 330 * panels.len().div_ceil(2).max(1) as u32),
         )?;
         Ok(Outputs::from([
-            ("table".to_string(), Artifact::Table(table)),
-            ("figure".to_string(), Artifact::Figure(figure)),
+            ("points".to_string(), Artifact::Table(table)),
+            ("fronts".to_string(), Artifact::Figure(figure)),
         ]))
     }
 }
@@ -426,7 +429,7 @@ mod tests {
             Value::Str("freq_error, rms, mac_min".into()),
         )]));
         let outputs = Pareto.run(&params, &inputs).unwrap();
-        let table = outputs["table"].as_table().unwrap();
+        let table = outputs["points"].as_table().unwrap();
         assert_eq!(f64s(table, "speed_up").unwrap(), [20.0, 10.0, 40.0 / 3.0]);
         let front = match table.column("front_rms") {
             Some(ColumnData::Bool(front)) => front.clone(),
@@ -439,7 +442,7 @@ mod tests {
         };
         assert_eq!(front, [true, true, false], "1 − MAC is compared");
         assert!(matches!(table.column("kind"), Some(ColumnData::Str(_))));
-        let Artifact::Figure(figure) = &outputs["figure"] else {
+        let Artifact::Figure(figure) = &outputs["fronts"] else {
             panic!("no figure");
         };
         assert!(figure.svg.contains("|rms| against run time"));

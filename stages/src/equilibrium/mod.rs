@@ -631,6 +631,9 @@ impl Stage for SlidingEquilibrium {
             "the assembled brake, with contact pairs",
         )]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("vtu", "fields")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -649,7 +652,7 @@ impl Stage for SlidingEquilibrium {
                 "load, solver, iterations, residuals, total contact force per side",
             ),
             PortSpec::one(
-                "vtu",
+                "fields",
                 ArtifactType::Document,
                 "displacement, contact pressure and gap for ParaView",
             ),
@@ -697,7 +700,7 @@ impl Stage for SlidingEquilibrium {
             ),
             ("contact".to_string(), Artifact::Table(contact)),
             ("summary".to_string(), Artifact::Table(summary)),
-            ("vtu".to_string(), vtu),
+            ("fields".to_string(), vtu),
             ("pressure".to_string(), Artifact::Figure(pressure)),
         ]))
     }

@@ -30,18 +30,21 @@ impl Stage for MeshVtu {
             "the mesh to look at",
         )]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("vtu", "mesh")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
-            "vtu",
+            "mesh",
             ArtifactType::Document,
-            "vtu.vtu: cell data `part`, point data per node set and `contact`",
+            "mesh.vtu: cell data `part`, point data per node set and `contact`",
         )]
     }
     fn run(&self, _params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let mesh = inputs.get::<Mesh>("mesh")?;
         let text = mesh_vtu(mesh).map_err(StageError::new)?;
         Ok(Outputs::from([(
-            "vtu".to_string(),
+            "mesh".to_string(),
             Artifact::document("vtu", text),
         )]))
     }
@@ -91,11 +94,14 @@ impl Stage for ModesVtu {
             ),
         ]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("vtu", "modes")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
-            "vtu",
+            "modes",
             ArtifactType::Document,
-            "vtu.vtu: point data `mode_0001_<f>Hz`, ... (vectors, zero at clamped DOFs)",
+            "modes.vtu: point data `mode_0001_<f>Hz`, ... (vectors, zero at clamped DOFs)",
         )]
     }
     fn check_params(&self, params: &Params) -> Result<(), StageError> {
@@ -108,7 +114,7 @@ impl Stage for ModesVtu {
         let max_modes = usize::try_from(max_modes).unwrap_or(0);
         let text = modes_vtu(model, modes, max_modes)?;
         Ok(Outputs::from([(
-            "vtu".to_string(),
+            "modes".to_string(),
             Artifact::document("vtu", text),
         )]))
     }

@@ -79,6 +79,9 @@ impl Stage for Modes {
         )]
     }
 
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("table", "frequencies")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -87,7 +90,7 @@ impl Stage for Modes {
                 "omega, mass-normalised shapes, residuals",
             ),
             PortSpec::one(
-                "table",
+                "frequencies",
                 ArtifactType::Table,
                 "per mode: frequency, omega, residual, participation and effective mass along x, y, z",
             ),
@@ -117,7 +120,7 @@ impl Stage for Modes {
         let modes = real_modes(solution);
         Ok(Outputs::from([
             ("modes".to_string(), Artifact::RealModes(Box::new(modes))),
-            ("table".to_string(), Artifact::Table(table)),
+            ("frequencies".to_string(), Artifact::Table(table)),
             ("shapes".to_string(), Artifact::Table(shapes)),
         ]))
     }

@@ -36,10 +36,10 @@ fn stage_outputs_are_reproducible_and_shaped_as_documented() {
     let model = cantilever(0.3, 0.03, 30, 2);
     let first = run_stage(&model, &[("n_modes", Value::Int(8))]).unwrap();
     let second = run_stage(&model, &[("n_modes", Value::Int(8))]).unwrap();
-    for name in ["modes", "table", "shapes"] {
+    for name in ["modes", "frequencies", "shapes"] {
         assert_eq!(first[name].encode(), second[name].encode(), "output {name}");
     }
-    let table = first["table"].as_table().unwrap();
+    let table = first["frequencies"].as_table().unwrap();
     assert_eq!(table.n_rows(), 8);
     for column in [
         "mode",

@@ -140,6 +140,9 @@ impl Stage for Compare {
             .optional(),
         ]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("figure", "spectra")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -148,7 +151,7 @@ impl Stage for Compare {
                 "one row: peak frequencies and level errors, time advance, RMS, contact-state and MAC errors",
             ),
             PortSpec::one(
-                "figure",
+                "spectra",
                 ArtifactType::Figure,
                 "kinetic energy against time and the spectra of both runs",
             ),
@@ -242,7 +245,7 @@ impl Stage for Compare {
         )?;
         Ok(Outputs::from([
             ("errors".to_string(), Artifact::Table(errors)),
-            ("figure".to_string(), Artifact::Figure(figure)),
+            ("spectra".to_string(), Artifact::Figure(figure)),
         ]))
     }
 }

@@ -230,6 +230,9 @@ impl Stage for Spectrum {
             "signal table: time `t` (s, uniform) and signal columns",
         )]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("figure", "spectrum_figure")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -243,7 +246,7 @@ impl Stage for Spectrum {
                 "freq_hz, level (power of the peak bin), highest first",
             ),
             PortSpec::one(
-                "figure",
+                "spectrum_figure",
                 ArtifactType::Figure,
                 "power against frequency, log scale, peaks marked",
             ),
@@ -316,7 +319,7 @@ impl Stage for Spectrum {
         Ok(BTreeMap::from([
             ("spectrum".to_string(), Artifact::Table(spectrum_table)),
             ("peaks".to_string(), Artifact::Table(peaks_table)),
-            ("figure".to_string(), Artifact::Figure(figure)),
+            ("spectrum_figure".to_string(), Artifact::Figure(figure)),
         ]))
     }
 }
@@ -538,7 +541,7 @@ mod tests {
             panic!()
         };
         assert_eq!(spectrum_freqs.len(), 25_000 / 2 + 1);
-        let Artifact::Figure(figure) = &outputs["figure"] else {
+        let Artifact::Figure(figure) = &outputs["spectrum_figure"] else {
             panic!()
         };
         assert!(figure.svg.contains("Power spectrum"));

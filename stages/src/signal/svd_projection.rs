@@ -433,6 +433,9 @@ impl Stage for SvdProjection {
             ),
         ]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("figure", "projection_figure")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -451,7 +454,7 @@ impl Stage for SvdProjection {
                 "wide: one row per DOF, shape_NNNN (M-unit), the first n_shapes",
             ),
             PortSpec::one(
-                "figure",
+                "projection_figure",
                 ArtifactType::Figure,
                 "projection coefficient against mode frequency, one panel per shape",
             ),
@@ -535,7 +538,7 @@ impl Stage for SvdProjection {
             ("principal".to_string(), Artifact::Table(principal)),
             ("projection".to_string(), Artifact::Table(projection)),
             ("shapes".to_string(), Artifact::Table(shapes_table)),
-            ("figure".to_string(), Artifact::Figure(figure)),
+            ("projection_figure".to_string(), Artifact::Figure(figure)),
         ]))
     }
 }
@@ -839,7 +842,7 @@ mod tests {
                 "shape {shape_number}: Σ|c|² = {in_plane}"
             );
         }
-        let Artifact::Figure(figure) = &outputs["figure"] else {
+        let Artifact::Figure(figure) = &outputs["projection_figure"] else {
             panic!()
         };
         assert!(figure.svg.contains("principal shapes"));

@@ -444,6 +444,9 @@ impl Stage for Stability {
             ),
         ]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("unstable_vtu", "unstable_modes")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -467,7 +470,7 @@ impl Stage for Stability {
                 "stability diagram: divergence rate against frequency",
             ),
             PortSpec::one(
-                "unstable_vtu",
+                "unstable_modes",
                 ArtifactType::Document,
                 "unstable mode shapes (real and imaginary parts) for ParaView",
             ),
@@ -544,7 +547,7 @@ impl Stage for Stability {
                 Artifact::Table(summary_table(&solution, &settings)),
             ),
             ("diagram".to_string(), Artifact::Figure(diagram)),
-            ("unstable_vtu".to_string(), Artifact::document("vtu", vtu)),
+            ("unstable_modes".to_string(), Artifact::document("vtu", vtu)),
         ]))
     }
 }

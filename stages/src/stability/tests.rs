@@ -285,7 +285,7 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
             panic!()
         };
         assert!(diagram.svg.contains("Stability diagram"));
-        let Artifact::Document(vtu) = &outputs["unstable_vtu"] else {
+        let Artifact::Document(vtu) = &outputs["unstable_modes"] else {
             panic!()
         };
         let vtu = String::from_utf8(vtu.bytes.clone()).unwrap();

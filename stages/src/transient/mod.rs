@@ -283,6 +283,9 @@ impl Stage for Transient {
             .optional(),
         ]
     }
+    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
+        &[("figure", "history_figure")]
+    }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
             PortSpec::one(
@@ -321,7 +324,7 @@ impl Stage for Transient {
                 "steps, contact solver figures, peak penetration, energy balance",
             ),
             PortSpec::one(
-                "figure",
+                "history_figure",
                 ArtifactType::Figure,
                 "kinetic energy, contact averages and contact states against time",
             ),
@@ -760,7 +763,7 @@ fn outputs(
         ("mass".to_string(), Artifact::Table(mass_table(model))),
         ("energy".to_string(), Artifact::Table(energy)),
         ("summary".to_string(), Artifact::Table(summary)),
-        ("figure".to_string(), Artifact::Figure(figure)),
+        ("history_figure".to_string(), Artifact::Figure(figure)),
         ("energy_figure".to_string(), Artifact::Figure(energy_figure)),
     ]))
 }
