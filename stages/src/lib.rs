@@ -46,6 +46,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
     let mut kinds: Vec<Arc<dyn Stage>> = vec![
         Arc::new(mesh::brake::MeshBrake),
         Arc::new(mesh::gmsh::GmshImport),
+        Arc::new(mesh::abaqus::AbaqusImport),
         Arc::new(assemble::Assemble),
         Arc::new(modes::Modes),
         Arc::new(equilibrium::SlidingEquilibrium),

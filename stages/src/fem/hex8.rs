@@ -444,6 +444,11 @@ pub fn det_j_at(coords: &[[f64; 3]; 8], xi: [f64; 3]) -> f64 {
     determinant(&jacobian(coords, &shape_gradients(xi)))
 }
 
+/// The first corner where `det J <= 0`: the element is inverted or degenerate there.
+pub fn first_inverted_corner(coords: &[[f64; 3]; 8]) -> Option<usize> {
+    (0..8).find(|&corner| det_j_at(coords, NODE_REFERENCE[corner]) <= 0.0)
+}
+
 /// The smallest `det J` over the corners and Gauss points, with where it occurs.
 pub fn min_det_j(coords: &[[f64; 3]; 8]) -> (f64, Location) {
     let corners = NODE_REFERENCE

@@ -5,9 +5,9 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::parse::{BoundaryGroup, Elements, GroupKey, Nodes, element_type_name};
 use super::{ContactGroups, MshError, ReadOptions};
-use crate::artifact::mesh::{ContactPair, Mesh, dot, norm, sub};
-use crate::fem::hex8::{NODE_REFERENCE, det_j_at};
-use crate::mesh::contact_faces::{FaceIntegrals, quad_tangents};
+use crate::artifact::mesh::{ContactPair, Mesh};
+use crate::fem::hex8::first_inverted_corner;
+use crate::mesh::interface::{self, Side};
 
 pub(super) fn build_mesh(
     nodes: &Nodes,
@@ -44,9 +44,7 @@ pub(super) fn build_mesh(
     for record in &elements.hexes {
         let hex = record.nodes.map(|tag| index_of_tag[&tag]);
         let corners = hex.map(|node| mesh_nodes[node as usize]);
-        if let Some(corner) =
-            (0..8).find(|&corner| det_j_at(&corners, NODE_REFERENCE[corner]) <= 0.0)
-        {
+        if let Some(corner) = first_inverted_corner(&corners) {
             return Err(MshError::at(
                 record.line,
                 format!(
@@ -90,16 +88,6 @@ pub(super) fn build_mesh(
     Ok(mesh)
 }
 
-/// The six faces of a hexahedron, by local node.
-const HEX_FACES: [[usize; 4]; 6] = [
-    [0, 3, 2, 1],
-    [4, 5, 6, 7],
-    [0, 1, 5, 4],
-    [1, 2, 6, 5],
-    [2, 3, 7, 6],
-    [3, 0, 4, 7],
-];
-
 /// The surface groups named `name` (one per dimension at most is a surface).
 fn contact_group<'e>(
     elements: &'e Elements,
@@ -141,50 +129,6 @@ fn contact_group<'e>(
     Ok(group)
 }
 
-/// The disc's and the pad's contact nodes (sorted indices), with the disc's group: both
-/// surfaces must have quadrangles and share no node.
-fn interface_nodes<'e>(
-    elements: &'e Elements,
-    index_of_tag: &HashMap<u64, u32>,
-    tag_of_index: &HashMap<u32, u64>,
-    contact: &ContactGroups,
-) -> Result<(&'e BoundaryGroup, Vec<u32>, Vec<u32>), MshError> {
-    let disc_group = contact_group(elements, &contact.disc, "contact_disc")?;
-    let pad_group = contact_group(elements, &contact.pad, "contact_pad")?;
-    let indices = |group: &BoundaryGroup| {
-        let mut set: Vec<u32> = group
-            .node_tags
-            .iter()
-            .map(|tag| index_of_tag[tag])
-            .collect();
-        set.sort_unstable();
-        set.dedup();
-        set
-    };
-    let disc_nodes = indices(disc_group);
-    let pad_nodes = indices(pad_group);
-    if disc_group.quads.is_empty() || pad_group.quads.is_empty() {
-        let empty = if disc_group.quads.is_empty() {
-            &contact.disc
-        } else {
-            &contact.pad
-        };
-        return Err(MshError::whole_file(format!(
-            "contact surface `{empty}` has no quadrangles"
-        )));
-    }
-    if let Some(shared) = disc_nodes
-        .iter()
-        .find(|node| pad_nodes.binary_search(node).is_ok())
-    {
-        return Err(MshError::whole_file(format!(
-            "node {} is on both `{}` and `{}`: the contact interface needs duplicated nodes, one copy per side (mesh the parts without fragmenting them, or use Plugin(Crack))",
-            tag_of_index[shared], contact.disc, contact.pad
-        )));
-    }
-    Ok((disc_group, disc_nodes, pad_nodes))
-}
-
 /// Pairs the coincident nodes of the disc and pad contact surfaces, with the disc's outward
 /// normal and tributary area at each pair.
 pub(super) fn pair_contact_nodes(
@@ -193,212 +137,75 @@ pub(super) fn pair_contact_nodes(
     index_of_tag: &HashMap<u64, u32>,
     contact: &ContactGroups,
 ) -> Result<Vec<ContactPair>, MshError> {
+    let disc_group = contact_group(elements, &contact.disc, "contact_disc")?;
+    let pad_group = contact_group(elements, &contact.pad, "contact_pad")?;
+    for (group, name) in [(disc_group, &contact.disc), (pad_group, &contact.pad)] {
+        if group.quads.is_empty() {
+            return Err(MshError::whole_file(format!(
+                "contact surface `{name}` has no quadrangles"
+            )));
+        }
+    }
+    let side = |group: &BoundaryGroup, name| {
+        Side::new(name, group.node_tags.iter().map(|tag| index_of_tag[tag]))
+    };
+    let disc = side(disc_group, &contact.disc);
+    let pad = side(pad_group, &contact.pad);
+    let disc_faces = disc_faces(mesh, disc_group, &disc, index_of_tag)?;
     let tag_of_index: HashMap<u32, u64> =
         index_of_tag.iter().map(|(tag, idx)| (*idx, *tag)).collect();
-    let (disc_group, disc_nodes, pad_nodes) =
-        interface_nodes(elements, index_of_tag, &tag_of_index, contact)?;
-
-    let (integrals, shortest_edge) =
-        integrate_disc_faces(mesh, disc_group, &disc_nodes, index_of_tag, &contact.disc)?;
-
-    let tolerance = contact.relative_tolerance * shortest_edge;
-    let pad_grid = PointGrid::new(&mesh.nodes, &pad_nodes, shortest_edge.max(tolerance));
-    let mut partner_of_pad: HashMap<u32, u32> = HashMap::new();
-    let mut pairs = Vec::with_capacity(disc_nodes.len());
-    for &disc_node in &disc_nodes {
-        let position = mesh.nodes[disc_node as usize];
-        let candidates = pad_grid.within(&mesh.nodes, position, tolerance);
-        let pad_node = match candidates[..] {
-            [pad_node] => pad_node,
-            [] => {
-                return Err(MshError::whole_file(format!(
-                    "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming",
-                    tag_of_index[&disc_node],
-                    contact.disc,
-                    position[0],
-                    position[1],
-                    position[2],
-                    contact.pad
-                )));
-            }
-            _ => {
-                return Err(MshError::whole_file(format!(
-                    "node {} of `{}` has {} nodes of `{}` within {tolerance:e} m: lower contact_tolerance",
-                    tag_of_index[&disc_node],
-                    contact.disc,
-                    candidates.len(),
-                    contact.pad
-                )));
-            }
+    let label = |node: u32| tag_of_index[&node].to_string();
+    interface::pair_nodes(
+        mesh,
+        &disc,
+        &pad,
+        &disc_faces,
+        contact.relative_tolerance,
+        &label,
+    )
+    .map_err(|message| {
+        let hint = if message.contains("is on both") {
+            " (mesh the parts without fragmenting them, or use Plugin(Crack))"
+        } else {
+            ""
         };
-        if let Some(other) = partner_of_pad.insert(pad_node, disc_node) {
-            return Err(MshError::whole_file(format!(
-                "node {} of `{}` is within {tolerance:e} m of nodes {} and {} of `{}`: lower contact_tolerance",
-                tag_of_index[&pad_node],
-                contact.pad,
-                tag_of_index[&other],
-                tag_of_index[&disc_node],
-                contact.disc
-            )));
-        }
-        let Some((normal, area)) = integrals.normal_and_area(disc_node) else {
-            let reason = if integrals.normal_sums.contains_key(&disc_node) {
-                ": its faces' normals cancel out"
-            } else {
-                " is on none of its quadrangles"
-            };
-            return Err(MshError::whole_file(format!(
-                "node {} of `{}`{reason}",
-                tag_of_index[&disc_node], contact.disc
-            )));
-        };
-        pairs.push(ContactPair {
-            disc_node,
-            pad_node,
-            normal,
-            area,
-        });
-    }
-    if let Some(unmatched) = pad_nodes
-        .iter()
-        .find(|node| !partner_of_pad.contains_key(node))
-    {
-        let position = mesh.nodes[*unmatched as usize];
-        return Err(MshError::whole_file(format!(
-            "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming",
-            tag_of_index[unmatched],
-            contact.pad,
-            position[0],
-            position[1],
-            position[2],
-            contact.disc
-        )));
-    }
-    Ok(pairs)
+        MshError::whole_file(format!("{message}{hint}"))
+    })
 }
 
-/// Integrates the disc's contact faces, each oriented out of the hexahedron it bounds; and
-/// their shortest edge.
-fn integrate_disc_faces(
+/// The disc's contact quadrangles, each oriented out of the hexahedron it bounds.
+fn disc_faces(
     mesh: &Mesh,
     disc_group: &BoundaryGroup,
-    disc_nodes: &[u32],
+    disc: &Side,
     index_of_tag: &HashMap<u64, u32>,
-    disc_name: &str,
-) -> Result<(FaceIntegrals, f64), MshError> {
-    // Faces of hexahedra whose four nodes are all on the disc contact surface.
-    let on_disc = |node: &u32| disc_nodes.binary_search(node).is_ok();
-    let mut faces: HashMap<[u32; 4], Vec<usize>> = HashMap::new();
-    for (hex_idx, hex) in mesh.hexes.iter().enumerate() {
-        for face in HEX_FACES {
-            let nodes = face.map(|local| hex[local]);
-            if nodes.iter().all(on_disc) {
-                let mut key = nodes;
-                key.sort_unstable();
-                faces.entry(key).or_default().push(hex_idx);
-            }
-        }
-    }
-
-    let mut integrals = FaceIntegrals::default();
-    let mut shortest_edge = f64::INFINITY;
-    for (quad_tags, element_tag, line) in &disc_group.quads {
-        let mut quad = quad_tags.map(|tag| index_of_tag[&tag]);
-        let mut key = quad;
-        key.sort_unstable();
-        let owners = faces.get(&key).map_or(&[][..], Vec::as_slice);
-        let hex_idx = match owners {
-            [hex_idx] => *hex_idx,
-            [] => {
-                return Err(MshError::at(
+) -> Result<Vec<[u32; 4]>, MshError> {
+    let faces = interface::faces_within(mesh, disc);
+    disc_group
+        .quads
+        .iter()
+        .map(|(quad_tags, element_tag, line)| {
+            let quad = quad_tags.map(|tag| index_of_tag[&tag]);
+            let mut key = quad;
+            key.sort_unstable();
+            match faces.get(&key).map_or(&[][..], Vec::as_slice) {
+                [(hex_idx, _)] => Ok(interface::outward(mesh, *hex_idx, quad)),
+                [] => Err(MshError::at(
                     *line,
                     format!(
-                        "contact_disc `{disc_name}`: element {element_tag} is not a face of any hexahedron"
+                        "contact_disc `{}`: element {element_tag} is not a face of any hexahedron",
+                        disc.name
                     ),
-                ));
-            }
-            _ => {
-                return Err(MshError::at(
+                )),
+                owners => Err(MshError::at(
                     *line,
                     format!(
-                        "contact_disc `{disc_name}`: element {element_tag} is a face of {} hexahedra: it must lie on the disc's boundary",
+                        "contact_disc `{}`: element {element_tag} is a face of {} hexahedra: it must lie on the disc's boundary",
+                        disc.name,
                         owners.len()
                     ),
-                ));
+                )),
             }
-        };
-        let mut corners = quad.map(|node| mesh.nodes[node as usize]);
-        // Orient the face outward from its hexahedron: Gmsh surface orientation is arbitrary.
-        let hex_centre = centroid(mesh.hexes[hex_idx].iter().map(|n| mesh.nodes[*n as usize]));
-        let face_centre = centroid(corners.iter().copied());
-        let (_, centre_normal) = quad_tangents(&corners, 0.0, 0.0);
-        if dot(centre_normal, sub(face_centre, hex_centre)) < 0.0 {
-            quad.reverse();
-            corners.reverse();
-        }
-        for edge in 0..4 {
-            shortest_edge = shortest_edge.min(norm(sub(corners[(edge + 1) % 4], corners[edge])));
-        }
-        integrals.add(quad, &corners);
-    }
-
-    Ok((integrals, shortest_edge))
-}
-
-fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
-    let mut sum = [0.0; 3];
-    let mut count = 0.0;
-    for point in points {
-        for axis in 0..3 {
-            sum[axis] += point[axis];
-        }
-        count += 1.0;
-    }
-    sum.map(|component| component / count)
-}
-
-/// Points bucketed in cubes of side `cell`, to find near neighbours without a quadratic search.
-struct PointGrid {
-    cell: f64,
-    buckets: HashMap<[i64; 3], Vec<u32>>,
-}
-
-impl PointGrid {
-    fn new(positions: &[[f64; 3]], members: &[u32], cell: f64) -> Self {
-        let mut grid = PointGrid {
-            cell,
-            buckets: HashMap::new(),
-        };
-        for &node in members {
-            let key = grid.key(positions[node as usize]);
-            grid.buckets.entry(key).or_default().push(node);
-        }
-        grid
-    }
-
-    fn key(&self, position: [f64; 3]) -> [i64; 3] {
-        position.map(|coordinate| (coordinate / self.cell).floor() as i64)
-    }
-
-    /// Members within `radius` (≤ the cell size) of `position`, in increasing index.
-    fn within(&self, positions: &[[f64; 3]], position: [f64; 3], radius: f64) -> Vec<u32> {
-        let [i, j, k] = self.key(position);
-        let mut found = Vec::new();
-        for di in -1..=1 {
-            for dj in -1..=1 {
-                for dk in -1..=1 {
-                    let Some(bucket) = self.buckets.get(&[i + di, j + dj, k + dk]) else {
-                        continue;
-                    };
-                    found.extend(
-                        bucket.iter().copied().filter(|node| {
-                            norm(sub(positions[*node as usize], position)) <= radius
-                        }),
-                    );
-                }
-            }
-        }
-        found.sort_unstable();
-        found
-    }
+        })
+        .collect()
 }

@@ -1,0 +1,201 @@
+//! `mesh.abaqus`: import a hexahedral mesh from an Abaqus input file (`.inp`).
+//!
+//! # What is read
+//!
+//! | keyword | read as |
+//! |---|---|
+//! | `*NODE` (`NSET=`) | nodes, `label, x, y, z` |
+//! | `*ELEMENT, TYPE=C3D8`, `C3D8I`, `C3D8R` (`ELSET=`) | 8-node hexahedra, `label, n1..n8` (a line ending with a comma continues on the next) |
+//! | `*NSET`, `*ELSET` (`GENERATE`, `INSTANCE=` in the assembly) | labels, names of sets defined above, or `first, last, increment` ranges |
+//! | `*SURFACE, TYPE=ELEMENT` | `element set or label, S1..S6`: faces of hexahedra |
+//! | `*SURFACE, TYPE=NODE` | node sets or labels |
+//! | `*INCLUDE, INPUT=` | the file, relative to the including one, read in place |
+//! | `*PART` / `*END PART` | a part's nodes, elements and sets |
+//! | `*ASSEMBLY` with `*INSTANCE, NAME=, PART=` | the part placed in the model: the first data line translates it, the second rotates it by an angle (degrees) about the axis through points a and b, after the translation |
+//!
+//! Keywords that carry no mesh, whose content the stages set themselves, are skipped with
+//! their data lines: `*HEADING`, `*PREPRINT`, `*MATERIAL`, `*ELASTIC`, `*DENSITY`,
+//! `*DAMPING`, `*SOLID SECTION`, `*BOUNDARY`, `*SURFACE INTERACTION`, `*FRICTION`,
+//! `*CONTACT PAIR`, `*INITIAL CONDITIONS`, `*AMPLITUDE`, `*TIE`, and every `*STEP` to its
+//! `*END STEP`. Every other keyword, every other element type and every parameter not listed
+//! is refused with `file:line:` naming it: one silently ignored could change the mesh.
+//!
+//! # What it becomes
+//!
+//! - Assemblies are flattened: each instance contributes its part's nodes and elements (in
+//!   label order), and its sets under `instance.set`; an instance is itself a node and element
+//!   set named after it. A deck without parts is one implicit instance whose names are as
+//!   written. Names are case-insensitive in Abaqus, so squeal lower-cases them.
+//! - C3D8, C3D8I and C3D8R all become squeal's incompatible-mode hexahedron (the node order is
+//!   Abaqus's: 1–4 one face, 5–8 the opposite one), checked right-handed.
+//! - Parts: the element sets named by `parts` (default `disc, pad`, the part names that
+//!   `assemble` gives materials to); every element must be in exactly one.
+//! - Node sets: every `*NSET`, and the nodes of every `*SURFACE`. Nodes of no hexahedron
+//!   are dropped; a set holding one is an error.
+//! - Contact pairs: as `mesh.gmsh` builds them ([`crate::mesh::interface`]), between the
+//!   surfaces or node sets named by `contact_disc` and `contact_pad`. The disc's faces are a
+//!   surface's own faces, or every boundary face whose four nodes are in the node set.
+
+use std::path::Path;
+
+use crate::artifact::mesh::Mesh;
+use crate::artifact::{Artifact, ArtifactType};
+use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+
+mod deck;
+mod model;
+
+pub use deck::InpError;
+
+/// The two sides of the contact interface: surfaces or node sets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactSets {
+    pub disc: String,
+    pub pad: String,
+    /// Largest distance between paired nodes, relative to the shortest contact face edge.
+    pub relative_tolerance: f64,
+}
+
+/// Options of [`read_inp`]: the element sets that are parts, and the contact sides.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadOptions {
+    pub parts: Vec<String>,
+    pub contact: Option<ContactSets>,
+}
+
+/// Reads the deck at `path` (with its includes) into a [`Mesh`].
+pub fn read_inp(path: &Path, options: &ReadOptions) -> Result<Mesh, InpError> {
+    let blocks = deck::read_deck(path)?;
+    model::build_mesh(&model::interpret(blocks)?, options)
+}
+
+/// Reads deck text (`file` names it in messages; includes resolve in `dir`).
+pub fn read_inp_text(
+    text: &str,
+    file: &str,
+    dir: &Path,
+    options: &ReadOptions,
+) -> Result<Mesh, InpError> {
+    let blocks = deck::parse_deck(text, file, dir)?;
+    model::build_mesh(&model::interpret(blocks)?, options)
+}
+
+/// `mesh.abaqus`: reads a user file, so it is impure and never cached (an unchanged file
+/// still gives identical bytes, which leaves downstream stages cached).
+pub struct AbaqusImport;
+
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AbaqusParams {
+    path: String,
+    parts: String,
+    contact_disc: String,
+    contact_pad: String,
+    contact_tolerance: f64,
+}
+
+impl Stage for AbaqusImport {
+    fn kind(&self) -> &'static str {
+        "mesh.abaqus"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Import a hexahedral Abaqus input file (.inp: C3D8/C3D8I/C3D8R, sets, surfaces, includes, parts and instances flattened) with contact pairs; reads a file, so never cached"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec {
+                name: "path",
+                ty: ParamType::Path,
+                default: None,
+                unit: "",
+                doc: "the .inp file (relative to the study's folder)",
+            },
+            ParamSpec::string(
+                "parts",
+                "disc, pad",
+                "comma-separated element sets (or instances) that are the parts; every element in exactly one",
+            ),
+            ParamSpec::string(
+                "contact_disc",
+                "contact_disc",
+                "surface or node set of the disc side of the contact interface (\"\" = no contact)",
+            ),
+            ParamSpec::string(
+                "contact_pad",
+                "contact_pad",
+                "surface or node set of the pad side of the contact interface (\"\" = no contact)",
+            ),
+            ParamSpec::float(
+                "contact_tolerance",
+                1e-3,
+                "",
+                "largest distance between paired nodes, relative to the shortest contact face edge",
+            )
+            .at_least(0.0),
+        ]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        Vec::new()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::one(
+            "mesh",
+            ArtifactType::Mesh,
+            "hexahedra, parts, node sets and contact pairs",
+        )]
+    }
+    fn pure(&self) -> bool {
+        false
+    }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<AbaqusParams>().map(drop)
+    }
+    fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
+        let params: AbaqusParams = params.typed()?;
+        let path = params.path.as_str();
+        if path.is_empty() {
+            return Err(StageError::new("path is empty: name the .inp file to read"));
+        }
+        let parts: Vec<String> = params
+            .parts
+            .split(',')
+            .map(|part| part.trim().to_lowercase())
+            .filter(|part| !part.is_empty())
+            .collect();
+        if parts.is_empty() {
+            return Err(StageError::new(
+                "parts is empty: name the element sets that are the parts (e.g. `disc, pad`)",
+            ));
+        }
+        let contact = match (params.contact_disc.trim(), params.contact_pad.trim()) {
+            ("", "") => None,
+            ("", _) | (_, "") => {
+                return Err(StageError::new(
+                    "contact_disc and contact_pad must both name a surface or node set, or both be empty",
+                ));
+            }
+            (disc, pad) => Some(ContactSets {
+                disc: disc.to_lowercase(),
+                pad: pad.to_lowercase(),
+                relative_tolerance: params.contact_tolerance,
+            }),
+        };
+        let mesh = read_inp(Path::new(path), &ReadOptions { parts, contact }).map_err(|err| {
+            StageError::new(if err.at.is_empty() {
+                format!("{path}: {}", err.message)
+            } else {
+                err.to_string()
+            })
+        })?;
+        Ok(Outputs::from([(
+            "mesh".to_string(),
+            Artifact::Mesh(Box::new(mesh)),
+        )]))
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,238 @@
+//! The contact interface of an imported mesh (`mesh.gmsh`, `mesh.abaqus`): the nodes of the
+//! disc's contact surface paired one to one with the coincident nodes of the pad's, each pair
+//! with the disc's outward unit normal and tributary area ([`super::contact_faces`]).
+//!
+//! The interface must be conforming with its nodes duplicated, one copy per side: every node
+//! on either side finds exactly one partner within `relative_tolerance` × the shortest edge of
+//! the disc's contact faces, and no node is on both sides.
+
+use std::collections::{BTreeMap, HashMap};
+
+use super::contact_faces::{FaceIntegrals, quad_tangents};
+use crate::artifact::mesh::{ContactPair, Mesh, dot, norm, sub};
+
+/// The six faces of a hexahedron by local node: Abaqus's faces S1..S6 in this order (their
+/// orientation is set by [`outward`]).
+pub const HEX_FACES: [[usize; 4]; 6] = [
+    [0, 3, 2, 1],
+    [4, 5, 6, 7],
+    [0, 1, 5, 4],
+    [1, 2, 6, 5],
+    [2, 3, 7, 6],
+    [3, 0, 4, 7],
+];
+
+/// One side of the interface: its name (for messages) and its nodes, sorted.
+pub struct Side<'a> {
+    pub name: &'a str,
+    pub nodes: Vec<u32>,
+}
+
+impl<'a> Side<'a> {
+    pub fn new(name: &'a str, nodes: impl IntoIterator<Item = u32>) -> Self {
+        let mut nodes: Vec<u32> = nodes.into_iter().collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        Side { name, nodes }
+    }
+
+    pub fn contains(&self, node: u32) -> bool {
+        self.nodes.binary_search(&node).is_ok()
+    }
+}
+
+/// The faces of hexahedra whose four nodes are all in `side`, keyed by their sorted nodes,
+/// with the hexahedra that have them and the face in each one's node order (one hexahedron
+/// for a face on the boundary).
+pub fn faces_within(mesh: &Mesh, side: &Side) -> BTreeMap<[u32; 4], Vec<(usize, [u32; 4])>> {
+    let mut faces: BTreeMap<[u32; 4], Vec<(usize, [u32; 4])>> = BTreeMap::new();
+    for (hex_idx, hex) in mesh.hexes.iter().enumerate() {
+        for face in HEX_FACES {
+            let nodes = face.map(|local| hex[local]);
+            if nodes.iter().all(|node| side.contains(*node)) {
+                let mut key = nodes;
+                key.sort_unstable();
+                faces.entry(key).or_default().push((hex_idx, nodes));
+            }
+        }
+    }
+    faces
+}
+
+/// `quad` ordered so that its normal points out of hexahedron `hex_idx`.
+pub fn outward(mesh: &Mesh, hex_idx: usize, mut quad: [u32; 4]) -> [u32; 4] {
+    let corners = quad.map(|node| mesh.nodes[node as usize]);
+    let hex_centre = centroid(mesh.hexes[hex_idx].iter().map(|n| mesh.nodes[*n as usize]));
+    let (_, centre_normal) = quad_tangents(&corners, 0.0, 0.0);
+    if dot(
+        centre_normal,
+        sub(centroid(corners.into_iter()), hex_centre),
+    ) < 0.0
+    {
+        quad.reverse();
+    }
+    quad
+}
+
+/// Pairs the nodes of `disc` and `pad`; `disc_faces` are the disc's contact faces, oriented
+/// outward ([`outward`]); `label` names a node as the file does. Errors are one line.
+pub fn pair_nodes(
+    mesh: &Mesh,
+    disc: &Side,
+    pad: &Side,
+    disc_faces: &[[u32; 4]],
+    relative_tolerance: f64,
+    label: &dyn Fn(u32) -> String,
+) -> Result<Vec<ContactPair>, String> {
+    if let Some(shared) = disc.nodes.iter().find(|node| pad.contains(**node)) {
+        return Err(format!(
+            "node {} is on both `{}` and `{}`: the contact interface needs duplicated nodes, one copy per side",
+            label(*shared),
+            disc.name,
+            pad.name
+        ));
+    }
+    let mut integrals = FaceIntegrals::default();
+    let mut shortest_edge = f64::INFINITY;
+    for quad in disc_faces {
+        let corners = quad.map(|node| mesh.nodes[node as usize]);
+        for edge in 0..4 {
+            shortest_edge = shortest_edge.min(norm(sub(corners[(edge + 1) % 4], corners[edge])));
+        }
+        integrals.add(*quad, &corners);
+    }
+    let tolerance = relative_tolerance * shortest_edge;
+    let pad_grid = PointGrid::new(&mesh.nodes, &pad.nodes, shortest_edge.max(tolerance));
+    let mut partner_of_pad: HashMap<u32, u32> = HashMap::new();
+    let mut pairs = Vec::with_capacity(disc.nodes.len());
+    for &disc_node in &disc.nodes {
+        let position = mesh.nodes[disc_node as usize];
+        let candidates = pad_grid.within(&mesh.nodes, position, tolerance);
+        let pad_node = match candidates[..] {
+            [pad_node] => pad_node,
+            [] => {
+                return Err(format!(
+                    "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming",
+                    label(disc_node),
+                    disc.name,
+                    position[0],
+                    position[1],
+                    position[2],
+                    pad.name
+                ));
+            }
+            _ => {
+                return Err(format!(
+                    "node {} of `{}` has {} nodes of `{}` within {tolerance:e} m: lower contact_tolerance",
+                    label(disc_node),
+                    disc.name,
+                    candidates.len(),
+                    pad.name
+                ));
+            }
+        };
+        if let Some(other) = partner_of_pad.insert(pad_node, disc_node) {
+            return Err(format!(
+                "node {} of `{}` is within {tolerance:e} m of nodes {} and {} of `{}`: lower contact_tolerance",
+                label(pad_node),
+                pad.name,
+                label(other),
+                label(disc_node),
+                disc.name
+            ));
+        }
+        let Some((normal, area)) = integrals.normal_and_area(disc_node) else {
+            let reason = if integrals.normal_sums.contains_key(&disc_node) {
+                ": its faces' normals cancel out"
+            } else {
+                " is on none of its faces"
+            };
+            return Err(format!(
+                "node {} of `{}`{reason}",
+                label(disc_node),
+                disc.name
+            ));
+        };
+        pairs.push(ContactPair {
+            disc_node,
+            pad_node,
+            normal,
+            area,
+        });
+    }
+    if let Some(unmatched) = pad
+        .nodes
+        .iter()
+        .find(|node| !partner_of_pad.contains_key(node))
+    {
+        let position = mesh.nodes[*unmatched as usize];
+        return Err(format!(
+            "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming",
+            label(*unmatched),
+            pad.name,
+            position[0],
+            position[1],
+            position[2],
+            disc.name
+        ));
+    }
+    Ok(pairs)
+}
+
+fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    let mut count = 0.0;
+    for point in points {
+        for axis in 0..3 {
+            sum[axis] += point[axis];
+        }
+        count += 1.0;
+    }
+    sum.map(|component| component / count)
+}
+
+/// Points bucketed in cubes of side `cell`, to find near neighbours without a quadratic search.
+struct PointGrid {
+    cell: f64,
+    buckets: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl PointGrid {
+    fn new(positions: &[[f64; 3]], members: &[u32], cell: f64) -> Self {
+        let mut grid = PointGrid {
+            cell,
+            buckets: HashMap::new(),
+        };
+        for &node in members {
+            let key = grid.key(positions[node as usize]);
+            grid.buckets.entry(key).or_default().push(node);
+        }
+        grid
+    }
+
+    fn key(&self, position: [f64; 3]) -> [i64; 3] {
+        position.map(|coordinate| (coordinate / self.cell).floor() as i64)
+    }
+
+    /// Members within `radius` (≤ the cell size) of `position`, in increasing index.
+    fn within(&self, positions: &[[f64; 3]], position: [f64; 3], radius: f64) -> Vec<u32> {
+        let [i, j, k] = self.key(position);
+        let mut found = Vec::new();
+        for di in -1..=1 {
+            for dj in -1..=1 {
+                for dk in -1..=1 {
+                    let Some(bucket) = self.buckets.get(&[i + di, j + dj, k + dk]) else {
+                        continue;
+                    };
+                    found.extend(
+                        bucket.iter().copied().filter(|node| {
+                            norm(sub(positions[*node as usize], position)) <= radius
+                        }),
+                    );
+                }
+            }
+        }
+        found.sort_unstable();
+        found
+    }
+}
