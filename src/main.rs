@@ -65,6 +65,18 @@ enum Command {
         #[arg(long, value_enum, default_value = "dot")]
         format: DagFormat,
     },
+    /// Write one self-contained HTML page of the study's last run: the DAG with each
+    /// instance's status, every figure, the key tables, the provenance.
+    Report {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// The run's output directory [default: out/STEM, as `run`].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// The page to write [default: OUT/report.html].
+        #[arg(long, short)]
+        output: Option<PathBuf>,
+    },
     /// Inspect and maintain the cache.
     #[command(subcommand)]
     Cache(CacheCommand),
@@ -241,6 +253,11 @@ fn execute(cli: Cli) -> Result<ExitCode> {
             };
             print!("{}", dag::render(&study, &instances, format));
         }
+        Command::Report {
+            study: args,
+            out,
+            output,
+        } => report(&cli, args, out.clone(), output.clone(), &registry)?,
         Command::Cache(command) => return cache_command(&cli, command, &registry),
     }
     Ok(ExitCode::SUCCESS)
@@ -264,11 +281,7 @@ fn run(
         cache: &cache,
         record: &record,
     };
-    let stem = args
-        .study
-        .file_stem()
-        .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
-    let out_dir = out.unwrap_or_else(|| PathBuf::from("out").join(stem));
+    let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
     let options = RunOptions {
         jobs,
         out_dir: out_dir.clone(),
@@ -307,6 +320,55 @@ fn run(
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// `out/STEM`, STEM the study file name without its extension.
+fn default_out_dir(study: &Path) -> PathBuf {
+    let stem = study
+        .file_stem()
+        .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
+    PathBuf::from("out").join(stem)
+}
+
+fn report(
+    cli: &Cli,
+    args: &StudyArgs,
+    out: Option<PathBuf>,
+    output: Option<PathBuf>,
+    registry: &Registry,
+) -> Result<()> {
+    let (study, targets) = load_study(args, registry)?;
+    let instances = Instances::expand(&study, &targets);
+    let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
+    let manifest_path = out_dir.join("manifest.parquet");
+    if !manifest_path.is_file() {
+        anyhow::bail!(
+            "no run of {} in {} (no manifest.parquet): run `squeal run {}` first",
+            args.study.display(),
+            out_dir.display(),
+            args.study.display()
+        );
+    }
+    let manifest =
+        squeal_engine::output::read_parquet(&manifest_path).map_err(anyhow::Error::msg)?;
+    let study_bytes =
+        std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
+    let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
+    let page = squeal_engine::report::render(&squeal_engine::report::ReportInput {
+        study: &study,
+        instances: &instances,
+        manifest: &manifest,
+        cache: &cache,
+        study_bytes: &study_bytes,
+        version: env!("CARGO_PKG_VERSION"),
+        out_dir: &out_dir,
+    })
+    .map_err(anyhow::Error::msg)?;
+    let path = output.unwrap_or_else(|| out_dir.join("report.html"));
+    squeal_engine::output::write_atomic(&path, page.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("{}", path.display());
+    Ok(())
 }
 
 fn cache_command(cli: &Cli, command: &CacheCommand, registry: &Registry) -> Result<ExitCode> {

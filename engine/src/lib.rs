@@ -12,6 +12,7 @@ pub mod manifest;
 pub mod output;
 pub mod plan;
 pub mod record;
+pub mod report;
 pub mod run;
 pub mod spec;
 pub mod study;

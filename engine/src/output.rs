@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 
-use arrow::array::{ArrayRef, BooleanArray, Float64Array, Int64Array, StringArray};
+use arrow::array::{Array, ArrayRef, BooleanArray, Float64Array, Int64Array, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
 use arrow::record_batch::{RecordBatch, RecordBatchOptions};
 use parquet::arrow::ArrowWriter;
@@ -80,6 +80,56 @@ pub fn parquet_bytes(table: &Table) -> Result<Vec<u8>, parquet::errors::ParquetE
     writer.write(&batch)?;
     writer.close()?;
     Ok(bytes)
+}
+
+/// Reads back a Parquet file of squeal's (the manifest): f64, i64, bool and string columns.
+pub fn read_parquet(path: &Path) -> Result<Table, String> {
+    let error = |err: &dyn std::fmt::Display| format!("{}: {err}", path.display());
+    let file = std::fs::File::open(path).map_err(|err| error(&err))?;
+    let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+        .and_then(|builder| builder.build())
+        .map_err(|err| error(&err))?;
+    let mut columns: Vec<(String, ColumnData)> = Vec::new();
+    for batch in reader {
+        let batch = batch.map_err(|err| error(&err))?;
+        if columns.is_empty() {
+            columns = batch
+                .schema()
+                .fields()
+                .iter()
+                .map(|field| {
+                    let empty = match field.data_type() {
+                        DataType::Float64 => ColumnData::F64(Vec::new()),
+                        DataType::Int64 => ColumnData::I64(Vec::new()),
+                        DataType::Boolean => ColumnData::Bool(Vec::new()),
+                        _ => ColumnData::Str(Vec::new()),
+                    };
+                    (field.name().clone(), empty)
+                })
+                .collect();
+        }
+        for ((name, data), array) in columns.iter_mut().zip(batch.columns()) {
+            let any = array.as_any();
+            let read = match data {
+                ColumnData::F64(values) => any
+                    .downcast_ref::<Float64Array>()
+                    .map(|array| values.extend(array.values().iter())),
+                ColumnData::I64(values) => any
+                    .downcast_ref::<Int64Array>()
+                    .map(|array| values.extend(array.values().iter())),
+                ColumnData::Bool(values) => any
+                    .downcast_ref::<BooleanArray>()
+                    .map(|array| values.extend((0..array.len()).map(|row| array.value(row)))),
+                ColumnData::Str(values) => any
+                    .downcast_ref::<StringArray>()
+                    .map(|array| values.extend(array.iter().map(|v| v.unwrap_or("").to_string()))),
+            };
+            read.ok_or_else(|| error(&format!("column `{name}` has an unexpected type")))?;
+        }
+    }
+    Ok(columns
+        .into_iter()
+        .fold(Table::new(), |table, (name, data)| table.with(name, data)))
 }
 
 /// Writes a small table rewritten on every run (the manifest), unless unchanged.
