@@ -122,6 +122,45 @@ stages:
 }
 
 #[test]
+fn the_report_shows_the_run_time_against_error_table() {
+    let workspace = Workspace::new();
+    workspace.write(
+        "front.yaml",
+        "\
+stages:
+  reference:
+    kind: test.constant
+    params: { value: 1.0 }
+  error:
+    kind: test.constant
+    matrix:
+      value: [0.5, 0.25]
+  front:
+    kind: pareto
+    inputs:
+      errors: error.table
+      run_times: error.compute_s
+      reference_time: reference.compute_s
+    params: { errors: x }
+",
+    );
+    workspace.run_ok(&["run", "front.yaml"]);
+    workspace.run_ok(&["report", "front.yaml"]);
+    let html = std::fs::read_to_string(workspace.path().join("out/front/report.html")).unwrap();
+    let points = html.find("<h3>points</h3>").expect("the pareto table");
+    let table = &html[points..];
+    assert!(
+        table.contains("<table class=\"data\"><tr><th>value</th>"),
+        "{}",
+        &table[..400]
+    );
+    assert!(table[..table.find("</table>").unwrap()].contains("<th>speed_up</th>"));
+    // The sweep's instances with the swept parameter as a column, and the fronts figure.
+    assert!(html.contains("<table class=\"instances\"><tr><th>value</th><th>status</th>"));
+    assert_eq!(html.matches("<img class=\"figure\"").count(), 1);
+}
+
+#[test]
 fn a_report_before_any_run_says_to_run_first() {
     let workspace = Workspace::new();
     workspace.write("quick.yaml", &pipeline("quick.yaml"));

@@ -24,8 +24,8 @@ use crate::study::Study;
 
 /// Rows of a table shown before it is cut.
 const MAX_ROWS: usize = 15;
-/// Columns of a table shown; wider tables are named with their size.
-const MAX_COLUMNS: usize = 14;
+/// Columns of a table shown (scrolled sideways); wider tables are named with their size.
+const MAX_COLUMNS: usize = 40;
 
 /// What the report is made from.
 pub struct ReportInput<'a> {
@@ -418,7 +418,7 @@ fn html_table(table: &Table) -> String {
         note = format!("{} unstable of {n_rows}", rows.len());
     }
     let shown = rows.len().min(MAX_ROWS);
-    let mut text = String::from("<table class=\"data\"><tr>");
+    let mut text = String::from("<div class=\"scroll\"><table class=\"data\"><tr>");
     for column in table.columns() {
         let _ = write!(text, "<th>{}</th>", escape(&column.name));
     }
@@ -436,7 +436,7 @@ fn html_table(table: &Table) -> String {
         }
         text.push_str("</tr>\n");
     }
-    text.push_str("</table>\n");
+    text.push_str("</table></div>\n");
     if rows.len() > shown {
         let _ = write!(
             note,
