@@ -9,3 +9,19 @@ pub mod contact_faces;
 pub mod gmsh;
 pub mod interface;
 pub mod structured;
+
+use std::collections::HashMap;
+
+/// The first hexahedron with the same nodes as an earlier one (in any order), with that
+/// earlier one: a duplicated element silently doubles its stiffness and mass.
+pub fn first_duplicate(hexes: &[[u32; 8]]) -> Option<(usize, usize)> {
+    let mut seen: HashMap<[u32; 8], usize> = HashMap::with_capacity(hexes.len());
+    for (idx, hex) in hexes.iter().enumerate() {
+        let mut key = *hex;
+        key.sort_unstable();
+        if let Some(first) = seen.insert(key, idx) {
+            return Some((first, idx));
+        }
+    }
+    None
+}

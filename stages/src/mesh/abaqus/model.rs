@@ -843,6 +843,15 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
         }
         hexes.push(hex);
     }
+    if let Some((first, second)) = crate::mesh::first_duplicate(&hexes) {
+        return Err(InpError::at(
+            &flat.hex_sources[second],
+            format!(
+                "element {} has the nodes of element {}: a duplicated element doubles its stiffness and mass",
+                flat.hex_names[second], flat.hex_names[first]
+            ),
+        ));
+    }
     let hex_part: Vec<u32> = hex_part
         .into_iter()
         .map(|part| part.expect("checked above"))

@@ -282,6 +282,14 @@ fn every_unsupported_or_malformed_line_is_refused_with_its_file_and_line() {
             "element 7 is inverted or degenerate",
         ),
         (
+            with(
+                "10, 102, 103, 106, 105, 108, 109, 112, 111",
+                "10, 102, 103, 106, 105, 108, 109, 112, 111\n11, 103, 106, 105, 102, 109, 112, 111, 108",
+            ),
+            "11, 103, 106",
+            "element 11 has the nodes of element 10: a duplicated element",
+        ),
+        (
             with("7, 1, 2, 5, 4, 7, 8, 11, 10", "7, 1, 2, 5, 4, 7, 8, 11"),
             "7, 1, 2, 5, 4, 7, 8, 11",
             "a label and 8 nodes expected, found 8 values",

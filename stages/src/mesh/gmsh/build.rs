@@ -56,6 +56,16 @@ pub(super) fn build_mesh(
         hexes.push(hex);
         hex_part.push(part_of_group[&record.group]);
     }
+    if let Some((first, second)) = crate::mesh::first_duplicate(&hexes) {
+        let (first, second) = (&elements.hexes[first], &elements.hexes[second]);
+        return Err(MshError::at(
+            second.line,
+            format!(
+                "hexahedron {} has the nodes of hexahedron {}: a duplicated element doubles its stiffness and mass",
+                second.tag, first.tag
+            ),
+        ));
+    }
 
     let mut node_sets: BTreeMap<String, Vec<u32>> = BTreeMap::new();
     for (name, group) in elements.boundary_groups.values() {

@@ -623,6 +623,20 @@ mod tests {
             Some(line_of(&inverted, "2 9 10 12 11 5 6 8 7")),
             "hexahedron 2 is inverted",
         );
+        // The nodes of hexahedron 2 again, in another (right-handed) order.
+        let duplicated = block
+            .replace("2 3 1 3\n", "2 4 1 3\n")
+            .replace("3 1 5 2\n", "3 1 5 3\n")
+            .replace(
+                "2 5 6 8 7 9 10 12 11\n",
+                "2 5 6 8 7 9 10 12 11\n3 6 8 7 5 10 12 11 9\n",
+            );
+        check_error(
+            &duplicated,
+            &none,
+            Some(line_of(&duplicated, "3 6 8 7 5 10 12 11 9")),
+            "hexahedron 3 has the nodes of hexahedron 2: a duplicated element",
+        );
         let miscounted = block.replace("2 3 1 3\n", "2 4 1 3\n");
         check_error(
             &miscounted,
