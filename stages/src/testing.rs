@@ -1,4 +1,5 @@
-//! Stage kinds for exercising the engine: a constant source, arithmetic, rounding (whose output
+//! Stage kinds for exercising the engine: a constant source, arithmetic (of one input, and a
+//! sum of two, for DAGs that join), rounding (whose output
 //! often does not change when its input does, which exercises early cutoff), a sleep and a
 //! failure. Registered only when a test asks for them (`SQUEAL_TEST_KINDS=1`).
 
@@ -12,6 +13,7 @@ pub fn kinds() -> Vec<Arc<dyn Stage>> {
     vec![
         Arc::new(Constant),
         Arc::new(Affine),
+        Arc::new(Sum),
         Arc::new(Round),
         Arc::new(Sleep),
         Arc::new(Fail),
@@ -112,6 +114,44 @@ impl Stage for Affine {
                 .iter()
                 .map(|x| scale * x + offset)
                 .collect(),
+        ))
+    }
+}
+
+pub struct Sum;
+
+impl Stage for Sum {
+    fn kind(&self) -> &'static str {
+        "test.sum"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test join: x -> a.x + b.x + offset, row by row"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![ParamSpec::float("offset", 0.0, "", "added to the sum")]
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        ["a", "b"]
+            .map(|name| PortSpec::one(name, ArtifactType::Table, "a table with an f64 column `x`"))
+            .to_vec()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let offset = params.float("offset");
+        let column = |port: &str| match inputs.table(port)?.column("x") {
+            Some(ColumnData::F64(values)) => Ok(values.clone()),
+            _ => Err(StageError::new(format!(
+                "input `{port}` has no f64 column `x`"
+            ))),
+        };
+        let (a, b) = (column("a")?, column("b")?);
+        Ok(x_table(
+            a.iter().zip(&b).map(|(a, b)| a + b + offset).collect(),
         ))
     }
 }
