@@ -164,6 +164,14 @@ fn sweeps() {
         "5:14: stages.source.matrix.value: empty sweep: give at least one value",
     );
     check_file(
+        "sweep_too_large.yaml",
+        "5:14: stages.source.matrix.value: 100000000 values: a sweep takes at most 10000 (split the study)",
+    );
+    check_file(
+        "matrix_too_large.yaml",
+        "9:15: stages.scaled.matrix.offset: the matrix crosses 1000000 points: a stage takes at most 100000 (split the study)",
+    );
+    check_file(
         "sweep_of_unknown_parameter.yaml",
         "5:11: stages.source.matrix.mu: `test.constant` has no parameter `mu` (parameters: value, rows)",
     );

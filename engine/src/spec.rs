@@ -31,13 +31,32 @@ impl fmt::Display for Location {
     }
 }
 
-/// A one-line problem with a study: location, field path, message.
+/// A one-line problem with a study: location, field path, message. Names echoed from the
+/// study may hold line breaks (a quoted key, a multi-line scalar): they print escaped, so the
+/// error stays one line.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{location}: {path}: {message}")]
+#[error("{location}: {}: {}", one_line(path), one_line(message))]
 pub struct SpecError {
     pub location: Location,
     pub path: String,
     pub message: String,
+}
+
+/// `text` with its control characters escaped (`\n`, `\r`, `\t`, `\u{..}`).
+fn one_line(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return text.into();
+    }
+    text.chars()
+        .map(|character| match character {
+            '\n' => "\\n".to_string(),
+            '\r' => "\\r".to_string(),
+            '\t' => "\\t".to_string(),
+            other if other.is_control() => other.escape_unicode().to_string(),
+            other => other.to_string(),
+        })
+        .collect::<String>()
+        .into()
 }
 
 /// A value with where it was written.

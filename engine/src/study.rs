@@ -321,6 +321,17 @@ impl Validator<'_> {
             let values = sweep_values(spec, &sweep.value)
                 .map_err(|message| sweep.error(&sweep_path, message))?;
             matrix.push((param.clone(), values));
+            let points = matrix.iter().fold(1usize, |points, (_, values)| {
+                points.saturating_mul(values.len())
+            });
+            if points > MAX_MATRIX_POINTS {
+                return Err(sweep.error(
+                    &sweep_path,
+                    format!(
+                        "the matrix crosses {points} points: a stage takes at most {MAX_MATRIX_POINTS} (split the study)"
+                    ),
+                ));
+            }
         }
         for spec in &specs {
             let swept = matrix.iter().any(|(param, _)| param == spec.name);
@@ -451,7 +462,21 @@ impl Validator<'_> {
     }
 }
 
+/// Most values one swept parameter takes, and most points one stage's matrix crosses: beyond,
+/// a study is more likely a typo than a plan, and expanding it alone would take minutes.
+pub const MAX_SWEEP_VALUES: usize = 10_000;
+pub const MAX_MATRIX_POINTS: usize = 100_000;
+
 fn sweep_values(spec: &ParamSpec, sweep: &RawSweep) -> Result<Vec<Value>, String> {
+    let count = match sweep {
+        RawSweep::List(values) => values.len(),
+        RawSweep::Range(range) => range.num,
+    };
+    if count > MAX_SWEEP_VALUES {
+        return Err(format!(
+            "{count} values: a sweep takes at most {MAX_SWEEP_VALUES} (split the study)"
+        ));
+    }
     let raw_values: Vec<RawValue> = match sweep {
         RawSweep::List(values) => values.clone(),
         RawSweep::Range(range) => {
