@@ -66,6 +66,22 @@ struct StickSlip {
     balance_tolerance: f64,
 }
 
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Stress {
+    /// The four springs of the stiff chain, wall to wall.
+    springs: [f64; 4],
+    taus: Vec<f64>,
+    thetas: Vec<f64>,
+    n_steps: usize,
+    /// Energy growth (any θ), energy change (θ = ½) and balance error, relative to the start.
+    energy_tolerance: f64,
+    /// The stick–slip oscillator's long run.
+    long_run_steps: usize,
+    long_run_balance_tolerance: f64,
+    long_run_amplitude_tolerance: f64,
+}
+
 /// Hoffmann's model on a belt, its two springs of unit stiffness.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -109,7 +125,11 @@ fn no_contact() -> ContactState {
 
 /// A chain of three unit masses between two walls, springs 1, 2, 3, 4 (ω from 1 to 2.6 rad/s).
 fn chain() -> (CscMatrix, CscMatrix, CscMatrix) {
-    let springs = [1.0, 2.0, 3.0, 4.0];
+    chain_of([1.0, 2.0, 3.0, 4.0])
+}
+
+/// Three unit masses between two walls on `springs`, wall to wall.
+fn chain_of(springs: [f64; 4]) -> (CscMatrix, CscMatrix, CscMatrix) {
     let mut K = Vec::new();
     for i in 0..3 {
         K.push((i, i, springs[i] + springs[i + 1]));
@@ -425,6 +445,121 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
     assert!(
         run.history.last().unwrap().energy.balance_error.abs()
             < case.balance_tolerance * 0.5 * k * x_e * x_e
+    );
+}
+
+#[test]
+fn theta_at_least_one_half_is_stable_for_every_step_from_a_nanosecond_to_twenty_stiff_periods() {
+    let case: Stress = reference::load("theta_method_stress");
+    let (M, K, C) = chain_of(case.springs);
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows: Vec::new(),
+    };
+    for &tau in &case.taus {
+        for &theta in &case.thetas {
+            let run = integrate(
+                &structure,
+                &no_contact(),
+                &settings(theta, tau, case.n_steps),
+                vec![1.0, 0.0, -0.5],
+                vec![0.0, 0.3, 0.0],
+                &NoCheckpoints,
+                |_| {},
+            )
+            .unwrap();
+            let what = format!("θ = {theta}, τ = {tau:e} s");
+            let energy = |row: &scheme::HistoryRow| row.energy.kinetic + row.energy.strain;
+            let initial = energy(&run.history[0]);
+            let tolerance = case.energy_tolerance * initial;
+            for pair in run.history.windows(2) {
+                let (before, after) = (energy(&pair[0]), energy(&pair[1]));
+                assert!(
+                    after <= before + tolerance,
+                    "{what}: grows at t = {}",
+                    pair[1].t
+                );
+                assert!(
+                    pair[1].energy.balance_error.abs() <= tolerance,
+                    "{what}: balance {:e} at t = {}",
+                    pair[1].energy.balance_error,
+                    pair[1].t
+                );
+                if theta == 0.5 {
+                    assert!(
+                        (after - initial).abs() <= tolerance,
+                        "{what}: {after} against {initial}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_million_steps_of_stick_slip_keep_the_balance_and_the_cycle() {
+    let cycle: StickSlip = reference::load("stick_slip_oscillator");
+    let case: Stress = reference::load("theta_method_stress");
+    let (m, k, normal_force, mu, belt) = (
+        cycle.mass,
+        cycle.stiffness,
+        cycle.normal_force,
+        cycle.mu,
+        cycle.belt_speed,
+    );
+    let (M, K, C, H_rows) = point_on_plane(m, [k, k, 1e4]);
+    let structure = Structure {
+        M: &M,
+        C: &C,
+        K: &K,
+        dof_of_node: &[],
+        H_rows,
+    };
+    let contact_state = ContactState {
+        gap: vec![0.0],
+        sliding_speed: vec![belt],
+        r_e: vec![normal_force, mu * normal_force, 0.0],
+        mu,
+    };
+    let omega = (k / m).sqrt();
+    let tau = 2.0 * PI / omega / 2000.0;
+    let n_steps = case.long_run_steps;
+    let mut settings = settings(0.5, tau, n_steps);
+    settings.output_every = 1000;
+    settings.snapshot_steps = (n_steps - 2000..=n_steps).collect();
+    let x_e = mu * normal_force / k;
+    let run = integrate(
+        &structure,
+        &contact_state,
+        &settings,
+        vec![0.0, -x_e, 0.0],
+        vec![0.0; 3],
+        &NoCheckpoints,
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!(run.history.last().unwrap().t, n_steps as f64 * tau);
+    let scale = 0.5 * k * x_e * x_e;
+    let worst = run
+        .history
+        .iter()
+        .map(|row| row.energy.balance_error.abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < case.long_run_balance_tolerance * scale,
+        "balance error {worst:e} J against {scale:e} J"
+    );
+    let x: Vec<f64> = run.snapshots.iter().map(|s| s.u[1]).collect();
+    let amplitude = (x.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - x.iter().copied().fold(f64::INFINITY, f64::min))
+        / 2.0;
+    let expected = belt / omega;
+    assert!(
+        (amplitude - expected).abs() < case.long_run_amplitude_tolerance * expected,
+        "amplitude {amplitude} against {expected} after {n_steps} steps"
     );
 }
 
