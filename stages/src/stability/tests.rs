@@ -33,10 +33,14 @@ fn small_brake() -> Mesh {
 }
 
 fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
+    equilibrium_at(model, mu, 4.0)
+}
+
+fn equilibrium_at(model: &Model, mu: f64, omega: f64) -> Equilibrium {
     equilibrium::solve(
         model,
         mu,
-        4.0,
+        omega,
         Load::Interference(5e-5),
         Solver::SemismoothNewton,
         &LcpSettings::default(),
@@ -198,6 +202,37 @@ fn a_band_wider_than_the_disks_of_the_basis_is_refused_with_what_to_change() {
             && error.contains("lower max_divergence_rate or raise max_basis"),
         "{error}"
     );
+}
+
+/// As the sliding speed V = ω r vanishes, the friction-direction damping μN/V grows without
+/// bound and locks the contact nodes' motion across the sliding direction: the eigenvalues
+/// converge to those of that constrained limit instead of the solve failing.
+#[test]
+fn a_vanishing_sliding_speed_reaches_its_limit_instead_of_failing() {
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let settings = Settings {
+        f_max_hz: 6_000.0,
+        dense_limit: 0,
+        ..Settings::default()
+    };
+    let solve_at = |omega: f64| {
+        solve(&model, &equilibrium_at(&model, 0.6, omega), &settings)
+            .unwrap_or_else(|err| panic!("ω = {omega:e} rad/s: {err}"))
+            .pairs
+    };
+    let limit = solve_at(1e-9);
+    assert!(!limit.is_empty());
+    assert!(limit.iter().all(|pair| pair.residual < 1e-10));
+    for (omega, tolerance) in [(1e-3, 1e-4), (1e-6, 1e-6)] {
+        let pairs = solve_at(omega);
+        assert_eq!(pairs.len(), limit.len(), "ω = {omega:e} rad/s");
+        let worst = nearest_relative_errors(&limit, &pairs)
+            .into_iter()
+            .fold(0.0, f64::max);
+        eprintln!("ω = {omega:e} rad/s: eigenvalues within {worst:.1e} of the limit");
+        assert!(worst < tolerance, "ω = {omega:e} rad/s: {worst:e}");
+    }
 }
 
 #[test]
