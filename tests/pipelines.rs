@@ -366,6 +366,35 @@ fn the_quick_study_names_why_its_equilibrium_fails_at_extreme_friction() {
     }
 }
 
+#[test]
+fn an_interference_beyond_small_strains_is_warned_about_with_the_strain_it_gives() {
+    let workspace = Workspace::new();
+    let study = pipeline("quick.yaml");
+    let stderr = workspace.run_ok(&[
+        "run",
+        &study,
+        "--out",
+        "out",
+        "--cache",
+        "cache",
+        "--target",
+        "equilibrium",
+        "--set",
+        "equilibrium.interference=1 mm",
+    ]);
+    assert!(
+        stderr.contains("WARN equilibrium: strains reach 5.69 % (element 384, part `pad`), beyond the small strains (1 %)"),
+        "{stderr}"
+    );
+    let summary = read_parquet(&workspace.path().join("out/equilibrium/summary.parquet"));
+    let quantities = strings(&summary, "quantity");
+    let row = quantities
+        .iter()
+        .position(|quantity| quantity == "max_strain_estimate")
+        .unwrap();
+    assert!((floats(&summary, "value")[row] - 0.0569).abs() < 1e-4);
+}
+
 /// The paper's study end to end, `pipelines/tgv_brake.yaml` (README, "Reproducing the paper",
 /// gives the figures): every complex mode below 17 kHz of the default brake, the transient
 /// growing from the most unstable one into its limit cycle, FC_200 against it. About eight

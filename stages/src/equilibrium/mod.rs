@@ -561,7 +561,8 @@ impl Stage for SlidingEquilibrium {
         "equilibrium"
     }
     fn version(&self) -> u32 {
-        3
+        // 4: the summary's max_strain_estimate.
+        4
     }
     fn doc(&self) -> &'static str {
         "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu, pads pressed by an interference or a back pressure"
@@ -684,7 +685,16 @@ impl Stage for SlidingEquilibrium {
         };
         let (equilibrium, report) = solve(model, params.mu, params.omega, load, solver, &settings)?;
         let contact = contact_table(model, &equilibrium);
-        let summary = summary_table(&equilibrium, &report, &model.mesh);
+        let (strain, element) = largest_strain(model, &equilibrium.u);
+        if strain > SMALL_STRAIN {
+            let part = &model.mesh.parts[model.mesh.hex_part[element] as usize];
+            tracing::warn!(
+                "equilibrium: strains reach {:.2} % (element {element}, part `{part}`), beyond the small strains ({} %) the linear model assumes: lower the load",
+                100.0 * strain,
+                100.0 * SMALL_STRAIN
+            );
+        }
+        let summary = summary_table(&equilibrium, &report, &model.mesh, strain);
         let pressure: Vec<f64> = equilibrium
             .r_n
             .iter()
@@ -704,6 +714,35 @@ impl Stage for SlidingEquilibrium {
             ("pressure".to_string(), Artifact::Figure(pressure)),
         ]))
     }
+}
+
+/// Strains above this break the small-strain assumption of the linear model.
+pub const SMALL_STRAIN: f64 = 0.01;
+
+/// The largest strain component at the element centres, and its element: the compatible part
+/// of `u` (the incompatible modes refine it within an element, not its size).
+pub fn largest_strain(model: &Model, u: &[f64]) -> (f64, usize) {
+    let mesh = &model.mesh;
+    let mut largest = (0.0, 0);
+    for (element, hex) in mesh.hexes.iter().enumerate() {
+        let coords = hex.map(|node| mesh.nodes[node as usize]);
+        let displacement = hex.map(|node| {
+            model.dof_of_node[node as usize].map(|dof| dof.map_or(0.0, |dof| u[dof as usize]))
+        });
+        let Some(gradient) = crate::fem::hex8::centre_displacement_gradient(&coords, &displacement)
+        else {
+            continue;
+        };
+        for i in 0..3 {
+            for j in 0..3 {
+                let strain = 0.5 * (gradient[i][j] + gradient[j][i]).abs();
+                if strain > largest.0 {
+                    largest = (strain, element);
+                }
+            }
+        }
+    }
+    largest
 }
 
 /// One row per pair: where, how hard, open or closed.
@@ -775,6 +814,7 @@ fn summary_table(
     equilibrium: &Equilibrium,
     report: &Report,
     mesh: &crate::artifact::mesh::Mesh,
+    max_strain: f64,
 ) -> Table {
     let total: f64 = equilibrium.r_n.iter().sum();
     let (load, mut quantities) = match (report.load, report.applied) {
@@ -811,6 +851,7 @@ fn summary_table(
         ),
         ("normal_force_total_N", total),
         ("friction_force_total_N", equilibrium.mu * total),
+        ("max_strain_estimate", max_strain),
     ]);
     let solver = match report.solver {
         Solver::FixedPoint => "fixed_point",
@@ -833,6 +874,26 @@ mod tests {
 
     fn coarse_brake() -> Mesh {
         brake(&BrakeGeometry::coarse()).unwrap()
+    }
+
+    #[test]
+    fn the_strain_estimate_is_exact_for_a_homogeneous_strain() {
+        // A distorted block under u = (a x + b y, c z, 0): ε_xx = a, ε_xy = b/2, ε_yz = c/2.
+        let mut mesh = crate::mesh::structured::block([1.0, 0.5, 0.3], [3, 2, 2], "disc");
+        for node in &mut mesh.nodes {
+            node[0] += 0.1 * node[1] * node[2];
+        }
+        let (model, _) = crate::assemble::test_model(&mesh, "", &[]);
+        let (a, b, c) = (1e-3, -6e-3, 4e-3);
+        let mut u = vec![0.0; model.n_dofs()];
+        for (node, dofs) in model.dof_of_node.iter().enumerate() {
+            let [x, y, z] = mesh.nodes[node];
+            for (axis, value) in [a * x + b * y, c * z, 0.0].into_iter().enumerate() {
+                u[dofs[axis].unwrap() as usize] = value;
+            }
+        }
+        let (strain, _) = largest_strain(&model, &u);
+        assert!((strain - 3e-3).abs() < 1e-15, "{strain}");
     }
 
     /// `assemble` with default materials (optionally overridden) and `clamped`.

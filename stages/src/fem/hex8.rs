@@ -439,6 +439,34 @@ pub fn gauss_point_strains(
     }))
 }
 
+/// The displacement gradient `∂u_i/∂x_j` at the element's centre, from its nodal
+/// displacements: the compatible part of the strain, a material-free estimate of its size.
+/// `None` for an element inverted at its centre.
+pub fn centre_displacement_gradient(
+    coords: &[[f64; 3]; 8],
+    displacement: &[[f64; 3]; 8],
+) -> Option<[[f64; 3]; 3]> {
+    let gradients = shape_gradients([0.0; 3]);
+    let J = jacobian(coords, &gradients);
+    let det = determinant(&J);
+    if det <= 0.0 {
+        return None;
+    }
+    // ∇_ξ N = J ∇_x N.
+    let inverse = inverse(&J, det);
+    let mut gradient = [[0.0; 3]; 3];
+    for (u, reference) in displacement.iter().zip(&gradients) {
+        let physical: [f64; 3] =
+            std::array::from_fn(|j| (0..3).map(|k| inverse[j][k] * reference[k]).sum());
+        for i in 0..3 {
+            for j in 0..3 {
+                gradient[i][j] += u[i] * physical[j];
+            }
+        }
+    }
+    Some(gradient)
+}
+
 /// `det J` of the trilinear map at reference point `xi`.
 pub fn det_j_at(coords: &[[f64; 3]; 8], xi: [f64; 3]) -> f64 {
     determinant(&jacobian(coords, &shape_gradients(xi)))
