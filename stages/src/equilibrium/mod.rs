@@ -733,13 +733,11 @@ pub fn largest_strain(model: &Model, u: &[f64]) -> (f64, usize) {
         else {
             continue;
         };
-        for i in 0..3 {
-            for j in 0..3 {
-                let strain = 0.5 * (gradient[i][j] + gradient[j][i]).abs();
-                if strain > largest.0 {
-                    largest = (strain, element);
-                }
-            }
+        let strain = (0..9)
+            .map(|ij| 0.5 * (gradient[ij / 3][ij % 3] + gradient[ij % 3][ij / 3]).abs())
+            .fold(0.0, f64::max);
+        if strain > largest.0 {
+            largest = (strain, element);
         }
     }
     largest
