@@ -40,6 +40,16 @@ struct AgainstRealModes {
     eigenvalue_tolerance: f64,
 }
 
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StiffnessContrast {
+    mu: f64,
+    f_max_hz: f64,
+    pad_moduli: Vec<f64>,
+    eigenvalue_tolerance: f64,
+    residual_tolerance: f64,
+}
+
 /// The sliding equilibrium of `model` at friction `mu` (ω = 4 rad/s, 50 µm interference).
 fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
     equilibrium::solve(
@@ -242,4 +252,64 @@ fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes()
     )
     .expect("stability");
     assert!(damped.pairs.iter().all(|pair| pair.lambda.re < 0.0));
+}
+
+#[test]
+fn pads_a_million_times_softer_or_stiffer_than_the_disc_keep_krylov_on_the_dense_solve() {
+    let case: StiffnessContrast = reference::load("krylov_stiffness_contrast");
+    let mesh = brake(&BrakeGeometry {
+        n_radial: 3,
+        n_theta: 24,
+        n_thick: 1,
+        pucks_radial: 1,
+        pucks_angular: 1,
+        puck_cells: 2,
+        puck_layers: 1,
+        ..BrakeGeometry::coarse()
+    })
+    .expect("mesh");
+    for &modulus in &case.pad_moduli {
+        let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &[("E_pad", modulus)])
+            .expect("assembly");
+        let equilibrium = equilibrium_of(&model, case.mu);
+        let settings = Settings {
+            f_max_hz: case.f_max_hz,
+            dense_limit: 0,
+            ..Settings::default()
+        };
+        let system = SlidingSystem::new(&model, &equilibrium, settings.friction_damping)
+            .expect("sliding system");
+        let [M, C, K] = dense::dense_matrices(&system);
+        let reference: Vec<c64> =
+            dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
+                in_band(lambda, &settings)
+            })
+            .expect("dense quadratic eigensolve")
+            .into_iter()
+            .map(|(lambda, _)| lambda)
+            .collect();
+        let solution = solve(&model, &equilibrium, &settings)
+            .unwrap_or_else(|err| panic!("E_pad = {modulus:e} Pa: {err}"));
+        let found: Vec<c64> = solution.pairs.iter().map(|pair| pair.lambda).collect();
+        let worst = worst_difference(&found, &reference);
+        let residual = solution
+            .pairs
+            .iter()
+            .map(|pair| pair.residual)
+            .fold(0.0, f64::max);
+        eprintln!(
+            "E_pad = {modulus:e} Pa: {} eigenvalues, {} unstable, worst difference {worst:.1e}, worst residual {residual:.1e}",
+            found.len(),
+            found.iter().filter(|lambda| is_unstable(**lambda)).count()
+        );
+        assert!(!found.is_empty());
+        assert!(
+            worst <= case.eigenvalue_tolerance,
+            "E_pad = {modulus:e} Pa: {worst:e}"
+        );
+        assert!(
+            residual <= case.residual_tolerance,
+            "E_pad = {modulus:e} Pa: {residual:e}"
+        );
+    }
 }
