@@ -233,21 +233,7 @@ stages:
 #[test]
 fn a_failing_stage_stops_its_dependents_while_other_branches_finish() {
     let workspace = Workspace::new();
-    let study = "\
-stages:
-  source:
-    kind: test.constant
-  broken:
-    kind: test.fail
-    inputs: { table: source.table }
-    params: { message: solver did not converge after 50 iterations (residual 3.2e-2) }
-  after_broken:
-    kind: test.affine
-    inputs: { table: broken.table }
-  healthy:
-    kind: test.affine
-    inputs: { table: source.table }
-";
+    let study = common::FAILING_STUDY;
     workspace.write("fail.yaml", study);
     let output = workspace.squeal(&["run", "fail.yaml", "--out", "out", "-v"]);
     assert_eq!(output.status.code(), Some(1));

@@ -268,28 +268,7 @@ fn a_stage_takes_gathered_and_single_inputs_together() {
     // `pareto` gathers the errors and run times of a sweep and takes one reference time:
     // inputs of both arities, declared in an order other than their names'.
     let workspace = Workspace::new();
-    workspace.write(
-        "front.yaml",
-        "\
-study: front
-targets: [front]
-stages:
-  reference:
-    kind: test.constant
-    params: { value: 1.0 }
-  error:
-    kind: test.constant
-    matrix:
-      value: [0.5, 0.25]
-  front:
-    kind: pareto
-    inputs:
-      errors: error.table
-      run_times: error.compute_s
-      reference_time: reference.compute_s
-    params: { errors: x }
-",
-    );
+    workspace.write("front.yaml", common::PARETO_STUDY);
     workspace.run_ok(&["run", "front.yaml", "--out", "out"]);
     let front = read_parquet(&workspace.path().join("out/front/points.parquet"));
     assert_eq!(floats(&front, "value"), [0.5, 0.25]);

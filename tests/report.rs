@@ -93,21 +93,7 @@ fn the_report_of_the_quick_study_holds_every_figure_status_and_its_provenance() 
 #[test]
 fn the_report_of_a_failed_run_names_the_failure_and_what_was_skipped() {
     let workspace = Workspace::new();
-    workspace.write(
-        "fail.yaml",
-        "\
-stages:
-  source:
-    kind: test.constant
-  broken:
-    kind: test.fail
-    inputs: { table: source.table }
-    params: { message: solver did not converge after 50 iterations (residual 3.2e-2) }
-  after_broken:
-    kind: test.affine
-    inputs: { table: broken.table }
-",
-    );
+    workspace.write("fail.yaml", common::FAILING_STUDY);
     let run = workspace.squeal(&["run", "fail.yaml"]);
     assert_eq!(run.status.code(), Some(1));
     workspace.run_ok(&["report", "fail.yaml"]);
@@ -118,32 +104,13 @@ stages:
     assert!(
         html.contains("<title>after_broken (skipped): skipped: `broken` did not complete</title>")
     );
-    assert!(html.contains("3 instances: 1 ran, 0 cached, 1 failed, 1 skipped"));
+    assert!(html.contains("4 instances: 2 ran, 0 cached, 1 failed, 1 skipped"));
 }
 
 #[test]
 fn the_report_shows_the_run_time_against_error_table() {
     let workspace = Workspace::new();
-    workspace.write(
-        "front.yaml",
-        "\
-stages:
-  reference:
-    kind: test.constant
-    params: { value: 1.0 }
-  error:
-    kind: test.constant
-    matrix:
-      value: [0.5, 0.25]
-  front:
-    kind: pareto
-    inputs:
-      errors: error.table
-      run_times: error.compute_s
-      reference_time: reference.compute_s
-    params: { errors: x }
-",
-    );
+    workspace.write("front.yaml", common::PARETO_STUDY);
     workspace.run_ok(&["run", "front.yaml"]);
     workspace.run_ok(&["report", "front.yaml"]);
     let html = std::fs::read_to_string(workspace.path().join("out/front/report.html")).unwrap();

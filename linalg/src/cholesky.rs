@@ -492,6 +492,30 @@ mod tests {
     /// The subtree sweeps against faer's sequential ones: equal to round-off, and the same
     /// bits on one thread and on three.
     #[test]
+    fn a_light_factor_is_swept_sequentially_as_faer_sweeps_it() {
+        // A few hundred unknowns: waking tasks would cost more than the sweep.
+        let (K, M, groups) = grid(4);
+        let n = K.n_rows;
+        let cholesky = Cholesky::new(&[(1.0, &K), (0.5, &M)], &groups, &[], Par::Seq)
+            .expect("positive definite");
+        assert_eq!(cholesky.parallel_subtrees(), 0);
+        let mut random = SplitMix64::new(5);
+        let b: Vec<f64> = (0..n).map(|_| random.next_signed()).collect();
+        let mut reference = Mat::from_fn(n, 1, |i, _| b[i]);
+        cholesky.forward_in_place(reference.as_mut(), Par::Seq);
+        cholesky.backward_in_place(reference.as_mut(), Par::Seq);
+        let mut y = b.clone();
+        cholesky.forward_vector(&mut y);
+        cholesky.backward_vector(&mut y);
+        let scale = reference.col(0).iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = y
+            .iter()
+            .zip(reference.col(0).iter())
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(worst < 1e-13 * scale, "{worst:e}");
+    }
+
+    #[test]
     fn subtree_sweeps_equal_the_sequential_ones_on_any_thread_count() {
         let (K, M, groups) = grid(14);
         let n = K.n_rows;

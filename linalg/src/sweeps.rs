@@ -25,6 +25,11 @@ use rayon::prelude::*;
 /// depend on the thread count; enough to balance a few cores.
 const TASKS: usize = 8;
 
+/// Factors lighter than this (in entries) are swept as one sequential top: waking the tasks
+/// would cost more than the sweep (a few microseconds against a reduced or lumped model's
+/// sub-microsecond sweep, a million times in a long run).
+const PARALLEL_WEIGHT: usize = 100_000;
+
 /// One task: a whole subtree, its supernodes (ascending) and their columns, in that order.
 #[derive(Debug, Clone)]
 struct Task {
@@ -112,6 +117,11 @@ impl SubtreeSweeps {
                 .enumerate()
                 .max_by_key(|&(_, s)| (weight[s], std::cmp::Reverse(s)))
         };
+        if total < PARALLEL_WEIGHT {
+            // Every supernode in the top, in elimination order: no tasks.
+            frontier.clear();
+            top.extend(0..n_supernodes);
+        }
         while let Some((position, heaviest)) = heaviest_of(&frontier) {
             if weight[heaviest] * 2 * TASKS <= total || children[heaviest].is_empty() {
                 break;
@@ -176,6 +186,9 @@ impl SubtreeSweeps {
     /// `y = L⁻¹ b` in place (`x` in elimination order).
     pub fn forward(&self, L: SupernodalLltRef<'_, usize, f64>, x: &mut [f64]) {
         let n_top = self.top_rows.len();
+        if self.tasks.is_empty() {
+            return self.forward_top(L, x);
+        }
         let swept: Vec<(Vec<f64>, Vec<f64>)> = self
             .tasks
             .par_iter()
@@ -208,6 +221,11 @@ impl SubtreeSweeps {
                 x[row] -= value;
             }
         }
+        self.forward_top(L, x);
+    }
+
+    /// The top's part of the forward sweep, sequential, after the tasks'.
+    fn forward_top(&self, L: SupernodalLltRef<'_, usize, f64>, x: &mut [f64]) {
         let mut product = Vec::new();
         for &s in &self.top {
             let b = block(L, s);
@@ -226,6 +244,9 @@ impl SubtreeSweeps {
             below.clear();
             below.extend(b.rows.iter().map(|&row| x[row]));
             solve_diagonal_transposed(&b, &mut x[b.start..], &below);
+        }
+        if self.tasks.is_empty() {
+            return;
         }
         let shared: &[f64] = x;
         let swept: Vec<Vec<f64>> = self

@@ -10,6 +10,44 @@ use arrow::array::{Array, Float64Array, StringArray};
 use arrow::record_batch::RecordBatch;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
+/// `pareto` over a swept error with one reference time: inputs of both arities, declared in
+/// an order other than their names'.
+pub const PARETO_STUDY: &str = "\
+stages:
+  reference:
+    kind: test.constant
+    params: { value: 1.0 }
+  error:
+    kind: test.constant
+    matrix:
+      value: [0.5, 0.25]
+  front:
+    kind: pareto
+    inputs:
+      errors: error.table
+      run_times: error.compute_s
+      reference_time: reference.compute_s
+    params: { errors: x }
+";
+
+/// A stage that fails (with the message of a solver that did not converge), one that depends
+/// on it, and an independent branch.
+pub const FAILING_STUDY: &str = "\
+stages:
+  source:
+    kind: test.constant
+  broken:
+    kind: test.fail
+    inputs: { table: source.table }
+    params: { message: solver did not converge after 50 iterations (residual 3.2e-2) }
+  after_broken:
+    kind: test.affine
+    inputs: { table: broken.table }
+  healthy:
+    kind: test.affine
+    inputs: { table: source.table }
+";
+
 /// A scratch folder holding a study, its `.squeal/` state and its outputs.
 pub struct Workspace {
     pub dir: tempfile::TempDir,

@@ -80,6 +80,21 @@ impl BrakeGeometry {
         }
     }
 
+    /// The smallest brake of the tests (a few hundred DOFs, one puck a pad): small enough for
+    /// dense reference solves of its linearised problem.
+    pub fn small() -> Self {
+        BrakeGeometry {
+            n_radial: 3,
+            n_theta: 24,
+            n_thick: 1,
+            pucks_radial: 1,
+            pucks_angular: 1,
+            puck_cells: 2,
+            puck_layers: 1,
+            ..BrakeGeometry::coarse()
+        }
+    }
+
     fn check(&self) -> Result<(), String> {
         if !(self.r_inner > 0.0 && self.r_outer > self.r_inner) {
             return Err(format!(

@@ -19,17 +19,7 @@ use crate::stage::{Input, Value};
 
 /// A brake small enough for a dense reference solve of its linearised problem.
 fn small_brake() -> Mesh {
-    brake(&BrakeGeometry {
-        n_radial: 3,
-        n_theta: 24,
-        n_thick: 1,
-        pucks_radial: 1,
-        pucks_angular: 1,
-        puck_cells: 2,
-        puck_layers: 1,
-        ..BrakeGeometry::coarse()
-    })
-    .unwrap()
+    brake(&BrakeGeometry::small()).unwrap()
 }
 
 fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {

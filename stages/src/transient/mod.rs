@@ -166,7 +166,8 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        5
+        // 6: factors lighter than 100,000 entries swept sequentially (their last bits change).
+        6
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

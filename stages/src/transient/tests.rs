@@ -20,17 +20,7 @@ pub(crate) fn stage_params(overrides: &[(&str, Value)]) -> Params {
 
 /// A coarse brake through equilibrium and stability, as the transient's inputs.
 pub(crate) fn brake_inputs() -> Inputs {
-    let mesh = brake(&BrakeGeometry {
-        n_radial: 3,
-        n_theta: 24,
-        n_thick: 1,
-        pucks_radial: 1,
-        pucks_angular: 1,
-        puck_cells: 2,
-        puck_layers: 1,
-        ..BrakeGeometry::coarse()
-    })
-    .unwrap();
+    let mesh = brake(&BrakeGeometry::small()).unwrap();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
     let equilibrium = equilibrium::solve(
         &model,

@@ -64,6 +64,26 @@ fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
     .0
 }
 
+/// Every eigenvalue in the band of `settings` by the dense quadratic eigensolve, and the
+/// problem's size.
+fn dense_reference(
+    model: &Model,
+    equilibrium: &Equilibrium,
+    settings: &Settings,
+) -> (Vec<c64>, usize) {
+    let system =
+        SlidingSystem::new(model, equilibrium, settings.friction_damping).expect("sliding system");
+    let [M, C, K] = dense::dense_matrices(&system);
+    let eigenvalues = dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
+        in_band(lambda, settings)
+    })
+    .expect("dense quadratic eigensolve")
+    .into_iter()
+    .map(|(lambda, _)| lambda)
+    .collect();
+    (eigenvalues, system.dim())
+}
+
 /// The worst relative distance from each of `found` to its own nearest of `reference`, with
 /// the same number of eigenvalues in both.
 fn worst_difference(found: &[c64], reference: &[c64]) -> f64 {
@@ -113,17 +133,7 @@ fn krylov_finds_every_eigenvalue_of_the_dense_solve_on_a_coarse_brake() {
         dense_limit: 0,
         ..Settings::default()
     };
-    let system = SlidingSystem::new(&model, &equilibrium, settings.friction_damping)
-        .expect("sliding system");
-    let [M, C, K] = dense::dense_matrices(&system);
-    let reference: Vec<c64> =
-        dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
-            in_band(lambda, &settings)
-        })
-        .expect("dense quadratic eigensolve")
-        .into_iter()
-        .map(|(lambda, _)| lambda)
-        .collect();
+    let (reference, dim) = dense_reference(&model, &equilibrium, &settings);
     // The default block, and a small and a large one: a disk's radius must not be trusted
     // before the Krylov space has resolved it, whatever the block. Small disks, so that the
     // band needs several shifts and their overlaps are checked. Last, disks aimed far beyond
@@ -177,7 +187,7 @@ fn krylov_finds_every_eigenvalue_of_the_dense_solve_on_a_coarse_brake() {
         }
         eprintln!(
             "blocks of {block_size}, up to {max_basis} vectors: {} DOFs, {} eigenvalues below {} Hz, {} unstable, {} shifts ({fell_short} fell short), worst difference {worst:.1e}",
-            system.dim(),
+            dim,
             found.len(),
             settings.f_max_hz,
             found.iter().filter(|lambda| is_unstable(**lambda)).count(),
@@ -189,17 +199,7 @@ fn krylov_finds_every_eigenvalue_of_the_dense_solve_on_a_coarse_brake() {
 #[test]
 fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes() {
     let case: AgainstRealModes = reference::load("krylov_against_real_modes");
-    let mesh = brake(&BrakeGeometry {
-        n_radial: 3,
-        n_theta: 24,
-        n_thick: 1,
-        pucks_radial: 1,
-        pucks_angular: 1,
-        puck_cells: 2,
-        puck_layers: 1,
-        ..BrakeGeometry::coarse()
-    })
-    .expect("mesh");
+    let mesh = brake(&BrakeGeometry::small()).expect("mesh");
     let undamped = [
         ("alpha_disc", 0.0),
         ("beta_disc", 0.0),
@@ -257,17 +257,7 @@ fn without_friction_no_mode_is_unstable_and_the_frequencies_are_the_real_modes()
 #[test]
 fn pads_a_million_times_softer_or_stiffer_than_the_disc_keep_krylov_on_the_dense_solve() {
     let case: StiffnessContrast = reference::load("krylov_stiffness_contrast");
-    let mesh = brake(&BrakeGeometry {
-        n_radial: 3,
-        n_theta: 24,
-        n_thick: 1,
-        pucks_radial: 1,
-        pucks_angular: 1,
-        puck_cells: 2,
-        puck_layers: 1,
-        ..BrakeGeometry::coarse()
-    })
-    .expect("mesh");
+    let mesh = brake(&BrakeGeometry::small()).expect("mesh");
     for &modulus in &case.pad_moduli {
         let (model, _) = with_default_materials(&mesh, "hub, pad_backs", &[("E_pad", modulus)])
             .expect("assembly");
@@ -277,17 +267,7 @@ fn pads_a_million_times_softer_or_stiffer_than_the_disc_keep_krylov_on_the_dense
             dense_limit: 0,
             ..Settings::default()
         };
-        let system = SlidingSystem::new(&model, &equilibrium, settings.friction_damping)
-            .expect("sliding system");
-        let [M, C, K] = dense::dense_matrices(&system);
-        let reference: Vec<c64> =
-            dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
-                in_band(lambda, &settings)
-            })
-            .expect("dense quadratic eigensolve")
-            .into_iter()
-            .map(|(lambda, _)| lambda)
-            .collect();
+        let (reference, _) = dense_reference(&model, &equilibrium, &settings);
         let solution = solve(&model, &equilibrium, &settings)
             .unwrap_or_else(|err| panic!("E_pad = {modulus:e} Pa: {err}"));
         let found: Vec<c64> = solution.pairs.iter().map(|pair| pair.lambda).collect();

@@ -351,11 +351,15 @@ fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
     }
 }
 
-#[test]
-fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
-    // m ẍ + k x = μ N while sliding on a belt at V: the limit cycle oscillates about μN/k with
-    // amplitude V/ω, its velocity touching V once per period 2π/ω.
-    let case: StickSlip = reference::load("stick_slip_oscillator");
+/// The stick–slip oscillator of `case` from rest at x = 0, θ = ½ at 2,000 steps a period, for
+/// `n_steps`, a history row every `output_every` steps and snapshots from `first_snapshot`;
+/// and its sliding equilibrium x_e = μN/k.
+fn stick_slip(
+    case: &StickSlip,
+    n_steps: usize,
+    output_every: usize,
+    first_snapshot: usize,
+) -> (scheme::Run, f64) {
     let (m, k, normal_force, mu, belt) = (
         case.mass,
         case.stiffness,
@@ -363,7 +367,6 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
         case.mu,
         case.belt_speed,
     );
-    let relative = case.tolerance;
     let (M, K, C, H_rows) = point_on_plane(m, [k, k, 1e4]);
     let structure = Structure {
         M: &M,
@@ -378,12 +381,10 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
         r_e: vec![normal_force, mu * normal_force, 0.0],
         mu,
     };
-    let omega = (k / m).sqrt();
-    let period = 2.0 * PI / omega;
-    let tau = period / 2000.0;
-    let n_steps = 8 * 2000;
+    let tau = 2.0 * PI / (k / m).sqrt() / 2000.0;
     let mut settings = settings(0.5, tau, n_steps);
-    settings.snapshot_steps = (n_steps - 2 * 2000..=n_steps).collect();
+    settings.output_every = output_every;
+    settings.snapshot_steps = (first_snapshot..=n_steps).collect();
     // From rest at x = 0: the departure from the sliding equilibrium x_e = μN/k is −x_e.
     let x_e = mu * normal_force / k;
     let run = integrate(
@@ -396,6 +397,20 @@ fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
         |_| {},
     )
     .unwrap();
+    (run, x_e)
+}
+
+#[test]
+fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
+    // m ẍ + k x = μ N while sliding on a belt at V: the limit cycle oscillates about μN/k with
+    // amplitude V/ω, its velocity touching V once per period 2π/ω.
+    let case: StickSlip = reference::load("stick_slip_oscillator");
+    let (k, belt) = (case.stiffness, case.belt_speed);
+    let relative = case.tolerance;
+    let omega = (k / case.mass).sqrt();
+    let period = 2.0 * PI / omega;
+    let n_steps = 8 * 2000;
+    let (run, x_e) = stick_slip(&case, n_steps, 1, n_steps - 2 * 2000);
     let last_period = &run.snapshots[run.snapshots.len() - 2001..];
     let x: Vec<f64> = last_period.iter().map(|s| x_e + s.u[1]).collect();
     let v: Vec<f64> = last_period.iter().map(|s| s.v[1]).collect();
@@ -503,44 +518,11 @@ fn theta_at_least_one_half_is_stable_for_every_step_from_a_nanosecond_to_twenty_
 fn a_million_steps_of_stick_slip_keep_the_balance_and_the_cycle() {
     let cycle: StickSlip = reference::load("stick_slip_oscillator");
     let case: Stress = reference::load("theta_method_stress");
-    let (m, k, normal_force, mu, belt) = (
-        cycle.mass,
-        cycle.stiffness,
-        cycle.normal_force,
-        cycle.mu,
-        cycle.belt_speed,
-    );
-    let (M, K, C, H_rows) = point_on_plane(m, [k, k, 1e4]);
-    let structure = Structure {
-        M: &M,
-        C: &C,
-        K: &K,
-        dof_of_node: &[],
-        H_rows,
-    };
-    let contact_state = ContactState {
-        gap: vec![0.0],
-        sliding_speed: vec![belt],
-        r_e: vec![normal_force, mu * normal_force, 0.0],
-        mu,
-    };
-    let omega = (k / m).sqrt();
+    let (k, belt) = (cycle.stiffness, cycle.belt_speed);
+    let omega = (k / cycle.mass).sqrt();
     let tau = 2.0 * PI / omega / 2000.0;
     let n_steps = case.long_run_steps;
-    let mut settings = settings(0.5, tau, n_steps);
-    settings.output_every = 1000;
-    settings.snapshot_steps = (n_steps - 2000..=n_steps).collect();
-    let x_e = mu * normal_force / k;
-    let run = integrate(
-        &structure,
-        &contact_state,
-        &settings,
-        vec![0.0, -x_e, 0.0],
-        vec![0.0; 3],
-        &NoCheckpoints,
-        |_| {},
-    )
-    .unwrap();
+    let (run, x_e) = stick_slip(&cycle, n_steps, 1000, n_steps - 2000);
     assert_eq!(run.history.last().unwrap().t, n_steps as f64 * tau);
     let scale = 0.5 * k * x_e * x_e;
     let worst = run

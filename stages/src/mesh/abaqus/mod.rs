@@ -40,6 +40,7 @@ use std::path::Path;
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
+use crate::mesh::interface;
 use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
 
 mod deck;
@@ -118,24 +119,13 @@ impl Stage for AbaqusImport {
                 "disc, pad",
                 "comma-separated element sets (or instances) that are the parts; every element in exactly one",
             ),
-            ParamSpec::string(
-                "contact_disc",
-                "contact_disc",
-                "surface or node set of the disc side of the contact interface (\"\" = no contact)",
-            ),
-            ParamSpec::string(
-                "contact_pad",
-                "contact_pad",
-                "surface or node set of the pad side of the contact interface (\"\" = no contact)",
-            ),
-            ParamSpec::float(
-                "contact_tolerance",
-                1e-3,
-                "",
-                "largest distance between paired nodes, relative to the shortest contact face edge",
-            )
-            .at_least(0.0),
         ]
+        .into_iter()
+        .chain(interface::contact_params([
+            "surface or node set of the disc side of the contact interface (\"\" = no contact)",
+            "surface or node set of the pad side of the contact interface (\"\" = no contact)",
+        ]))
+        .collect()
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -170,19 +160,16 @@ impl Stage for AbaqusImport {
                 "parts is empty: name the element sets that are the parts (e.g. `disc, pad`)",
             ));
         }
-        let contact = match (params.contact_disc.trim(), params.contact_pad.trim()) {
-            ("", "") => None,
-            ("", _) | (_, "") => {
-                return Err(StageError::new(
-                    "contact_disc and contact_pad must both name a surface or node set, or both be empty",
-                ));
-            }
-            (disc, pad) => Some(ContactSets {
-                disc: disc.to_lowercase(),
-                pad: pad.to_lowercase(),
-                relative_tolerance: params.contact_tolerance,
-            }),
-        };
+        let contact = interface::contact_sides(
+            &params.contact_disc,
+            &params.contact_pad,
+            "a surface or node set",
+        )?
+        .map(|[disc, pad]| ContactSets {
+            disc: disc.to_lowercase(),
+            pad: pad.to_lowercase(),
+            relative_tolerance: params.contact_tolerance,
+        });
         let mesh = read_inp(Path::new(path), &ReadOptions { parts, contact }).map_err(|err| {
             StageError::new(if err.at.is_empty() {
                 format!("{path}: {}", err.message)

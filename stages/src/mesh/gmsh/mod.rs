@@ -48,6 +48,7 @@ use std::fmt;
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
+use crate::mesh::interface;
 use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
 
 mod build;
@@ -134,32 +135,19 @@ impl Stage for GmshImport {
         "Import a hexahedral Gmsh mesh (MSH 4.1 ASCII) with parts, node sets and contact pairs; reads a file, so never cached"
     }
     fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec {
-                name: "path",
-                ty: ParamType::Path,
-                default: None,
-                unit: "",
-                doc: "the .msh file (relative to the study's folder)",
-            },
-            ParamSpec::string(
-                "contact_disc",
-                "contact_disc",
-                "physical surface of the disc side of the contact interface (\"\" = no contact)",
-            ),
-            ParamSpec::string(
-                "contact_pad",
-                "contact_pad",
-                "physical surface of the pad side of the contact interface (\"\" = no contact)",
-            ),
-            ParamSpec::float(
-                "contact_tolerance",
-                1e-3,
-                "",
-                "largest distance between paired nodes, relative to the shortest contact face edge",
-            )
-            .at_least(0.0),
-        ]
+        vec![ParamSpec {
+            name: "path",
+            ty: ParamType::Path,
+            default: None,
+            unit: "",
+            doc: "the .msh file (relative to the study's folder)",
+        }]
+        .into_iter()
+        .chain(interface::contact_params([
+            "physical surface of the disc side of the contact interface (\"\" = no contact)",
+            "physical surface of the pad side of the contact interface (\"\" = no contact)",
+        ]))
+        .collect()
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -183,19 +171,16 @@ impl Stage for GmshImport {
         if path.is_empty() {
             return Err(StageError::new("path is empty: name the .msh file to read"));
         }
-        let contact = match (params.contact_disc.as_str(), params.contact_pad.as_str()) {
-            ("", "") => None,
-            ("", _) | (_, "") => {
-                return Err(StageError::new(
-                    "contact_disc and contact_pad must both name a physical surface, or both be empty",
-                ));
-            }
-            (disc, pad) => Some(ContactGroups {
-                disc: disc.to_string(),
-                pad: pad.to_string(),
-                relative_tolerance: params.contact_tolerance,
-            }),
-        };
+        let contact = interface::contact_sides(
+            &params.contact_disc,
+            &params.contact_pad,
+            "a physical surface",
+        )?
+        .map(|[disc, pad]| ContactGroups {
+            disc,
+            pad,
+            relative_tolerance: params.contact_tolerance,
+        });
         let bytes = std::fs::read(path).map_err(|err| StageError::new(format!("{path}: {err}")))?;
         let mesh = read_msh_bytes(&bytes, &ReadOptions { contact }).map_err(|err| {
             StageError::new(match err.line {
