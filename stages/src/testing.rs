@@ -141,8 +141,11 @@ impl Stage for Sum {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
+    fn check_params(&self, params: &Params) -> Result<(), StageError> {
+        params.typed::<SumParams>().map(drop)
+    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let offset = params.float("offset");
+        let SumParams { offset } = params.typed()?;
         let column = |port: &str| match inputs.table(port)?.column("x") {
             Some(ColumnData::F64(values)) => Ok(values.clone()),
             _ => Err(StageError::new(format!(
@@ -269,6 +272,12 @@ struct ConstantParams {
 #[serde(deny_unknown_fields)]
 struct AffineParams {
     scale: f64,
+    offset: f64,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SumParams {
     offset: f64,
 }
 
