@@ -650,7 +650,7 @@ impl Stage for SlidingEquilibrium {
             PortSpec::one(
                 "summary",
                 ArtifactType::Table,
-                "load, solver, iterations, residuals, total contact force per side",
+                "load, solver, iterations, residuals, total contact force per side, largest strain (max_strain_estimate)",
             ),
             PortSpec::one(
                 "fields",
