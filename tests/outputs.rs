@@ -315,3 +315,27 @@ stages:
         "the old name resolves to the new output"
     );
 }
+
+#[test]
+fn a_range_sweep_names_its_points_as_a_person_writes_them() {
+    let workspace = Workspace::new();
+    workspace.write(
+        "range.yaml",
+        "\
+stages:
+  source:
+    kind: test.constant
+    matrix:
+      value: { start: 0.0, stop: 0.6, num: 7 }
+",
+    );
+    let plan = workspace.squeal(&["plan", "range.yaml"]);
+    let stdout = String::from_utf8_lossy(&plan.stdout);
+    for value in ["0", "0.1", "0.2", "0.3", "0.4", "0.5", "0.6"] {
+        assert!(
+            stdout.contains(&format!("source[value={value}] ")),
+            "{value}: {stdout}"
+        );
+    }
+    assert!(!stdout.contains("9999"), "{stdout}");
+}

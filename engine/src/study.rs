@@ -467,6 +467,15 @@ impl Validator<'_> {
 pub const MAX_SWEEP_VALUES: usize = 10_000;
 pub const MAX_MATRIX_POINTS: usize = 100_000;
 
+/// A range's point rounded to 12 significant digits: `mu=0.1` in names, folders and keys, not
+/// the `0.09999999999999999` that `0 + 0.6/6` gives.
+fn round_significant(value: f64) -> f64 {
+    if value == 0.0 || !value.is_finite() {
+        return value;
+    }
+    format!("{value:.11e}").parse().unwrap_or(value)
+}
+
 fn sweep_values(spec: &ParamSpec, sweep: &RawSweep) -> Result<Vec<Value>, String> {
     let count = match sweep {
         RawSweep::List(values) => values.len(),
@@ -485,7 +494,7 @@ fn sweep_values(spec: &ParamSpec, sweep: &RawSweep) -> Result<Vec<Value>, String
             } else {
                 let step = (range.stop - range.start) / (range.num - 1) as f64;
                 (0..range.num)
-                    .map(|idx| RawValue::Float(range.start + step * idx as f64))
+                    .map(|idx| RawValue::Float(round_significant(range.start + step * idx as f64)))
                     .collect()
             }
         }
