@@ -53,6 +53,8 @@ pub struct InstanceView {
     params_json: String,
     outputs: BTreeMap<String, Digest>,
     coords: Coords,
+    /// The instance in the study as it now expands, if it still exists.
+    instance: Option<usize>,
     /// Output folder relative to the report (`stage/mu=0.3`).
     folder: String,
 }
@@ -68,12 +70,7 @@ pub fn render(input: &ReportInput) -> Result<String, String> {
     let edges: Vec<Vec<usize>> = views
         .iter()
         .map(|view| {
-            let Some(instance) = input
-                .instances
-                .list
-                .iter()
-                .find(|instance| instance.name == view.name)
-            else {
+            let Some(instance) = view.instance.map(|idx| &input.instances.list[idx]) else {
                 return Vec::new();
             };
             let mut ups: Vec<usize> = instance
@@ -153,13 +150,17 @@ fn instance_views(input: &ReportInput) -> Result<Vec<InstanceView>, String> {
     let (keys, statuses, reasons) = (strings("key")?, strings("status")?, strings("reason")?);
     let (walls, computes) = (numbers("wall_s")?, numbers("compute_s")?);
     let (params, outputs) = (strings("params_json")?, strings("outputs_json")?);
+    let by_name: HashMap<&str, usize> = input
+        .instances
+        .list
+        .iter()
+        .enumerate()
+        .map(|(idx, instance)| (instance.name.as_str(), idx))
+        .collect();
     let mut views = Vec::with_capacity(names.len());
     for row in 0..names.len() {
-        let instance = input
-            .instances
-            .list
-            .iter()
-            .find(|instance| instance.name == names[row]);
+        let index = by_name.get(names[row].as_str()).copied();
+        let instance = index.map(|idx| &input.instances.list[idx]);
         let coords = instance.map_or_else(Vec::new, |instance| {
             input.instances.labelled(&instance.coords)
         });
@@ -191,6 +192,7 @@ fn instance_views(input: &ReportInput) -> Result<Vec<InstanceView>, String> {
             params_json: params[row].clone(),
             outputs,
             coords,
+            instance: index,
             folder,
         });
     }

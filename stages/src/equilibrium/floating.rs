@@ -18,23 +18,12 @@
 //!   DOFs as it has free motions are chosen to pin (greedy, best conditioned rows of R), so
 //!   that R restricted to the pinned DOFs is invertible.
 
-use std::collections::BTreeMap;
-
 use faer::Mat;
 
 use crate::artifact::Model;
 use crate::artifact::mesh::{Mesh, cross, dot, sub};
+use crate::mesh::interface::{Side, faces_within};
 use crate::stage::StageError;
-
-/// The six faces of a hexahedron, each as a cycle of local nodes (see [`crate::mesh`]).
-const HEX_FACES: [[usize; 4]; 6] = [
-    [0, 1, 2, 3],
-    [4, 5, 6, 7],
-    [0, 1, 5, 4],
-    [1, 2, 6, 5],
-    [2, 3, 7, 6],
-    [3, 0, 4, 7],
-];
 
 /// The pressure load on a node set's faces.
 #[derive(Debug, Clone, PartialEq)]
@@ -58,23 +47,8 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
         .node_sets
         .get(set)
         .ok_or_else(|| StageError::new(format!("no node set `{set}` to apply the pressure on")))?;
-    let mut in_set = vec![false; mesh.n_nodes()];
-    for &node in nodes {
-        in_set[node as usize] = true;
-    }
-    // Candidate faces (all four nodes in the set); a face met twice is interior.
-    let mut faces: BTreeMap<[u32; 4], (usize, usize)> = BTreeMap::new();
-    let mut count: BTreeMap<[u32; 4], usize> = BTreeMap::new();
-    for (hex_idx, hex) in mesh.hexes.iter().enumerate() {
-        for (face_idx, face) in HEX_FACES.iter().enumerate() {
-            if face.iter().all(|&local| in_set[hex[local] as usize]) {
-                let mut key = face.map(|local| hex[local]);
-                key.sort_unstable();
-                faces.entry(key).or_insert((hex_idx, face_idx));
-                *count.entry(key).or_default() += 1;
-            }
-        }
-    }
+    // Candidate faces (all four nodes in the set); a face of two hexahedra is interior.
+    let faces = faces_within(mesh, &Side::new(set, nodes.iter().copied()));
     let mut load = PressureLoad {
         forces: vec![0.0; model.n_dofs()],
         area: [0.0; 2],
@@ -83,12 +57,11 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
         n_faces: 0,
     };
     let mut clamped_resultant = [0.0; 3];
-    for (key, (hex_idx, face_idx)) in &faces {
-        if count[key] != 1 {
+    for owners in faces.values() {
+        let [(hex_idx, face)] = owners[..] else {
             continue;
-        }
-        let hex = mesh.hexes[*hex_idx];
-        let face = HEX_FACES[*face_idx].map(|local| hex[local]);
+        };
+        let hex = mesh.hexes[hex_idx];
         let corners = face.map(|node| mesh.nodes[node as usize]);
         let (mut nodal, area_vector) = face_integrals(&corners);
         // Orient outward: from the element's centroid toward the face's.

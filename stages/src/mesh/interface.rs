@@ -39,10 +39,10 @@ pub fn contact_sides(disc: &str, pad: &str, what: &str) -> Result<Option<[String
     }
 }
 
-/// The six faces of a hexahedron by local node: Abaqus's faces S1..S6 in this order (their
-/// orientation is set by [`outward`]).
+/// The six faces of a hexahedron, each as a cycle of local nodes: Abaqus's faces S1..S6 in
+/// this order (a user orients them: [`outward`], or the pressure load's sign).
 pub const HEX_FACES: [[usize; 4]; 6] = [
-    [0, 3, 2, 1],
+    [0, 1, 2, 3],
     [4, 5, 6, 7],
     [0, 1, 5, 4],
     [1, 2, 6, 5],

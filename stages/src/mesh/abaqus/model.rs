@@ -362,11 +362,10 @@ fn add_to<L>(sets: &mut BTreeMap<String, Vec<L>>, name: &str, labels: Vec<L>) {
 
 /// The entries of a set's data lines: `GENERATE` ranges, or labels and names of sets of the
 /// same kind, resolved by `lookup`.
-fn set_entries<L: Copy>(
+fn set_entries<L: Clone>(
     block: &Block,
-    generated: impl Fn(u64, &Source) -> Result<L, InpError>,
-    lookup: impl Fn(&str) -> Option<Vec<L>>,
-    labelled: impl Fn(u64, &Source) -> Result<L, InpError>,
+    sets: &BTreeMap<String, Vec<L>>,
+    labelled: &dyn Fn(u64, &Source) -> Result<L, InpError>,
 ) -> Result<Vec<L>, InpError> {
     let mut entries = Vec::new();
     if block.param("GENERATE").is_some() {
@@ -391,7 +390,7 @@ fn set_entries<L: Copy>(
             }
             let mut value = first;
             while value <= last {
-                entries.push(generated(value, &line.at)?);
+                entries.push(labelled(value, &line.at)?);
                 value += step;
             }
         }
@@ -399,17 +398,27 @@ fn set_entries<L: Copy>(
     }
     for line in &block.data {
         for field in line.fields.iter().filter(|f| !f.is_empty()) {
-            if field.bytes().all(|byte| byte.is_ascii_digit()) {
-                entries.push(labelled(label(field, &line.at, "label")?, &line.at)?);
-            } else {
-                let members = lookup(&field.to_lowercase()).ok_or_else(|| {
-                    InpError::at(&line.at, format!("no set named `{field}` is defined above"))
-                })?;
-                entries.extend(members);
-            }
+            entries.extend(members(field, &line.at, sets, labelled)?);
         }
     }
     Ok(entries)
+}
+
+/// A field of a set's or surface's data line: a label (`labelled` maps it), or the name of a
+/// set of `sets` defined above.
+fn members<L: Clone>(
+    field: &str,
+    at: &Source,
+    sets: &BTreeMap<String, Vec<L>>,
+    labelled: &dyn Fn(u64, &Source) -> Result<L, InpError>,
+) -> Result<Vec<L>, InpError> {
+    if field.bytes().all(|byte| byte.is_ascii_digit()) {
+        Ok(vec![labelled(label(field, at, "label")?, at)?])
+    } else {
+        sets.get(&field.to_lowercase())
+            .cloned()
+            .ok_or_else(|| InpError::at(at, format!("no set named `{field}` is defined above")))
+    }
 }
 
 fn read_set(part: &mut Part, block: &Block) -> Result<(), InpError> {
@@ -417,19 +426,12 @@ fn read_set(part: &mut Part, block: &Block) -> Result<(), InpError> {
     let name_param = if is_nset { "NSET" } else { "ELSET" };
     block.only_params(&[name_param, "GENERATE", "INTERNAL", "UNSORTED"])?;
     let name = block.required(name_param)?;
-    let sets = &part.sets;
-    let entries = set_entries(
-        block,
-        |value, _| Ok(value),
-        |set| {
-            if is_nset {
-                sets.nsets.get(set).cloned()
-            } else {
-                sets.elsets.get(set).cloned()
-            }
-        },
-        |value, _| Ok(value),
-    )?;
+    let sets = if is_nset {
+        &part.sets.nsets
+    } else {
+        &part.sets.elsets
+    };
+    let entries = set_entries(block, sets, &|value, _| Ok(value))?;
     let target = if is_nset {
         &mut part.sets.nsets
     } else {
@@ -506,19 +508,10 @@ fn surface_entries<L: Copy>(
 fn read_surface(part: &mut Part, block: &Block) -> Result<(), InpError> {
     let name = block.required("NAME")?.to_lowercase();
     let sets = &part.sets;
-    let resolve = |sets: &BTreeMap<String, Vec<u64>>, field: &str, at: &Source| {
-        if field.bytes().all(|byte| byte.is_ascii_digit()) {
-            Ok(vec![label(field, at, "label")?])
-        } else {
-            sets.get(&field.to_lowercase())
-                .cloned()
-                .ok_or_else(|| InpError::at(at, format!("no set named `{field}` is defined above")))
-        }
-    };
     let surface = surface_entries(
         block,
-        |field, at| resolve(&sets.elsets, field, at),
-        |field, at| resolve(&sets.nsets, field, at),
+        |field, at| members(field, at, &sets.elsets, &|value, _| Ok(value)),
+        |field, at| members(field, at, &sets.nsets, &|value, _| Ok(value)),
     )?;
     part.sets.surfaces.insert(name, surface);
     Ok(())
@@ -566,6 +559,18 @@ impl Deck {
     /// The assembly's own sets and surfaces: labels of the instance its `INSTANCE=` names,
     /// or names of flattened sets (`instance.set`).
     fn assembly_sets(&self, flat: &mut Flat, instance_names: &[String]) -> Result<(), InpError> {
+        let index = |names: &[String]| -> HashMap<String, usize> {
+            names
+                .iter()
+                .enumerate()
+                .map(|(idx, name)| (name.clone(), idx))
+                .collect()
+        };
+        let (node_index, element_index) = if self.assembly_blocks.is_empty() {
+            (HashMap::new(), HashMap::new())
+        } else {
+            (index(&flat.node_names), index(&flat.hex_names))
+        };
         for block in &self.assembly_blocks {
             let instance = block.param("INSTANCE").map(str::to_lowercase);
             if let Some(name) = &instance
@@ -576,24 +581,23 @@ impl Deck {
                     format!("no instance named `{name}`"),
                 ));
             }
-            let global =
-                |names: &[String], label_of: &str, at: &Source| -> Result<usize, InpError> {
-                    let Some(instance) = &instance else {
-                        return Err(InpError::at(
-                            at,
-                            "a label in an assembly-level set needs the set's INSTANCE= parameter",
-                        ));
-                    };
-                    let wanted = format!("{instance}.{label_of}");
-                    names
-                        .iter()
-                        .position(|name| *name == wanted)
-                        .ok_or_else(|| {
-                            InpError::at(at, format!("instance `{instance}` has no {label_of}"))
-                        })
+            let global = |names: &HashMap<String, usize>,
+                          label_of: &str,
+                          at: &Source|
+             -> Result<usize, InpError> {
+                let Some(instance) = &instance else {
+                    return Err(InpError::at(
+                        at,
+                        "a label in an assembly-level set needs the set's INSTANCE= parameter",
+                    ));
                 };
-            let node = |value: u64, at: &Source| global(&flat.node_names, &value.to_string(), at);
-            let element = |value: u64, at: &Source| global(&flat.hex_names, &value.to_string(), at);
+                let wanted = format!("{instance}.{label_of}");
+                names.get(&wanted).copied().ok_or_else(|| {
+                    InpError::at(at, format!("instance `{instance}` has no {label_of}"))
+                })
+            };
+            let node = |value: u64, at: &Source| global(&node_index, &value.to_string(), at);
+            let element = |value: u64, at: &Source| global(&element_index, &value.to_string(), at);
             match block.keyword.as_str() {
                 "NSET" | "ELSET" => {
                     let is_nset = block.keyword == "NSET";
@@ -604,9 +608,9 @@ impl Deck {
                     let name = block.required(name_param)?.to_lowercase();
                     let sets = &flat.sets;
                     let entries = if is_nset {
-                        set_entries(block, node, |set| sets.nsets.get(set).cloned(), node)?
+                        set_entries(block, &sets.nsets, &node)?
                     } else {
-                        set_entries(block, element, |set| sets.elsets.get(set).cloned(), element)?
+                        set_entries(block, &sets.elsets, &element)?
                     };
                     let target = if is_nset {
                         &mut flat.sets.nsets
@@ -618,22 +622,10 @@ impl Deck {
                 _ => {
                     let name = block.required("NAME")?.to_lowercase();
                     let sets = &flat.sets;
-                    let resolve = |sets: &BTreeMap<String, Vec<usize>>,
-                                   one: &dyn Fn(u64, &Source) -> Result<usize, InpError>,
-                                   field: &str,
-                                   at: &Source| {
-                        if field.bytes().all(|byte| byte.is_ascii_digit()) {
-                            Ok(vec![one(label(field, at, "label")?, at)?])
-                        } else {
-                            sets.get(&field.to_lowercase()).cloned().ok_or_else(|| {
-                                InpError::at(at, format!("no set named `{field}` is defined above"))
-                            })
-                        }
-                    };
                     let surface = surface_entries(
                         block,
-                        |field, at| resolve(&sets.elsets, &element, field, at),
-                        |field, at| resolve(&sets.nsets, &node, field, at),
+                        |field, at| members(field, at, &sets.elsets, &element),
+                        |field, at| members(field, at, &sets.nsets, &node),
                     )?;
                     flat.sets.surfaces.insert(name, surface);
                 }
