@@ -57,6 +57,34 @@ enum Command {
         /// Stages run at once [default: all cores].
         #[arg(long, short)]
         jobs: Option<usize>,
+        /// Where the stages run: on this machine, or as jobs of a Slurm cluster (the cache,
+        /// the study and this binary on a file system every node sees).
+        #[arg(long, value_enum, default_value = "local")]
+        executor: Executor,
+        #[command(flatten)]
+        slurm: SlurmArgs,
+    },
+    /// Run one stage instance inside a Slurm job: what `run --executor slurm` submits.
+    Worker {
+        /// The study file (YAML).
+        study: PathBuf,
+        #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+        set: Vec<String>,
+        /// The instance's stage.
+        #[arg(long)]
+        stage: String,
+        /// The submission's instance names; the task runs line SLURM_ARRAY_TASK_ID + 1.
+        #[arg(long)]
+        instances: PathBuf,
+        /// Where to write the outcome; `{task}` stands for the task index.
+        #[arg(long)]
+        status: String,
+        /// The blake3 of the study file when the job was submitted: a job refuses an edited study.
+        #[arg(long)]
+        study_digest: String,
+        /// Threads [default: the job's CPUs].
+        #[arg(long, short, env = "SLURM_CPUS_PER_TASK")]
+        jobs: Option<usize>,
     },
     /// Print the DAG of stage instances.
     Dag {
@@ -80,6 +108,46 @@ enum Command {
     /// Inspect and maintain the cache.
     #[command(subcommand)]
     Cache(CacheCommand),
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum Executor {
+    Local,
+    Slurm,
+}
+
+/// What every Slurm job asks for: over the study's `slurm:` section, under a stage's
+/// `resources:`.
+#[derive(clap::Args)]
+#[command(next_help_heading = "Slurm executor")]
+struct SlurmArgs {
+    #[arg(long, env = "SQUEAL_SLURM_PARTITION")]
+    partition: Option<String>,
+    #[arg(long, env = "SQUEAL_SLURM_ACCOUNT")]
+    account: Option<String>,
+    /// Time limit of a job (Slurm syntax: minutes, HH:MM:SS, D-HH:MM:SS).
+    #[arg(long, env = "SQUEAL_SLURM_TIME")]
+    time: Option<String>,
+    /// Memory of a job (Slurm syntax: 4096M, 16G) [default: the stage's].
+    #[arg(long, env = "SQUEAL_SLURM_MEM")]
+    mem: Option<String>,
+    /// CPUs of a job [default: the stage's].
+    #[arg(long, env = "SQUEAL_SLURM_CPUS_PER_TASK")]
+    cpus_per_task: Option<u32>,
+    /// Any other sbatch option, e.g. --sbatch-arg=--qos=long (repeat for several).
+    #[arg(long = "sbatch-arg", value_name = "ARG", allow_hyphen_values = true)]
+    sbatch_args: Vec<String>,
+    /// Print the sbatch commands and scripts a run would submit; run and submit nothing.
+    #[arg(long)]
+    dry_run: bool,
+    /// Seconds between two looks at the queue (squeue).
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 5.0,
+        env = "SQUEAL_SLURM_POLL"
+    )]
+    poll: f64,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -240,7 +308,44 @@ fn execute(cli: Cli) -> Result<ExitCode> {
             study: args,
             out,
             jobs,
-        } => return run(&cli, args, out.clone(), *jobs, &registry),
+            executor,
+            slurm,
+        } => {
+            return match executor {
+                Executor::Local => {
+                    if slurm.dry_run {
+                        return Err(usage("--dry-run", "needs --executor slurm").into());
+                    }
+                    run(&cli, args, out.clone(), *jobs, &registry)
+                }
+                Executor::Slurm => run_slurm(&cli, args, out.clone(), *jobs, slurm, &registry),
+            };
+        }
+        Command::Worker {
+            study,
+            set,
+            stage,
+            instances,
+            status,
+            study_digest,
+            jobs,
+        } => {
+            let args = StudyArgs {
+                study: study.clone(),
+                set: set.clone(),
+                targets: Vec::new(),
+            };
+            return worker(
+                &cli,
+                &args,
+                stage,
+                instances,
+                status,
+                study_digest,
+                *jobs,
+                &registry,
+            );
+        }
         Command::Dag {
             study: args,
             format,
@@ -282,13 +387,15 @@ fn run(
         record: &record,
     };
     let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
-    let options = RunOptions {
-        jobs,
-        out_dir: out_dir.clone(),
-        progress: true,
-    };
-    let report = squeal_engine::run::run(&context, &options, &record_path)
+    let options = RunOptions::local(jobs, out_dir.clone(), true);
+    let report = squeal_engine::run::run(&context, &options, Some(&record_path))
         .with_context(|| format!("writing outputs to {}", out_dir.display()))?;
+    print_summary(&study, &report, &out_dir);
+    Ok(exit_code(&report))
+}
+
+/// One line per instance that did not come from the cache, then the totals.
+fn print_summary(study: &Study, report: &squeal_engine::RunReport, out_dir: &Path) {
     for instance in &report.instances {
         match &instance.status {
             Status::Ran => eprintln!(
@@ -315,11 +422,181 @@ fn run(
         report.count("skipped"),
         out_dir.display()
     );
-    Ok(if report.succeeded() {
+}
+
+fn exit_code(report: &squeal_engine::RunReport) -> ExitCode {
+    if report.succeeded() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
+    }
+}
+
+/// A usage error on the command line.
+fn usage(arg: &str, message: &str) -> UsageError {
+    UsageError(SpecError {
+        location: squeal_engine::spec::Location::CommandLine(arg.into()),
+        path: arg.into(),
+        message: message.into(),
     })
+}
+
+fn run_slurm(
+    cli: &Cli,
+    args: &StudyArgs,
+    out: Option<PathBuf>,
+    jobs: Option<usize>,
+    slurm: &SlurmArgs,
+    registry: &Registry,
+) -> Result<ExitCode> {
+    use squeal_engine::slurm::{self, requests};
+    if let Some(time) = &slurm.time {
+        requests::check_time(time).map_err(|message| usage("--time", &message))?;
+    }
+    if let Some(mem) = &slurm.mem {
+        requests::check_mem(mem).map_err(|message| usage("--mem", &message))?;
+    }
+    if slurm.cpus_per_task == Some(0) {
+        return Err(usage("--cpus-per-task", "a job needs at least one CPU").into());
+    }
+    if !(slurm.poll.is_finite() && slurm.poll > 0.0) {
+        return Err(usage("--poll", "give a positive number of seconds").into());
+    }
+    let (study, targets) = load_study(args, registry)?;
+    let instances = Instances::expand(&study, &targets);
+    let absolute = |path: &Path| std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let study_path = absolute(&args.study);
+    let cache_path = absolute(&cache_dir(&cli.cache, Some(&args.study)));
+    let cache = Cache::open(&cache_path)?;
+    let record_path = RunRecord::path_for(&args.study, &state_dir(&args.study).join("record"));
+    let record = RunRecord::load(&record_path);
+    let context = Context {
+        study: &study,
+        instances: &instances,
+        cache: &cache,
+        record: &record,
+    };
+    let study_bytes =
+        std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
+    let mut worker = vec![
+        std::env::current_exe()
+            .context("locating the squeal binary for the jobs")?
+            .to_string_lossy()
+            .into_owned(),
+        "--cache".into(),
+        cache_path.to_string_lossy().into_owned(),
+        "worker".into(),
+        study_path.to_string_lossy().into_owned(),
+    ];
+    for set in &args.set {
+        worker.extend(["--set".to_string(), set.clone()]);
+    }
+    worker.extend([
+        "--study-digest".to_string(),
+        blake3::hash(&study_bytes).to_hex().to_string(),
+    ]);
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |elapsed| elapsed.as_secs());
+    let stem = study_path
+        .file_stem()
+        .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
+    let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
+    let options = slurm::SlurmOptions {
+        defaults: requests::JobDefaults {
+            partition: slurm.partition.clone(),
+            account: slurm.account.clone(),
+            time: slurm.time.clone(),
+            mem: slurm.mem.clone(),
+            cpus_per_task: slurm.cpus_per_task,
+            sbatch_args: slurm.sbatch_args.clone(),
+        },
+        worker,
+        dir: absolute(&state_dir(&args.study))
+            .join("slurm")
+            .join(format!("{stem}-{stamp}-{}", std::process::id())),
+        jobs,
+        out_dir: out_dir.clone(),
+        progress: true,
+        poll: std::time::Duration::from_secs_f64(slurm.poll),
+        interrupted: interrupted.clone(),
+    };
+    if slurm.dry_run {
+        print!("{}", slurm::dry_run(&context, &options));
+        return Ok(ExitCode::SUCCESS);
+    }
+    // A first Ctrl-C (or SIGTERM) cancels the jobs and writes what finished; a second one
+    // exits at once.
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register_conditional_shutdown(signal, 130, interrupted.clone())?;
+        signal_hook::flag::register(signal, interrupted.clone())?;
+    }
+    let (report, submitted) =
+        slurm::run(&context, &options, &record_path).map_err(anyhow::Error::msg)?;
+    eprintln!(
+        "slurm: submitted {} jobs ({} tasks); scripts and logs in {}",
+        submitted.jobs,
+        submitted.tasks,
+        options.dir.display()
+    );
+    print_summary(&study, &report, &out_dir);
+    Ok(exit_code(&report))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn worker(
+    cli: &Cli,
+    args: &StudyArgs,
+    stage: &str,
+    instance_list: &Path,
+    status_pattern: &str,
+    study_digest: &str,
+    jobs: Option<usize>,
+    registry: &Registry,
+) -> Result<ExitCode> {
+    use squeal_engine::slurm::worker;
+    let bytes =
+        std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
+    let digest = blake3::hash(&bytes).to_hex().to_string();
+    if digest != study_digest {
+        anyhow::bail!(
+            "{} changed since this job was submitted: rerun `squeal run` to plan it again",
+            args.study.display()
+        );
+    }
+    let (study, _) = load_study(args, registry)?;
+    let stage_idx = study
+        .index_of(stage)
+        .ok_or_else(|| anyhow::anyhow!("the study has no stage `{stage}`"))?;
+    let instances = Instances::expand(&study, &[stage_idx]);
+    let task = worker::task_index().map_err(anyhow::Error::msg)?;
+    let name = worker::instance_of_task(instance_list, task).map_err(anyhow::Error::msg)?;
+    let target = instances
+        .list
+        .iter()
+        .position(|instance| instance.name == name)
+        .ok_or_else(|| anyhow::anyhow!("the study has no instance `{name}`"))?;
+    let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
+    let record = RunRecord::default();
+    let context = Context {
+        study: &study,
+        instances: &instances,
+        cache: &cache,
+        record: &record,
+    };
+    let status = worker::run_instance(&context, target, jobs)?;
+    let path = worker::status_path(status_pattern, task);
+    status
+        .write(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    if status.succeeded() {
+        eprintln!("{name}: {} in {:.3} s", status.status, status.wall_s);
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!("error: {name} {}: {}", status.status, status.message);
+        Ok(ExitCode::FAILURE)
+    }
 }
 
 /// `out/STEM`, STEM the study file name without its extension.

@@ -14,6 +14,7 @@ pub mod plan;
 pub mod record;
 pub mod report;
 pub mod run;
+pub mod slurm;
 pub mod spec;
 pub mod study;
 pub mod units;

@@ -280,10 +280,32 @@ pub struct PlanLine {
 
 /// Walks the instances in order; an instance whose upstream runs cannot be known cached.
 pub fn plan(context: &Context) -> Vec<PlanLine> {
-    let mut known: Vec<Option<BTreeMap<String, Digest>>> = vec![None; context.instances.list.len()];
+    plan_knowing(context, vec![None; context.instances.list.len()])
+}
+
+/// [`plan`], given the outputs of instances settled already (by index), which may not be
+/// cached (a stage that is not pure).
+pub fn plan_knowing(
+    context: &Context,
+    mut known: Vec<Option<BTreeMap<String, Digest>>>,
+) -> Vec<PlanLine> {
     let mut lines = Vec::with_capacity(known.len());
     for idx in 0..context.instances.list.len() {
         let inputs = context.resolve_inputs(idx, &|up| known[up].clone());
+        if known[idx].is_some() {
+            // Settled in this run: the plan says cached, for a stage that is not pure too.
+            if let Some(key) = context.key(idx, &inputs) {
+                lines.push(PlanLine {
+                    instance: context.instances.list[idx].name.clone(),
+                    decision: Decision::Cached {
+                        key,
+                        outputs: known[idx].clone().expect("known"),
+                        compute_s: 0.0,
+                    },
+                });
+                continue;
+            }
+        }
         let decision = context.decide(idx, &inputs);
         if let Decision::Cached { outputs, .. } = &decision {
             known[idx] = Some(outputs.clone());

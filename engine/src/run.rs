@@ -28,8 +28,39 @@ use crate::plan::{Context, Decision, ResolvedInputs};
 pub struct RunOptions {
     /// Worker threads; `None` uses every core.
     pub jobs: Option<usize>,
-    pub out_dir: PathBuf,
+    /// Where tables, figures and the manifest go; `None` writes nothing but the cache (a
+    /// cluster job, or the driver's runs before its jobs).
+    pub out_dir: Option<PathBuf>,
     pub progress: bool,
+    /// The instances to settle, closed upstream (an instance's inputs are selected with it);
+    /// `None` settles every instance.
+    pub select: Option<Vec<bool>>,
+    /// Instances another executor ran (by index): never run here.
+    pub ran_elsewhere: HashMap<usize, Elsewhere>,
+}
+
+impl RunOptions {
+    /// Every instance, here, outputs written to `out_dir`.
+    pub fn local(jobs: Option<usize>, out_dir: PathBuf, progress: bool) -> RunOptions {
+        RunOptions {
+            jobs,
+            out_dir: Some(out_dir),
+            progress,
+            select: None,
+            ran_elsewhere: HashMap::new(),
+        }
+    }
+}
+
+/// How an instance ended that another executor (a Slurm job) ran.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Elsewhere {
+    /// Its outputs should be in the cache; `why` says where it ran.
+    Ran {
+        wall_s: f64,
+        why: String,
+    },
+    Failed(String),
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -127,18 +158,25 @@ pub fn compute_time_port() -> PortSpec {
 const STAGE_BAR_STEPS: u64 = 1000;
 
 /// Runs every instance of the context and writes the outputs, the manifest and the record.
+/// Runs the selected instances (all by default); writes the outputs and the manifest when
+/// `options.out_dir` is set, and the run record when `record_path` is.
 pub fn run(
     context: &Context,
     options: &RunOptions,
-    record_path: &Path,
+    record_path: Option<&Path>,
 ) -> std::io::Result<RunReport> {
     let started = Instant::now();
     // Results must not depend on the thread count: the cache keys downstream work by them.
     squeal_stages::fix_global_parallelism();
     let n_instances = context.instances.list.len();
+    let selected = |idx: usize| options.select.as_ref().is_none_or(|select| select[idx]);
+    let n_selected = (0..n_instances).filter(|&idx| selected(idx)).count();
     let mut dependents = vec![Vec::new(); n_instances];
     let mut pending = vec![0; n_instances];
     for (idx, instance) in context.instances.list.iter().enumerate() {
+        if !selected(idx) {
+            continue;
+        }
         let mut upstream: Vec<usize> = instance
             .inputs
             .iter()
@@ -151,9 +189,10 @@ pub fn run(
             dependents[up].push(idx);
         }
     }
-    let exports_path = options.out_dir.join(EXPORTS_FILE);
-    let exports = std::fs::read(&exports_path)
-        .ok()
+    let exports_path = options.out_dir.as_ref().map(|dir| dir.join(EXPORTS_FILE));
+    let exports = exports_path
+        .as_ref()
+        .and_then(|path| std::fs::read(path).ok())
         .and_then(|bytes| serde_json::from_slice(&bytes).ok())
         .unwrap_or_default();
     let bars = MultiProgress::with_draw_target(if options.progress {
@@ -161,13 +200,15 @@ pub fn run(
     } else {
         ProgressDrawTarget::hidden()
     });
-    let progress = bars.add(ProgressBar::new(n_instances as u64));
+    let progress = bars.add(ProgressBar::new(n_selected as u64));
     progress.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
             .expect("valid template")
             .progress_chars("=> "),
     );
-    let roots: Vec<usize> = (0..n_instances).filter(|&idx| pending[idx] == 0).collect();
+    let roots: Vec<usize> = (0..n_instances)
+        .filter(|&idx| selected(idx) && pending[idx] == 0)
+        .collect();
     let executor = Executor {
         context,
         options,
@@ -200,33 +241,39 @@ pub fn run(
         .shared
         .into_inner()
         .expect("no worker panics while holding the lock");
-    let reports: Vec<InstanceReport> = shared
+    let settled: Vec<(usize, InstanceReport)> = shared
         .reports
         .into_iter()
-        .map(|report| report.expect("every instance is settled"))
+        .enumerate()
+        .filter(|&(idx, _)| selected(idx))
+        .map(|(idx, report)| (idx, report.expect("every selected instance is settled")))
         .collect();
 
-    let mut record = context.record.clone();
-    for (idx, report) in reports.iter().enumerate() {
-        if let (Some(key), Some(inputs), Status::Ran | Status::Cached) =
-            (report.key, &shared.inputs[idx], &report.status)
-        {
-            record.instances.insert(
-                report.name.clone(),
-                context.record_of(idx, key, inputs, &report.outputs),
-            );
+    if let Some(record_path) = record_path {
+        let mut record = context.record.clone();
+        for (idx, report) in &settled {
+            if let (Some(key), Some(inputs), Status::Ran | Status::Cached) =
+                (report.key, &shared.inputs[*idx], &report.status)
+            {
+                record.instances.insert(
+                    report.name.clone(),
+                    context.record_of(*idx, key, inputs, &report.outputs),
+                );
+            }
         }
+        record.save(record_path)?;
     }
-    record.save(record_path)?;
-    output::write_if_changed(
-        &exports_path,
-        &serde_json::to_vec_pretty(&shared.exports).expect("serialises"),
-    )?;
     let report = RunReport {
-        instances: reports,
+        instances: settled.into_iter().map(|(_, report)| report).collect(),
         wall_s: started.elapsed().as_secs_f64(),
     };
-    crate::manifest::write(&options.out_dir.join("manifest.parquet"), &report)?;
+    if let (Some(out_dir), Some(exports_path)) = (&options.out_dir, &exports_path) {
+        output::write_if_changed(
+            exports_path,
+            &serde_json::to_vec_pretty(&shared.exports).expect("serialises"),
+        )?;
+        crate::manifest::write(&out_dir.join("manifest.parquet"), &report)?;
+    }
     Ok(report)
 }
 
@@ -314,19 +361,51 @@ impl Executor<'_> {
             })
         };
         self.lock().inputs[idx] = Some(inputs.clone());
-        match context.decide(idx, &inputs) {
-            Decision::Cached {
-                key,
-                outputs,
-                compute_s,
-            } => {
+        match (
+            self.options.ran_elsewhere.get(&idx),
+            context.decide(idx, &inputs),
+        ) {
+            (Some(Elsewhere::Failed(message)), _) => {
+                report.status = Status::Failed(message.clone());
+                return report;
+            }
+            (
+                Some(Elsewhere::Ran { wall_s, why }),
+                Decision::Cached {
+                    key,
+                    outputs,
+                    compute_s,
+                },
+            ) => {
+                report.key = Some(key);
+                report.reasons = vec![why.clone()];
+                report.wall_s = *wall_s;
+                report.outputs = outputs;
+                report.compute_s = compute_s;
+            }
+            (Some(Elsewhere::Ran { .. }), Decision::Runs { .. }) => {
+                report.status = Status::Failed(
+                    "its job ended, but its outputs are not in the cache (is the cache on a \
+                     file system the jobs share?)"
+                        .into(),
+                );
+                return report;
+            }
+            (
+                None,
+                Decision::Cached {
+                    key,
+                    outputs,
+                    compute_s,
+                },
+            ) => {
                 report.key = Some(key);
                 report.status = Status::Cached;
                 report.outputs = outputs;
                 report.compute_s = compute_s;
                 tracing::debug!(stage = %instance.name, "cached");
             }
-            Decision::Runs { key, reasons } => {
+            (None, Decision::Runs { key, reasons }) => {
                 let key = key.expect("inputs are settled, so the key is known");
                 report.key = Some(key);
                 report.reasons = reasons;
@@ -515,6 +594,9 @@ impl Executor<'_> {
     fn export(&self, idx: usize, outputs: &BTreeMap<String, Digest>) -> Result<(), String> {
         let instances = self.context.instances;
         let instance = &instances.list[idx];
+        let Some(out_dir) = &self.options.out_dir else {
+            return Ok(());
+        };
         let mut dir = PathBuf::from(&self.context.study.stages[instance.stage].name);
         for segment in instances.coord_segments(instance) {
             dir.push(segment);
@@ -532,10 +614,7 @@ impl Executor<'_> {
                 .get(&relative_key)
                 .is_some_and(|export| {
                     export.digest == *digest
-                        && export
-                            .files
-                            .iter()
-                            .all(|file| self.options.out_dir.join(file).exists())
+                        && export.files.iter().all(|file| out_dir.join(file).exists())
                 });
             if up_to_date {
                 continue;
@@ -572,7 +651,7 @@ impl Executor<'_> {
                 | Artifact::Basis(_) => files = Vec::new(),
             }
             for (file, bytes) in &files {
-                let path = self.options.out_dir.join(file);
+                let path = out_dir.join(file);
                 output::write_atomic(&path, bytes)
                     .map_err(|err| format!("writing {}: {err}", path.display()))?;
             }

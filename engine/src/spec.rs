@@ -155,6 +155,33 @@ pub struct RawStudy {
     /// Stages whose outputs are wanted; all stages when absent.
     pub targets: Option<Vec<Spanned<String>>>,
     pub stages: OrderedMap<RawStage>,
+    /// Defaults for the Slurm executor's jobs.
+    pub slurm: Option<Spanned<RawSlurm>>,
+}
+
+/// The `slurm:` section: what every job asks for unless the command line or a stage says
+/// otherwise.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSlurm {
+    pub partition: Option<Spanned<String>>,
+    pub account: Option<Spanned<String>>,
+    pub time: Option<Spanned<String>>,
+    pub mem: Option<Spanned<String>>,
+    pub cpus_per_task: Option<Spanned<u32>>,
+    #[serde(default)]
+    pub sbatch_args: Vec<Spanned<String>>,
+}
+
+/// A stage's `resources:`: where a cluster executor runs it and what its jobs ask for.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawResources {
+    /// `driver` or `job`.
+    pub placement: Option<Spanned<String>>,
+    pub cpus_per_task: Option<Spanned<u32>>,
+    pub mem: Option<Spanned<String>>,
+    pub time: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -169,6 +196,8 @@ pub struct RawStage {
     /// Swept parameter → values; several entries sweep their cartesian product.
     #[serde(default)]
     pub matrix: OrderedMap<Spanned<RawSweep>>,
+    /// Placement and requests for a cluster executor.
+    pub resources: Option<Spanned<RawResources>>,
 }
 
 pub fn located<T>(file: &str, spanned: Spanned<T>) -> Located<T> {

@@ -9,6 +9,7 @@ use petgraph::graph::{DiGraph, NodeIndex};
 use serde_saphyr::Spanned;
 use squeal_stages::{Arity, ParamSpec, ParamType, Stage, Value};
 
+use crate::slurm::requests::{JobDefaults, StageResources};
 use crate::spec::{self, Located, Location, RawStage, RawSweep, RawValue, SpecError};
 use crate::units;
 
@@ -95,6 +96,8 @@ pub struct StageDecl {
     /// Swept parameters and their values, in file order.
     pub matrix: Vec<(String, Vec<Value>)>,
     pub inputs: Vec<InputDecl>,
+    /// Placement and requests for a cluster executor (`resources:`).
+    pub resources: StageResources,
 }
 
 pub struct Study {
@@ -106,6 +109,8 @@ pub struct Study {
     pub stages: Vec<StageDecl>,
     /// Indices of the target stages.
     pub targets: Vec<usize>,
+    /// What every Slurm job asks for unless the command line or a stage says otherwise.
+    pub slurm: JobDefaults,
 }
 
 impl Study {
@@ -206,7 +211,12 @@ impl Study {
                 .collect::<Result<_, _>>()?,
         };
         check_acyclic(file, &raw.stages.0, &stages)?;
+        let slurm = match &raw.slurm {
+            Some(section) => JobDefaults::from_raw(file, section)?,
+            None => JobDefaults::default(),
+        };
         Ok(Study {
+            slurm,
             file: file.into(),
             name: raw.study.unwrap_or_else(|| default_name.into()),
             description: raw.description,
@@ -349,12 +359,17 @@ impl Validator<'_> {
         }
 
         let inputs = self.inputs(&path, &kind, stage.as_ref(), raw)?;
+        let resources = match &raw.resources {
+            Some(resources) => StageResources::from_raw(file, name, resources)?,
+            None => StageResources::default(),
+        };
         Ok(StageDecl {
             name: name.into(),
             stage,
             params,
             matrix,
             inputs,
+            resources,
         })
     }
 

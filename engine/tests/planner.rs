@@ -107,12 +107,8 @@ fn plan_and_run(
         .filter(|line| matches!(line.decision, Decision::Runs { .. }))
         .map(|line| line.instance)
         .collect();
-    let options = RunOptions {
-        jobs: Some(2),
-        out_dir: dir.join("out"),
-        progress: false,
-    };
-    let report = squeal_engine::run::run(&context, &options, &record_path).unwrap();
+    let options = RunOptions::local(Some(2), dir.join("out"), false);
+    let report = squeal_engine::run::run(&context, &options, Some(&record_path)).unwrap();
     let ran = report
         .instances
         .iter()

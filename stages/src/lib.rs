@@ -37,7 +37,7 @@ pub use artifact::{Artifact, ArtifactType, Document, Figure};
 pub use squeal_linalg::{fix_global_parallelism, numeric_platform};
 pub use stage::{
     Arity, Checkpoints, Coords, Input, Inputs, NoCheckpoints, Outputs, ParamSpec, ParamType,
-    Params, PortSpec, Progress, RunContext, Stage, StageError, Value,
+    Params, Placement, PortSpec, Progress, Resources, RunContext, Stage, StageError, Value,
 };
 pub use table::{Column, ColumnData, Table};
 

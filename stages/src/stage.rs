@@ -444,6 +444,44 @@ impl RunContext<'_> {
     }
 }
 
+/// Where an executor that spreads a study over a cluster runs a stage's instances.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Placement {
+    /// Beside the engine, in the process that plans the run: stages that take seconds (meshes,
+    /// assembly, gathers, figures, exports), where a job would cost more than it saves.
+    Driver,
+    /// As a job of its own, with the resources below: stages that take minutes.
+    Job,
+}
+
+/// What a stage's instance typically needs: where it runs, how many threads it keeps busy and
+/// its memory, sized for the default brake (about 30,000 DOFs). Requests for a scheduler, not
+/// limits the stage enforces; a study overrides them per stage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Resources {
+    pub placement: Placement,
+    pub threads: u32,
+    pub memory_mb: u64,
+}
+
+impl Resources {
+    /// Seconds of work: runs in the driver.
+    pub const LIGHT: Resources = Resources {
+        placement: Placement::Driver,
+        threads: 1,
+        memory_mb: 1024,
+    };
+
+    /// Minutes of work: a job with `threads` cores and `memory_mb` megabytes.
+    pub const fn job(threads: u32, memory_mb: u64) -> Resources {
+        Resources {
+            placement: Placement::Job,
+            threads,
+            memory_mb,
+        }
+    }
+}
+
 /// A kind of stage. Implementations are pure: `run` is a deterministic function of the
 /// parameters and inputs. A stage that is not (reads the clock, a file outside the study)
 /// returns `false` from [`Stage::pure`] and is never cached.
@@ -464,6 +502,11 @@ pub trait Stage: Send + Sync {
     }
     fn pure(&self) -> bool {
         true
+    }
+    /// Where a cluster executor runs the stage and what it asks for; [`Resources::LIGHT`]
+    /// unless the stage takes minutes.
+    fn resources(&self) -> Resources {
+        Resources::LIGHT
     }
     /// Reads `params` into the stage's typed parameter struct ([`Params::typed`]), as `run`
     /// does first. Stages that read their parameters that way override it, so that the test

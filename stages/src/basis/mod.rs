@@ -75,7 +75,9 @@ use squeal_linalg::tall::transpose_times;
 use crate::artifact::basis::{StaticModes, interface_dofs};
 use crate::artifact::{Artifact, ArtifactType, Basis, CscMatrix, Equilibrium, Model, RealModes};
 use crate::complex_modes::ComplexModes;
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, RunContext, Stage, StageError};
+use crate::stage::{
+    Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, RunContext, Stage, StageError,
+};
 use crate::table::{ColumnData, Table};
 
 /// A real mode completes `fc` when at least this fraction of its `M`-norm lies outside the
@@ -114,6 +116,9 @@ impl Stage for ReductionBasis {
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"
+    }
+    fn resources(&self) -> Resources {
+        Resources::job(2, 8192)
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![

@@ -54,7 +54,8 @@ use crate::artifact::Equilibrium;
 use crate::artifact::Model;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{
-    Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, RunContext, Stage, StageError,
+    Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, Resources, RunContext, Stage,
+    StageError,
 };
 use crate::table::Table;
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
@@ -387,6 +388,9 @@ impl Stage for Stability {
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
+    }
+    fn resources(&self) -> Resources {
+        Resources::job(4, 8192)
     }
     fn params(&self) -> Vec<ParamSpec> {
         let defaults = Settings::default();

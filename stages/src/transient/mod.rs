@@ -78,7 +78,9 @@ use serde::Deserialize;
 
 use crate::artifact::basis::StaticModes;
 use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, RunContext, Stage, StageError};
+use crate::stage::{
+    Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, RunContext, Stage, StageError,
+};
 use crate::table::{ColumnData, Table};
 use contact::Solver;
 use reduced::{FullStep, Indicator, ReducedModel};
@@ -171,6 +173,9 @@ impl Stage for Transient {
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
+    }
+    fn resources(&self) -> Resources {
+        Resources::job(2, 4096)
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
