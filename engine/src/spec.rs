@@ -156,7 +156,7 @@ pub struct RawStudy {
     pub targets: Option<Vec<Spanned<String>>>,
     pub stages: OrderedMap<RawStage>,
     /// Defaults for the Slurm executor's jobs.
-    pub slurm: Option<Spanned<RawSlurm>>,
+    pub slurm: Option<RawSlurm>,
 }
 
 /// The `slurm:` section: what every job asks for unless the command line or a stage says
@@ -197,7 +197,7 @@ pub struct RawStage {
     #[serde(default)]
     pub matrix: OrderedMap<Spanned<RawSweep>>,
     /// Placement and requests for a cluster executor.
-    pub resources: Option<Spanned<RawResources>>,
+    pub resources: Option<RawResources>,
 }
 
 pub fn located<T>(file: &str, spanned: Spanned<T>) -> Located<T> {

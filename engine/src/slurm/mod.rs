@@ -484,11 +484,13 @@ fn follow(
             }
             End::Slurm(state) => {
                 let what = match state.state.as_str() {
-                    "TIMEOUT" => format!(
-                        "it ran past its time limit ({})",
-                        request.time.as_deref().unwrap_or("the partition's")
-                    ),
-                    "OUT_OF_MEMORY" => format!("it used more than its memory ({})", request.mem),
+                    "TIMEOUT" => match &request.time {
+                        Some(time) => format!("it ran past its time limit (--time={time})"),
+                        None => "it ran past the partition's time limit (set --time)".into(),
+                    },
+                    "OUT_OF_MEMORY" => {
+                        format!("it used more than its memory (--mem={})", request.mem)
+                    }
                     "CANCELLED" => "cancelled (scancel, or an administrator)".into(),
                     _ => match &status {
                         Some(status) if !status.succeeded() => status.message.clone(),
@@ -566,11 +568,26 @@ pub fn dry_run(context: &Context, options: &SlurmOptions) -> String {
         "# squeal would run in the driver first: {}\n",
         names(&|idx| !after[idx])
     );
+    // Driver-placed instances a job needs run inside that job.
+    let mut inside = vec![false; n];
+    for idx in (0..n).rev() {
+        if job[idx] || inside[idx] {
+            for &up in context.instances.list[idx]
+                .inputs
+                .iter()
+                .flat_map(|input| &input.from)
+            {
+                inside[up] = after[up] && !job[up];
+            }
+        }
+    }
     let tasks: usize = submissions.iter().map(|s| s.instances.len()).sum();
     text += &format!(
-        "# then submit {} jobs ({tasks} tasks), then run in the driver: {}\n",
+        "# then submit {} jobs ({tasks} tasks), which also run: {}\n\
+         # then run in the driver: {}\n",
         submissions.len(),
-        names(&|idx| after[idx] && !job[idx])
+        names(&|idx| inside[idx]),
+        names(&|idx| after[idx] && !job[idx] && !inside[idx])
     );
     let ids: Vec<String> = (1..=submissions.len())
         .map(|number| format!("$job{number}"))

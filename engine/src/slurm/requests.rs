@@ -43,8 +43,7 @@ pub struct JobRequest {
 }
 
 impl JobDefaults {
-    pub fn from_raw(file: &str, raw: &Spanned<RawSlurm>) -> Result<JobDefaults, SpecError> {
-        let raw = &raw.value;
+    pub fn from_raw(file: &str, raw: &RawSlurm) -> Result<JobDefaults, SpecError> {
         Ok(JobDefaults {
             partition: raw.partition.clone().map(|value| value.value),
             account: raw.account.clone().map(|value| value.value),
@@ -76,10 +75,10 @@ impl StageResources {
     pub fn from_raw(
         file: &str,
         stage: &str,
-        raw: &Spanned<RawResources>,
+        raw: &RawResources,
     ) -> Result<StageResources, SpecError> {
         let path = |field: &str| format!("stages.{stage}.resources.{field}");
-        let placement = match &raw.value.placement {
+        let placement = match &raw.placement {
             None => None,
             Some(value) => Some(match value.value.as_str() {
                 "driver" => Placement::Driver,
@@ -94,9 +93,9 @@ impl StageResources {
         };
         Ok(StageResources {
             placement,
-            cpus_per_task: cpus(file, &path("cpus_per_task"), &raw.value.cpus_per_task)?,
-            mem: checked(file, &path("mem"), &raw.value.mem, check_mem)?,
-            time: checked(file, &path("time"), &raw.value.time, check_time)?,
+            cpus_per_task: cpus(file, &path("cpus_per_task"), &raw.cpus_per_task)?,
+            mem: checked(file, &path("mem"), &raw.mem, check_mem)?,
+            time: checked(file, &path("time"), &raw.time, check_time)?,
         })
     }
 }
