@@ -744,7 +744,20 @@ fn print_stages(registry: &Registry) {
         compute_time.name, compute_time.doc
     );
     for stage in registry.iter() {
-        println!("{} (v{}): {}", stage.kind(), stage.version(), stage.doc());
+        let resources = stage.resources();
+        let placement = match resources.placement {
+            squeal_stages::Placement::Driver => String::new(),
+            squeal_stages::Placement::Job => format!(
+                "; a Slurm job of {} CPUs, {} MB",
+                resources.threads, resources.memory_mb
+            ),
+        };
+        println!(
+            "{} (v{}{placement}): {}",
+            stage.kind(),
+            stage.version(),
+            stage.doc()
+        );
         for port in stage.inputs() {
             let many = if port.arity == squeal_stages::Arity::Many {
                 ", gathers a sweep"

@@ -76,7 +76,7 @@ fn a_dry_run_of_the_mu_sweep_submits_two_corresponding_arrays() {
     assert_eq!(directives(&text, "array"), ["0-6", "0-6"]);
     // The stage kinds' own requests: equilibrium 2 CPUs, stability 4.
     assert_eq!(directives(&text, "cpus-per-task"), ["2", "4"]);
-    assert_eq!(directives(&text, "mem"), ["4096M", "8192M"]);
+    assert_eq!(directives(&text, "mem"), ["2048M", "4096M"]);
     assert!(directives(&text, "time").is_empty());
     assert!(text.contains("\nequilibrium[mu=0.3]\n"), "{text}");
     // Nothing ran, nothing was written.

@@ -568,7 +568,7 @@ impl Stage for SlidingEquilibrium {
         "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu, pads pressed by an interference or a back pressure"
     }
     fn resources(&self) -> Resources {
-        Resources::job(2, 4096)
+        Resources::job(2, 2048)
     }
     fn params(&self) -> Vec<ParamSpec> {
         let defaults = LcpSettings::default();

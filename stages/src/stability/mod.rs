@@ -390,7 +390,7 @@ impl Stage for Stability {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
     }
     fn resources(&self) -> Resources {
-        Resources::job(4, 8192)
+        Resources::job(4, 4096)
     }
     fn params(&self) -> Vec<ParamSpec> {
         let defaults = Settings::default();

@@ -175,7 +175,7 @@ impl Stage for Transient {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
     }
     fn resources(&self) -> Resources {
-        Resources::job(2, 4096)
+        Resources::job(2, 2048)
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
