@@ -1,7 +1,7 @@
 //! What the Slurm executor costs over a local run, on a single-node cluster on the loopback
 //! interface (`tests/slurm/cluster.sh`; needs Debian's slurm-wlm and munge, and root):
-//! the coarse brake's μ sweep (`pipelines/mu_sweep.yaml`, 2 arrays of 7 tasks) local and on
-//! Slurm, back to back; the cost of a job, from a 20-task array of trivial stages and from a
+//! the coarse brake's μ sweep (`pipelines/mu_sweep.yaml`: its `stability`, an array of 7
+//! tasks) local and on Slurm, back to back; the cost of a job, from a 20-task array of trivial stages and from a
 //! chain of 5 dependent jobs; and what a 1,000-point sweep submits (a dry run).
 //! Run with `cargo bench --bench slurm_overhead`.
 
@@ -81,11 +81,11 @@ fn main() {
 
     let mu_sweep = std::fs::read_to_string(root.join("pipelines/mu_sweep.yaml")).expect("study");
     compare(
-        "mu_sweep (14 tasks, 2 arrays)",
+        "mu_sweep (7 tasks, one array)",
         "mu_sweep.yaml",
         &mu_sweep,
         &conf,
-        14,
+        7,
     );
 
     let mut array =

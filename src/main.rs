@@ -535,9 +535,9 @@ fn run_slurm(
     let (report, submitted) =
         slurm::run(&context, &options, &record_path).map_err(anyhow::Error::msg)?;
     eprintln!(
-        "slurm: submitted {} jobs ({} tasks); scripts and logs in {}",
-        submitted.jobs,
-        submitted.tasks,
+        "slurm: submitted {} ({}); scripts and logs in {}",
+        slurm::count(submitted.jobs, "job"),
+        slurm::count(submitted.tasks, "task"),
         options.dir.display()
     );
     print_summary(&study, &report, &out_dir);

@@ -43,42 +43,38 @@ fn sbatch_lines(text: &str) -> Vec<String> {
 }
 
 #[test]
-fn a_dry_run_of_the_mu_sweep_submits_two_corresponding_arrays() {
+fn a_dry_run_of_the_mu_sweep_submits_its_stability_as_one_array() {
     let workspace = Workspace::new();
     let study = workspace.path().join("mu_sweep.yaml");
     std::fs::copy(pipeline("mu_sweep.yaml"), &study).unwrap();
     let output = workspace.squeal(&["run", "mu_sweep.yaml", "--executor", "slurm", "--dry-run"]);
     assert!(output.status.success(), "{}", stderr(&output));
     let text = stdout(&output);
+    let equilibria: Vec<String> = ["0", "0.1", "0.2", "0.3", "0.4", "0.5", "0.6"]
+        .map(|mu| format!("equilibrium[mu={mu}]"))
+        .to_vec();
     assert!(
-        text.contains("# squeal would run in the driver first: mesh, model\n"),
-        "{text}"
-    );
-    assert!(
-        text.contains(
-            "# then submit 2 jobs (14 tasks), which also run: nothing\n\
-             # then run in the driver: eigenvalues, tracked\n"
-        ),
+        text.contains(&format!(
+            "# squeal would run in the driver first: mesh, model, {}\n\
+             # then submit 1 job (7 tasks), which also run: nothing\n\
+             # then run in the driver: eigenvalues, tracked\n",
+            equilibria.join(", ")
+        )),
         "{text}"
     );
     let sbatch = sbatch_lines(&text);
-    assert_eq!(sbatch.len(), 2, "{text}");
+    assert_eq!(sbatch.len(), 1, "{text}");
     assert!(
         sbatch[0].starts_with("job1=$(sbatch --parsable /"),
         "{}",
         sbatch[0]
     );
-    assert!(
-        sbatch[1].contains("\"--dependency=aftercorr:$job1\" --kill-on-invalid-dep=yes"),
-        "{}",
-        sbatch[1]
-    );
-    assert_eq!(directives(&text, "array"), ["0-6", "0-6"]);
-    // The stage kinds' own requests: equilibrium 2 CPUs, stability 4.
-    assert_eq!(directives(&text, "cpus-per-task"), ["2", "4"]);
-    assert_eq!(directives(&text, "mem"), ["2048M", "4096M"]);
+    assert_eq!(directives(&text, "array"), ["0-6"]);
+    // The stage kind's own request.
+    assert_eq!(directives(&text, "cpus-per-task"), ["4"]);
+    assert_eq!(directives(&text, "mem"), ["4096M"]);
     assert!(directives(&text, "time").is_empty());
-    assert!(text.contains("\nequilibrium[mu=0.3]\n"), "{text}");
+    assert!(text.contains("\nstability[mu=0.3]\n"), "{text}");
     // Nothing ran, nothing was written.
     assert!(!workspace.path().join("out").exists());
     assert!(!workspace.path().join(".squeal/slurm").exists());
@@ -405,7 +401,7 @@ fn slurm_cluster_runs_studies_and_reports_failed_cancelled_timed_out_and_interru
     );
     let text = stderr(&output);
     assert!(output.status.success(), "{text}");
-    assert_eq!(submitted(&text), (2, 14), "{text}");
+    assert_eq!(submitted(&text), (1, 7), "{text}");
     assert!(
         text.contains("ran     stability[mu=0.3] (in Slurm job "),
         "{text}"

@@ -5,9 +5,9 @@
 //!
 //! 1. **The driver's share before the jobs.** Each stage kind has a placement
 //!    ([`squeal_stages::Placement`]): stages that take seconds (meshes, assembly, gathers,
-//!    figures, exports) run in the driver, because a job costs seconds of scheduling and
-//!    start-up alone; stages that take minutes (modes, equilibrium, stability, transient,
-//!    bases) become jobs. A study moves a stage with `resources: { placement: driver | job }`.
+//!    figures, exports, and on the default brake the real modes and the equilibrium) run in the
+//!    driver, because a job costs about a second of scheduling alone; stages that take minutes
+//!    (stability, transient, bases) become jobs. A study moves a stage with `resources: { placement: driver | job }`.
 //!    What runs in the driver and needs no job's result runs first, on the driver's cores.
 //! 2. **The jobs.** The plan is made again; every job instance that is not cached is submitted
 //!    ([`submit`]: a stage's instances as one job array, dependencies as `afterok` or
@@ -344,7 +344,10 @@ fn submit_all(
                     if ids.is_empty() {
                         String::new()
                     } else {
-                        format!(" (cancelled the {} jobs submitted before)", ids.len())
+                        format!(
+                            " (cancelled the {} submitted before)",
+                            count(ids.len(), "job")
+                        )
                     }
                 ));
             }
@@ -528,6 +531,15 @@ fn follow(
     Ok(outcomes)
 }
 
+/// `n thing` or `n things`.
+pub fn count(n: usize, thing: &str) -> String {
+    if n == 1 {
+        format!("1 {thing}")
+    } else {
+        format!("{n} {thing}s")
+    }
+}
+
 /// The last `lines` non-empty lines of a job's stderr, as the end of a message.
 fn tail(path: &Path, lines: usize) -> String {
     let Ok(text) = std::fs::read_to_string(path) else {
@@ -583,9 +595,10 @@ pub fn dry_run(context: &Context, options: &SlurmOptions) -> String {
     }
     let tasks: usize = submissions.iter().map(|s| s.instances.len()).sum();
     text += &format!(
-        "# then submit {} jobs ({tasks} tasks), which also run: {}\n\
+        "# then submit {} ({}), which also run: {}\n\
          # then run in the driver: {}\n",
-        submissions.len(),
+        count(submissions.len(), "job"),
+        count(tasks, "task"),
         names(&|idx| inside[idx]),
         names(&|idx| after[idx] && !job[idx] && !inside[idx])
     );

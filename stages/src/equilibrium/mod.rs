@@ -68,7 +68,7 @@ use crate::artifact::{Artifact, ArtifactType, Equilibrium};
 use crate::artifact::{ContactFrames, CscMatrix, Model};
 use crate::contact;
 use crate::contact::lcp::{self, Balance, LcpSettings, LcpSolution};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::ldlt::{Factor, ShiftedPencil};
 
@@ -566,9 +566,6 @@ impl Stage for SlidingEquilibrium {
     }
     fn doc(&self) -> &'static str {
         "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu, pads pressed by an interference or a back pressure"
-    }
-    fn resources(&self) -> Resources {
-        Resources::job(2, 2048)
     }
     fn params(&self) -> Vec<ParamSpec> {
         let defaults = LcpSettings::default();

@@ -25,7 +25,7 @@ use faer::Mat;
 
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{Model, RealModes};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, Stage, StageError};
+use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 use squeal_linalg::eigensolver::{self, Band, Eigensolution, SolveOptions};
@@ -46,9 +46,6 @@ impl Stage for Modes {
         "Real modes K phi = omega^2 M phi by shift-invert block Lanczos, completeness proved by a Sturm count"
     }
 
-    fn resources(&self) -> Resources {
-        Resources::job(2, 4096)
-    }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
             ParamSpec::int(
