@@ -48,11 +48,11 @@ fn yaml_syntax() {
 fn unknown_or_missing_keys() {
     check_file(
         "unknown_top_level_key.yaml",
-        "2:1: stagez: unknown field `stagez`, expected one of study, description, targets, stages",
+        "2:1: stagez: unknown field `stagez`, expected one of study, description, targets, stages, slurm",
     );
     check_file(
         "unknown_stage_key.yaml",
-        "4:5: stages.source.param: unknown field `param`, expected one of kind, params, inputs, matrix",
+        "4:5: stages.source.param: unknown field `param`, expected one of kind, params, inputs, matrix, resources",
     );
     check_file(
         "missing_kind.yaml",
