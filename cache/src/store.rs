@@ -20,6 +20,14 @@ pub enum CacheError {
     Busy(PathBuf),
 }
 
+/// The error of a write to a read-only mount or a folder the user may not write.
+fn is_read_only(err: &io::Error) -> bool {
+    matches!(
+        err.kind(),
+        io::ErrorKind::ReadOnlyFilesystem | io::ErrorKind::PermissionDenied
+    )
+}
+
 fn io_error(path: &Path) -> impl FnOnce(io::Error) -> CacheError + '_ {
     move |source| CacheError::Io {
         path: path.to_path_buf(),
@@ -103,15 +111,28 @@ impl Cache {
     fn lock_file(root: &Path) -> Result<File, CacheError> {
         for dir in ["objects", "actions", "tmp"] {
             let path = root.join(dir);
-            fs::create_dir_all(&path).map_err(io_error(&path))?;
+            match fs::create_dir_all(&path) {
+                Err(err) if !(path.is_dir() && is_read_only(&err)) => {
+                    return Err(CacheError::Io { path, source: err });
+                }
+                _ => {}
+            }
         }
         let path = root.join("LOCK");
-        File::options()
+        match File::options()
             .create(true)
             .truncate(false)
             .write(true)
             .open(&path)
-            .map_err(io_error(&path))
+        {
+            Ok(file) => Ok(file),
+            // A cache on a read-only mount still serves what it holds: lock it for reading
+            // (a lock needs no write access); storing fails, each time with its reason.
+            Err(err) if path.exists() && is_read_only(&err) => {
+                File::open(&path).map_err(io_error(&path))
+            }
+            Err(source) => Err(CacheError::Io { path, source }),
+        }
     }
 
     pub fn root(&self) -> &Path {
@@ -222,7 +243,8 @@ impl Cache {
     pub fn remove_action(&self, key: &Digest) -> Result<(), CacheError> {
         let path = self.action_path(key);
         match fs::remove_file(&path) {
-            Err(err) if err.kind() != io::ErrorKind::NotFound => {
+            // A read-only mount refuses even to remove what is not there.
+            Err(err) if err.kind() != io::ErrorKind::NotFound && path.exists() => {
                 Err(CacheError::Io { path, source: err })
             }
             _ => Ok(()),

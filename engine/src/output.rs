@@ -18,17 +18,52 @@ use squeal_stages::{ColumnData, Table};
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename: a reader
 /// sees the old file or the new one, never half of one. Not fsynced: everything written here
-/// (outputs, manifest, record) can be regenerated from the cache, which is.
+/// (outputs, manifest, record) can be regenerated from the cache, which is. A process killed
+/// between the two leaves its temporary file, which [`remove_stray_temporaries`] removes.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
         .filter(|dir| !dir.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(&format!("{TEMPORARY_PREFIX}{}-", std::process::id()))
+        .tempfile_in(dir)?;
     tmp.write_all(bytes)?;
     tmp.persist(path).map_err(|err| err.error)?;
     Ok(())
+}
+
+/// How [`write_atomic`]'s temporary files start, before the writer's process id.
+const TEMPORARY_PREFIX: &str = ".squeal-tmp-";
+
+/// Removes, under `dir`, the temporary files of [`write_atomic`] that a killed process left
+/// (its process id no longer runs); those of live processes stay. Linux only (`/proc`).
+pub fn remove_stray_temporaries(dir: &Path) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            remove_stray_temporaries(&path);
+            continue;
+        }
+        let name = entry.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|name| name.strip_prefix(TEMPORARY_PREFIX))
+            .and_then(|rest| rest.split('-').next())
+        else {
+            continue;
+        };
+        if !Path::new("/proc").join(pid).exists() {
+            let _ = std::fs::remove_file(&path);
+        }
+    }
 }
 
 /// [`write_atomic`], unless the file already holds exactly these bytes (small files rewritten
@@ -142,6 +177,23 @@ pub fn write_parquet_if_changed(path: &Path, table: &Table) -> std::io::Result<(
 mod tests {
     use super::*;
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+    #[test]
+    fn a_dead_writers_temporaries_are_removed_and_a_live_ones_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let nested = dir.path().join("stage/mu=0.1");
+        std::fs::create_dir_all(&nested).unwrap();
+        // Above any pid_max Linux allows (2^22): no such process.
+        let dead = nested.join(format!("{TEMPORARY_PREFIX}9999999-abc"));
+        let live = nested.join(format!("{TEMPORARY_PREFIX}{}-abc", std::process::id()));
+        let output = nested.join("table.parquet");
+        for path in [&dead, &live, &output] {
+            std::fs::write(path, b"x").unwrap();
+        }
+        remove_stray_temporaries(dir.path());
+        assert!(!dead.exists());
+        assert!(live.exists() && output.exists());
+    }
 
     #[test]
     fn tables_round_trip_through_parquet() {

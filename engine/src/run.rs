@@ -189,6 +189,12 @@ pub fn run(
             dependents[up].push(idx);
         }
     }
+    if let Some(out_dir) = &options.out_dir {
+        output::remove_stray_temporaries(out_dir);
+    }
+    if let Some(record_dir) = record_path.and_then(Path::parent) {
+        output::remove_stray_temporaries(record_dir);
+    }
     let exports_path = options.out_dir.as_ref().map(|dir| dir.join(EXPORTS_FILE));
     let exports = exports_path
         .as_ref()
@@ -536,7 +542,7 @@ impl Executor<'_> {
             let digest = context
                 .cache
                 .put_object(&artifact.encode())
-                .map_err(|err| err.to_string())?;
+                .map_err(|err| format!("storing output `{name}` in the cache: {err}"))?;
             self.memo
                 .lock()
                 .expect("memo lock")
@@ -553,7 +559,7 @@ impl Executor<'_> {
             context
                 .cache
                 .put_action(&key, &action)
-                .map_err(|err| err.to_string())?;
+                .map_err(|err| format!("recording the outputs in the cache: {err}"))?;
         }
         Ok((digests, compute_s))
     }
