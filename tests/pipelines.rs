@@ -148,6 +148,63 @@ fn the_hoffmann_study_gives_the_closed_form_eigenvalue() {
     assert!((im[growing] - 1.225578).abs() < 1e-6, "{im:?}");
 }
 
+/// The sweep through Hoffmann's mode coupling: the growing root appears exactly above μ_c, κ
+/// grows as |μ − μ_c|^(−1/2) on both sides, and the error bound holds where the exact answer
+/// is known (below μ_c the eigenvalues are purely imaginary: the computed Re λ is error).
+#[test]
+fn the_hoffmann_sweep_through_coalescence_reports_condition_numbers_that_hold() {
+    let workspace = Workspace::new();
+    let study = pipeline("hoffmann/coalescence.yaml");
+    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
+    let table = read_parquet(&workspace.path().join("out/eigenvalues/gathered.parquet"));
+    let (mu, re, im) = (
+        floats(&table, "mu"),
+        floats(&table, "re"),
+        floats(&table, "im"),
+    );
+    let (condition, bound) = (floats(&table, "condition"), floats(&table, "error_bound"));
+    let unstable = table
+        .column_by_name("unstable")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<arrow::array::BooleanArray>()
+        .unwrap()
+        .clone();
+    let mu_c = 0.270_148_607_487_333_67;
+    assert_eq!(mu.len(), 44);
+    for row in 0..mu.len() {
+        let modulus = re[row].hypot(im[row]);
+        assert!(
+            bound[row] < 1e-10,
+            "μ = {}: bound {:e}",
+            mu[row],
+            bound[row]
+        );
+        if mu[row] < mu_c {
+            assert!(!unstable.value(row));
+            assert!(
+                re[row].abs() <= bound[row] * modulus,
+                "μ = {}: Re λ = {:e} beyond the bound {:e}",
+                mu[row],
+                re[row],
+                bound[row]
+            );
+        }
+        let distance = (mu[row] - mu_c).abs();
+        if distance < 2e-3 {
+            // κ √|μ − μ_c| ≈ 0.437 on both sides (4.37e3 at 1e-8).
+            let scaled = condition[row] * distance.sqrt();
+            assert!(
+                (scaled - 0.437).abs() < 0.01,
+                "μ = {}: κ √δ = {scaled}",
+                mu[row]
+            );
+        }
+    }
+    let growing = (0..mu.len()).filter(|&row| unstable.value(row)).count();
+    assert_eq!(growing, 11, "one growing root per point above μ_c");
+}
+
 #[test]
 fn every_pipeline_validates() {
     let workspace = Workspace::new();

@@ -168,6 +168,17 @@ impl CscMatrix {
         }
     }
 
+    /// `Aᵀ`.
+    pub fn transpose(&self) -> CscMatrix {
+        CscMatrix::from_triplets(
+            self.n_cols,
+            self.n_rows,
+            self.triplets()
+                .map(|(row, col, value)| (col, row, value))
+                .collect(),
+        )
+    }
+
     /// `‖A‖₁`, the largest absolute column sum.
     pub fn norm_1(&self) -> f64 {
         (0..self.n_cols)

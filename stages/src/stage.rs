@@ -124,6 +124,14 @@ impl ParamSpec {
         }
     }
 
+    /// A file path that may be left out (empty by default).
+    pub fn optional_path(name: &'static str, doc: &'static str) -> Self {
+        ParamSpec {
+            default: Some(Value::Str(String::new())),
+            ..ParamSpec::path(name, doc)
+        }
+    }
+
     pub fn bool(name: &'static str, default: bool, doc: &'static str) -> Self {
         ParamSpec {
             name,

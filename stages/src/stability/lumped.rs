@@ -11,7 +11,8 @@ use std::f64::consts::PI;
 use faer::c64;
 
 use super::figure::stability_diagram;
-use super::{EigenPair, eigenvalue_table};
+use super::sliding::{mul_complex, norm};
+use super::{EigenPair, conditioning, eigenvalue_table};
 use crate::artifact::CscMatrix;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
@@ -44,30 +45,24 @@ pub fn solve_matrices(
         )));
     }
     let norms = [M.norm_1(), C.norm_1(), K.norm_1()];
-    let omega_max = 2.0 * PI * f_max_hz;
-    let mut pairs: Vec<EigenPair> = super::dense::quadratic_eigen(
-        M.to_dense().as_ref(),
-        C.to_dense().as_ref(),
-        K.to_dense().as_ref(),
-        |lambda| lambda.im > 0.0 && (f_max_hz <= 0.0 || lambda.im <= omega_max),
-    )?
-    .into_iter()
-    .map(|(lambda, x)| {
-        let product = |A: &CscMatrix| super::sliding::mul_complex(A, &x);
-        let (Mx, Cx, Kx) = (product(M), product(C), product(K));
-        let r: Vec<c64> = (0..n)
-            .map(|i| lambda * lambda * Mx[i] + lambda * Cx[i] + Kx[i])
-            .collect();
-        let scale = lambda.norm_sqr() * norms[0] + lambda.norm() * norms[1] + norms[2];
-        let residual =
-            super::sliding::norm(&r) / (scale * super::sliding::norm(&x)).max(f64::MIN_POSITIVE);
-        EigenPair {
-            lambda,
-            q: x,
-            residual,
-        }
-    })
-    .collect();
+    let mut pairs = dense_pairs(M, C, K, f_max_hz, norms)?;
+    // The left vectors: the transposed problem, solved the same way.
+    let left_band = f_max_hz * (1.0 + 1e-6);
+    let left = dense_pairs(
+        &M.transpose(),
+        &C.transpose(),
+        &K.transpose(),
+        left_band,
+        norms,
+    )?;
+    let conditions = conditioning::condition_numbers(&pairs, &left, norms, |lambda, y, x| {
+        let (Mx, Cx) = (mul_complex(M, x), mul_complex(C, x));
+        y.iter()
+            .zip(Mx.iter().zip(&Cx))
+            .map(|(y, (m, c))| y * (2.0 * lambda * m + c))
+            .sum()
+    });
+    conditioning::attach(&mut pairs, conditions);
     pairs.sort_by(|a, b| a.lambda.im.total_cmp(&b.lambda.im));
     if let Some(worst) = pairs.iter().find(|pair| !(pair.residual <= tolerance)) {
         return Err(StageError::new(format!(
@@ -76,6 +71,40 @@ pub fn solve_matrices(
         )));
     }
     Ok(pairs)
+}
+
+/// The pairs of the dense problem in the band, with their residuals.
+fn dense_pairs(
+    M: &CscMatrix,
+    C: &CscMatrix,
+    K: &CscMatrix,
+    f_max_hz: f64,
+    norms: [f64; 3],
+) -> Result<Vec<EigenPair>, StageError> {
+    let n = M.n_rows;
+    let omega_max = 2.0 * PI * f_max_hz;
+    Ok(super::dense::quadratic_eigen(
+        M.to_dense().as_ref(),
+        C.to_dense().as_ref(),
+        K.to_dense().as_ref(),
+        |lambda| lambda.im > 0.0 && (f_max_hz <= 0.0 || lambda.im <= omega_max),
+    )?
+    .into_iter()
+    .map(|(lambda, x)| {
+        let (Mx, Cx, Kx) = (mul_complex(M, &x), mul_complex(C, &x), mul_complex(K, &x));
+        let r: Vec<c64> = (0..n)
+            .map(|i| lambda * lambda * Mx[i] + lambda * Cx[i] + Kx[i])
+            .collect();
+        let scale = lambda.norm_sqr() * norms[0] + lambda.norm() * norms[1] + norms[2];
+        let residual = norm(&r) / (scale * norm(&x)).max(f64::MIN_POSITIVE);
+        EigenPair {
+            lambda,
+            q: x,
+            residual,
+            condition: f64::NAN,
+        }
+    })
+    .collect())
 }
 
 /// `stability.matrices`.
@@ -88,6 +117,7 @@ struct MatricesParams {
     m_path: String,
     c_path: String,
     k_path: String,
+    kf_path: String,
     f_max_hz: f64,
     mu: f64,
 }
@@ -97,7 +127,8 @@ impl Stage for StabilityMatrices {
         "stability.matrices"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: condition numbers, kf_path
+        2
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of a small model from Matrix Market M, C, K (dense; lumped friction models)"
@@ -111,7 +142,11 @@ impl Stage for StabilityMatrices {
             ),
             ParamSpec::path(
                 "k_path",
-                "stiffness matrix with the friction coupling, Matrix Market",
+                "stiffness matrix (with the friction coupling, or without it when kf_path is given), Matrix Market",
+            ),
+            ParamSpec::optional_path(
+                "kf_path",
+                "friction coupling per unit mu, Matrix Market: the stiffness is K + mu Kf (sweep mu through a mode coupling)",
             ),
             ParamSpec::float("f_max_hz", 0.0, "Hz", "top of the band; 0 keeps every mode")
                 .at_least(0.0),
@@ -119,7 +154,7 @@ impl Stage for StabilityMatrices {
                 "mu",
                 0.0,
                 "",
-                "friction coefficient the matrices were built with (labels only)",
+                "friction coefficient: multiplies kf_path; without it, the one the matrices were built with (labels only)",
             )
             .at_least(0.0),
         ]
@@ -132,7 +167,7 @@ impl Stage for StabilityMatrices {
             PortSpec::one(
                 "eigenvalues",
                 ArtifactType::Table,
-                "mode, freq_hz, re, im, divergence_rate, unstable, residual",
+                "mode, freq_hz, re, im, divergence_rate, unstable, residual, condition, error_bound",
             ),
             PortSpec::one(
                 "diagram",
@@ -154,11 +189,31 @@ impl Stage for StabilityMatrices {
                 .map_err(|err| StageError::new(format!("{path}: {err}")))?;
             read_matrix_market(&text).map_err(|err| StageError::new(format!("{path}: {err}")))
         };
-        let (M, C, K) = (
+        let (M, C, mut K) = (
             read(&params.m_path)?,
             read(&params.c_path)?,
             read(&params.k_path)?,
         );
+        if !params.kf_path.is_empty() {
+            let friction = read(&params.kf_path)?;
+            if (friction.n_rows, friction.n_cols) != (K.n_rows, K.n_cols) {
+                return Err(StageError::new(format!(
+                    "{}: {} x {}, K is {} x {}: the matrices must be of one size",
+                    params.kf_path, friction.n_rows, friction.n_cols, K.n_rows, K.n_cols
+                )));
+            }
+            K = CscMatrix::from_triplets(
+                K.n_rows,
+                K.n_cols,
+                K.triplets()
+                    .chain(
+                        friction
+                            .triplets()
+                            .map(|(row, col, value)| (row, col, params.mu * value)),
+                    )
+                    .collect(),
+            );
+        }
         let pairs = solve_matrices(&M, &C, &K, params.f_max_hz, 1e-8)?;
         let diagram = stability_diagram(&pairs, params.mu)?;
         Ok(Outputs::from([

@@ -35,6 +35,7 @@
 //! Mode shapes `u = Tᴺ q` are normalised to `uᴴ M u = 1` with their largest component real
 //! and positive.
 
+pub mod conditioning;
 pub mod dense;
 mod figure;
 pub mod krylov;
@@ -89,6 +90,9 @@ pub struct Settings {
     pub krylov: KrylovOptions,
     /// Reduced systems up to this size are solved densely by `krylov` (0: never).
     pub dense_limit: usize,
+    /// Also solve the transposed problem for the left eigenvectors: each eigenvalue's
+    /// condition number (always, when solved densely).
+    pub condition_numbers: bool,
 }
 
 impl Default for Settings {
@@ -100,6 +104,7 @@ impl Default for Settings {
             friction_damping: true,
             krylov: KrylovOptions::default(),
             dense_limit: DENSE_LIMIT,
+            condition_numbers: false,
         }
     }
 }
@@ -183,19 +188,14 @@ pub fn solve_with_progress(
             .collect()
         }
         Method::Krylov => {
-            let progress = |fraction: f64| {
-                tracing::info!("stability: {:.0} % of the band covered", 100.0 * fraction);
-                progress.report(
-                    fraction,
-                    &format!("{:.0} % of the band covered", 100.0 * fraction),
-                );
-            };
+            // With condition numbers, the band is covered twice: this solve is the first half.
+            let share = if settings.condition_numbers { 0.5 } else { 1.0 };
             let (pairs, band) = krylov::solve_band(
                 &system,
                 omega_max,
                 settings.max_divergence_rate,
                 &settings.krylov,
-                &progress,
+                &|fraction| band_progress(progress, share * fraction, "the band covered"),
             )?;
             report.band = band;
             pairs
@@ -220,11 +220,71 @@ pub fn solve_with_progress(
             settings.krylov.residual_tolerance
         )));
     }
+    if settings.method == Method::Krylov && (report.dense || settings.condition_numbers) {
+        let left = left_eigenpairs(&system, settings, report.dense, progress)?;
+        let conditions =
+            conditioning::condition_numbers(&pairs, &left, system.norms, |lambda, y, x| {
+                system.derivative_form(lambda, y, x)
+            });
+        conditioning::attach(&mut pairs, conditions);
+    }
     Ok(Solution {
         system,
         pairs,
         report,
     })
+}
+
+fn band_progress(progress: &Progress, fraction: f64, what: &str) {
+    tracing::info!("stability: {:.0} % of {what}", 100.0 * fraction);
+    progress.report(fraction, &format!("{:.0} % of {what}", 100.0 * fraction));
+}
+
+/// The eigenpairs of the transposed problem (their vectors are the left eigenvectors), by
+/// the solver that found the right ones, on a band a hair wider so that an eigenvalue at its
+/// edge finds its twin.
+fn left_eigenpairs(
+    system: &SlidingSystem,
+    settings: &Settings,
+    dense: bool,
+    progress: &Progress,
+) -> Result<Vec<EigenPair>, StageError> {
+    let transposed = system.transposed();
+    let wider = Settings {
+        f_max_hz: settings.f_max_hz * (1.0 + 1e-6),
+        max_divergence_rate: settings.max_divergence_rate * (1.0 + 1e-6),
+        ..*settings
+    };
+    if dense {
+        let [M, C, K] = dense::dense_matrices(&transposed);
+        return Ok(
+            dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
+                in_band(lambda, &wider)
+            })?
+            .into_iter()
+            .map(|(lambda, q)| EigenPair {
+                lambda,
+                q,
+                residual: f64::NAN,
+                condition: f64::NAN,
+            })
+            .collect(),
+        );
+    }
+    let (pairs, _) = krylov::solve_band(
+        &transposed,
+        2.0 * PI * wider.f_max_hz,
+        wider.max_divergence_rate,
+        &settings.krylov,
+        &|fraction| {
+            band_progress(
+                progress,
+                0.5 + 0.5 * fraction,
+                "the transposed band covered (condition numbers)",
+            )
+        },
+    )?;
+    Ok(pairs)
 }
 
 fn pair_with_residual(system: &SlidingSystem, lambda: c64, q: Vec<c64>) -> EigenPair {
@@ -233,6 +293,7 @@ fn pair_with_residual(system: &SlidingSystem, lambda: c64, q: Vec<c64>) -> Eigen
         lambda,
         q,
         residual,
+        condition: f64::NAN,
     }
 }
 
@@ -356,6 +417,11 @@ pub fn eigenvalue_table(pairs: &[EigenPair]) -> Table {
                 .collect::<Vec<bool>>(),
         )
         .with("residual", column(&|pair| pair.residual))
+        .with("condition", column(&|pair| pair.condition))
+        .with(
+            "error_bound",
+            column(&|pair| pair.condition * pair.residual),
+        )
 }
 
 /// The `stability` stage.
@@ -372,6 +438,7 @@ struct StabilityParams {
     n_real_modes: i64,
     max_basis: i64,
     shapes: String,
+    condition_numbers: bool,
 }
 
 impl Stage for Stability {
@@ -383,8 +450,8 @@ impl Stage for Stability {
         // fall short are kept, Ritz checks placed by the radius's growth; 5: row-major
         // triangular solves (FMA: round-off differs); 6: products with the Krylov basis by
         // `tall`, M̃ and C̃ gathered by rows (round-off differs); 7: eigenvectors formed only
-        // for the band's eigenvalues (round-off may differ)
-        7
+        // for the band's eigenvalues (round-off may differ); 8: condition numbers
+        8
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
@@ -432,6 +499,11 @@ impl Stage for Stability {
                 "all",
                 "which mode shapes go to the shapes table",
             ),
+            ParamSpec::bool(
+                "condition_numbers",
+                false,
+                "krylov: also solve the transposed problem (its eigenvectors are the left ones) for each eigenvalue's condition number and error bound, at twice the run time; systems solved densely always have them",
+            ),
         ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
@@ -456,7 +528,7 @@ impl Stage for Stability {
             PortSpec::one(
                 "eigenvalues",
                 ArtifactType::Table,
-                "mode, freq_hz, re, im, divergence_rate, unstable, residual",
+                "mode, freq_hz, re, im, divergence_rate, unstable, residual, condition (κ: NaN where not computed), error_bound (κ × residual: relative error of λ)",
             ),
             PortSpec::one(
                 "shapes",
@@ -511,6 +583,7 @@ impl Stage for Stability {
                 ..KrylovOptions::default()
             },
             dense_limit: DENSE_LIMIT,
+            condition_numbers: params.condition_numbers,
         };
         let solution = solve_with_progress(model, equilibrium, &settings, context.progress)?;
         let shapes: Vec<Vec<c64>> = solution
@@ -578,6 +651,14 @@ fn summary_table(solution: &Solution, settings: &Settings) -> Table {
                 .fold(f64::NEG_INFINITY, f64::max),
         ),
         ("worst_residual", worst),
+        // NaN when the condition numbers were not computed.
+        (
+            "max_error_bound",
+            pairs
+                .iter()
+                .map(|pair| pair.condition * pair.residual)
+                .fold(f64::NAN, f64::max),
+        ),
         (
             "conservative_modes_below_f_max",
             report.conservative_count as f64,

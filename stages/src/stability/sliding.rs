@@ -286,6 +286,72 @@ impl SlidingSystem {
         Ok(system)
     }
 
+    /// The transposed problem `(λ² M̃ᵀ + λ C̃ᵀ + K̃ᵀ) y = 0`: trial and test spaces swapped
+    /// (`M`, `Ĉ`, `K` are symmetric, so `Q̃ᵀ = Tᴺᵀ Q Tᵘ`). Its eigenvectors are the left
+    /// eigenvectors of this one, `yᵀ Q̃(λ) = 0`.
+    pub fn transposed(&self) -> SlidingSystem {
+        let mut system = SlidingSystem {
+            M: self.M.clone(),
+            C: self.C.clone(),
+            K: self.K.clone(),
+            master_dofs: self.master_dofs.clone(),
+            reduced_of: self.reduced_of.clone(),
+            slaves: self
+                .slaves
+                .iter()
+                .map(|slave| Slave {
+                    trial: slave.test.clone(),
+                    test: slave.trial.clone(),
+                    ..slave.clone()
+                })
+                .collect(),
+            M_sym: CscMatrix::default(),
+            C_sym: CscMatrix::default(),
+            K_sym: CscMatrix::default(),
+            dof_of_node: self.dof_of_node.clone(),
+            norms: [0.0; 3],
+            mu: self.mu,
+            mass_damping: PairedRows::new(&self.M, &self.C),
+        };
+        system.M_sym = system.congruence(&system.M);
+        system.C_sym = system.congruence(&system.C);
+        system.K_sym = system.congruence(&system.K);
+        system.norms = [
+            system.M_sym.norm_1(),
+            system.C_sym.norm_1(),
+            system.K_sym.norm_1(),
+        ];
+        system
+    }
+
+    /// `yᵀ Q̃′(λ) x = (Tᵘ y)ᵀ (2λ M + Ĉ) (Tᴺ x)`, with `y` a left eigenvector: the
+    /// denominator of the condition number.
+    pub fn derivative_form(&self, lambda: c64, y: &[c64], x: &[c64]) -> c64 {
+        let u = self.expand(x);
+        let w = self.transposed_expand(y);
+        let (Mu, Cu) = (mul_complex(&self.M, &u), mul_complex(&self.C, &u));
+        w.iter()
+            .zip(Mu.iter().zip(&Cu))
+            .map(|(w, (m, c))| w * (2.0 * lambda * m + c))
+            .sum()
+    }
+
+    /// `Tᵘ y`: a reduced vector expanded in the test space.
+    fn transposed_expand(&self, y: &[c64]) -> Vec<c64> {
+        let mut w = vec![c64::new(0.0, 0.0); self.full_dim()];
+        for (reduced, &dof) in self.master_dofs.iter().enumerate() {
+            w[dof] = y[reduced];
+        }
+        for slave in &self.slaves {
+            w[slave.dof] = slave
+                .test
+                .iter()
+                .map(|&(reduced, coefficient)| y[reduced] * coefficient)
+                .sum();
+        }
+        w
+    }
+
     /// Number of reduced (master) DOFs.
     pub fn dim(&self) -> usize {
         self.master_dofs.len()

@@ -420,3 +420,67 @@ fn stability_results_do_not_depend_on_the_thread_count() {
     );
     crate::stage::assert_outputs_independent_of_threads(&Stability, &params, &inputs, "stability");
 }
+
+/// The condition numbers of the Krylov band (left vectors from a second band solve of the
+/// transposed problem) against those of the dense solve, on the small brake with friction
+/// coupling; the error bound holds the Krylov eigenvalue's distance to the dense one.
+#[test]
+fn krylov_condition_numbers_match_the_dense_solve() {
+    let mesh = small_brake();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let equilibrium = equilibrium_of(&model, 0.6);
+    let f_max_hz = 6_000.0;
+    let dense = solve(
+        &model,
+        &equilibrium,
+        &Settings {
+            f_max_hz,
+            dense_limit: usize::MAX,
+            ..Settings::default()
+        },
+    )
+    .unwrap();
+    assert!(dense.report.dense);
+    let krylov = solve(
+        &model,
+        &equilibrium,
+        &Settings {
+            f_max_hz,
+            dense_limit: 0,
+            condition_numbers: true,
+            ..Settings::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(krylov.pairs.len(), dense.pairs.len());
+    let mut worst: f64 = 0.0;
+    for pair in &krylov.pairs {
+        let reference = dense
+            .pairs
+            .iter()
+            .min_by(|a, b| {
+                (a.lambda - pair.lambda)
+                    .norm()
+                    .total_cmp(&(b.lambda - pair.lambda).norm())
+            })
+            .unwrap();
+        assert!(pair.condition.is_finite() && pair.condition >= 1.0);
+        worst = worst.max((pair.condition - reference.condition).abs() / reference.condition);
+        let distance = (pair.lambda - reference.lambda).norm() / reference.lambda.norm();
+        let bounds = pair.condition * pair.residual + reference.condition * reference.residual;
+        assert!(
+            distance <= 10.0 * bounds.max(1e-15),
+            "{distance:e} > {bounds:e}"
+        );
+    }
+    let largest = krylov
+        .pairs
+        .iter()
+        .map(|pair| pair.condition)
+        .fold(0.0, f64::max);
+    eprintln!(
+        "{} eigenvalues: κ from 1 to {largest:.1}, Krylov within {worst:.1e} of dense",
+        krylov.pairs.len()
+    );
+    assert!(worst < 1e-6, "{worst:e}");
+}

@@ -15,8 +15,8 @@ use crate::reference;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct Hoffmann {
-    k: [f64; 3],
+pub struct Hoffmann {
+    pub k: [f64; 3],
     angles_deg: [f64; 2],
     mu_c: f64,
     omega_c: f64,
@@ -32,7 +32,7 @@ struct Hoffmann {
 }
 
 impl Hoffmann {
-    fn stiffness(&self) -> [f64; 3] {
+    pub fn stiffness(&self) -> [f64; 3] {
         let [k1, k2, _] = self.k;
         let [a1, a2] = self.angles_deg.map(f64::to_radians);
         [
@@ -42,7 +42,7 @@ impl Hoffmann {
         ]
     }
 
-    fn matrices(&self, mu: f64) -> [CscMatrix; 3] {
+    pub fn matrices(&self, mu: f64) -> [CscMatrix; 3] {
         let [k11, k12, k22] = self.stiffness();
         let k3 = self.k[2];
         let K = CscMatrix::from_triplets(

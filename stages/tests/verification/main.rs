@@ -12,6 +12,7 @@
 
 mod bars_in_series;
 mod cantilever;
+mod conditioning;
 mod cwt;
 mod hoffmann;
 mod krylov;

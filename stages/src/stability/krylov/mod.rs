@@ -103,6 +103,8 @@ pub struct EigenPair {
     pub lambda: c64,
     pub q: Vec<c64>,
     pub residual: f64,
+    /// κ(λ) ([`crate::stability::conditioning`]); NaN where it was not computed.
+    pub condition: f64,
 }
 
 /// What a band solve did, shift by shift.

@@ -318,6 +318,7 @@ fn eigenpairs(
             lambda: lambdas[col],
             q: first.col(col).iter().copied().collect(),
             residual: residuals[col],
+            condition: f64::NAN,
         })
         .collect();
     let retry: Vec<usize> = (0..n_reported)
