@@ -14,6 +14,7 @@
 pub mod artifact;
 pub mod assemble;
 pub mod basis;
+pub mod check;
 pub mod complex_modes;
 pub mod contact;
 pub mod equilibrium;
@@ -60,6 +61,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),
         Arc::new(table::Gather),
+        Arc::new(check::Check),
     ];
     kinds.extend(signal::kinds());
     kinds

@@ -438,6 +438,7 @@ struct StabilityParams {
     n_real_modes: i64,
     max_basis: i64,
     shapes: String,
+    check_dense: bool,
     condition_numbers: bool,
 }
 
@@ -498,6 +499,11 @@ impl Stage for Stability {
                 &["all", "unstable"],
                 "all",
                 "which mode shapes go to the shapes table",
+            ),
+            ParamSpec::bool(
+                "check_dense",
+                false,
+                "krylov: also solve densely (small models: a dense eigenproblem of twice the sliding DOFs, at most 6,000) and report in the summary how far each solve's eigenvalues are from the other's",
             ),
             ParamSpec::bool(
                 "condition_numbers",
@@ -586,6 +592,11 @@ impl Stage for Stability {
             condition_numbers: params.condition_numbers,
         };
         let solution = solve_with_progress(model, equilibrium, &settings, context.progress)?;
+        let dense_check = if params.check_dense && method == Method::Krylov {
+            Some(against_dense(&solution, &settings)?)
+        } else {
+            None
+        };
         let shapes: Vec<Vec<c64>> = solution
             .pairs
             .iter()
@@ -621,7 +632,7 @@ impl Stage for Stability {
             ("shapes".to_string(), Artifact::Table(shapes_table)),
             (
                 "summary".to_string(),
-                Artifact::Table(summary_table(&solution, &settings)),
+                Artifact::Table(summary_table(&solution, &settings, dense_check)),
             ),
             ("diagram".to_string(), Artifact::Figure(diagram)),
             ("unstable_modes".to_string(), Artifact::document("vtu", vtu)),
@@ -629,11 +640,67 @@ impl Stage for Stability {
     }
 }
 
-fn summary_table(solution: &Solution, settings: &Settings) -> Table {
+/// How a Krylov solve compares with the dense solve of the same problem.
+#[derive(Debug, Clone, Copy)]
+struct DenseCheck {
+    /// Eigenvalues the dense solve finds in the band.
+    eigenvalues: usize,
+    /// Largest relative distance from an eigenvalue of either solve to the other's nearest: a
+    /// missed or spurious eigenvalue shows as a large distance.
+    distance: f64,
+}
+
+/// Largest sliding problem `check_dense` solves.
+const DENSE_CHECK_LIMIT: usize = 3000;
+
+/// The dense solve of `solution`'s problem, against its eigenvalues. Each direction looks at
+/// the other solve's eigenvalues on a band a hair wider, so that one at the band's edge is
+/// not counted as missed.
+fn against_dense(solution: &Solution, settings: &Settings) -> Result<DenseCheck, StageError> {
+    let system = &solution.system;
+    if system.dim() > DENSE_CHECK_LIMIT {
+        return Err(StageError::new(format!(
+            "check_dense: {} sliding DOFs, the dense check takes at most {DENSE_CHECK_LIMIT}",
+            system.dim()
+        )));
+    }
+    let scaled = |factor: f64| Settings {
+        f_max_hz: settings.f_max_hz * factor,
+        max_divergence_rate: settings.max_divergence_rate * factor,
+        ..*settings
+    };
+    let (wider, narrower) = (scaled(1.0 + 1e-6), scaled(1.0 - 1e-6));
+    let [M, C, K] = dense::dense_matrices(system);
+    let dense: Vec<EigenPair> =
+        dense::quadratic_eigen(M.as_ref(), C.as_ref(), K.as_ref(), |lambda| {
+            in_band(lambda, &wider)
+        })?
+        .into_iter()
+        .map(|(lambda, q)| pair_with_residual(system, lambda, q))
+        .collect();
+    let inner: Vec<EigenPair> = dense
+        .iter()
+        .filter(|pair| in_band(pair.lambda, &narrower))
+        .cloned()
+        .collect();
+    let distance = nearest_relative_errors(&solution.pairs, &dense)
+        .into_iter()
+        .chain(nearest_relative_errors(&inner, &solution.pairs))
+        .fold(0.0, f64::max);
+    Ok(DenseCheck {
+        eigenvalues: dense
+            .iter()
+            .filter(|pair| in_band(pair.lambda, settings))
+            .count(),
+        distance,
+    })
+}
+
+fn summary_table(solution: &Solution, settings: &Settings, check: Option<DenseCheck>) -> Table {
     let pairs = &solution.pairs;
     let report = &solution.report;
     let worst = pairs.iter().map(|pair| pair.residual).fold(0.0, f64::max);
-    let quantities: Vec<(&str, f64)> = vec![
+    let mut quantities: Vec<(&str, f64)> = vec![
         ("dofs", solution.system.full_dim() as f64),
         ("sliding_dofs", solution.system.dim() as f64),
         ("closed_pairs", solution.system.slaves.len() as f64),
@@ -667,6 +734,10 @@ fn summary_table(solution: &Solution, settings: &Settings) -> Table {
         ("real_modes", report.real_modes as f64),
         ("dense", f64::from(u8::from(report.dense))),
     ];
+    if let Some(check) = check {
+        quantities.push(("dense_eigenvalues", check.eigenvalues as f64));
+        quantities.push(("distance_to_dense", check.distance));
+    }
     let method = match settings.method {
         Method::Krylov => "krylov",
         Method::RealModeProjection { .. } => "real_mode_projection",

@@ -40,37 +40,43 @@ fn equilibrium_at(model: &Model, mu: f64, omega: f64) -> Equilibrium {
 }
 
 /// The stage reads the Hoffmann model's Matrix Market files of `pipelines/hoffmann`
-/// (its eigenvalues are verified in the verification suite).
+/// (its eigenvalues are verified in the verification suite), whole at μ = 0.38 or as
+/// `K0 + μ Kf`.
 #[test]
 fn the_matrices_stage_reads_matrix_market_files() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../pipelines/hoffmann");
-    let mut params = BTreeMap::new();
-    for (name, file) in [
-        ("m_path", "M.mtx"),
-        ("c_path", "C.mtx"),
-        ("k_path", "K.mtx"),
-    ] {
-        params.insert(
-            name.to_string(),
-            Value::Str(dir.join(file).display().to_string()),
-        );
+    for (k_file, kf_file) in [("K.mtx", ""), ("K0.mtx", "Kf.mtx")] {
+        let mut params = BTreeMap::new();
+        for (name, file) in [
+            ("m_path", "M.mtx"),
+            ("c_path", "C.mtx"),
+            ("k_path", k_file),
+            ("kf_path", kf_file),
+        ] {
+            let path = if file.is_empty() {
+                String::new()
+            } else {
+                dir.join(file).display().to_string()
+            };
+            params.insert(name.to_string(), Value::Str(path));
+        }
+        params.insert("f_max_hz".into(), Value::Float(0.0));
+        params.insert("mu".into(), Value::Float(0.38));
+        let outputs = lumped::StabilityMatrices
+            .run(&Params(params), &Inputs::default())
+            .unwrap();
+        let table = outputs["eigenvalues"].as_table().unwrap();
+        let Some(crate::table::ColumnData::Bool(unstable)) = table.column("unstable") else {
+            panic!("no unstable column")
+        };
+        // The flutter pair: equal frequencies, one growing, one decaying.
+        let Some(crate::table::ColumnData::F64(re)) = table.column("re") else {
+            panic!()
+        };
+        assert_eq!(unstable.iter().filter(|u| **u).count(), 1);
+        let growing = re[unstable.iter().position(|u| *u).unwrap()];
+        assert!((growing - 0.045175).abs() < 1e-6, "{k_file}: {growing}");
     }
-    params.insert("f_max_hz".into(), Value::Float(0.0));
-    params.insert("mu".into(), Value::Float(0.38));
-    let outputs = lumped::StabilityMatrices
-        .run(&Params(params), &Inputs::default())
-        .unwrap();
-    let table = outputs["eigenvalues"].as_table().unwrap();
-    let Some(crate::table::ColumnData::Bool(unstable)) = table.column("unstable") else {
-        panic!("no unstable column")
-    };
-    // The flutter pair: equal frequencies, one growing, one decaying.
-    let Some(crate::table::ColumnData::F64(re)) = table.column("re") else {
-        panic!()
-    };
-    assert_eq!(unstable.iter().filter(|u| **u).count(), 1);
-    let growing = re[unstable.iter().position(|u| *u).unwrap()];
-    assert!((growing - 0.045175).abs() < 1e-6, "{growing}");
 }
 
 #[test]

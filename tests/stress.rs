@@ -1,0 +1,101 @@
+//! `pipelines/stress/stress.yaml`: every verdict of the stress study holds, and what must stop
+//! instead stops with its reason.
+
+mod common;
+
+use std::path::Path;
+
+use common::{Workspace, floats, read_parquet, strings};
+
+fn study() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("pipelines/stress/stress.yaml")
+        .display()
+        .to_string()
+}
+
+/// Every `verdict.parquet` under `dir`, with the folder of its sweep point.
+fn verdicts(dir: &Path, found: &mut Vec<(String, String, String, f64, bool)>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            verdicts(&path, found);
+        } else if path.file_name() == Some("verdict.parquet".as_ref()) {
+            let table = read_parquet(&path);
+            let holds = table
+                .column_by_name("holds")
+                .unwrap()
+                .as_any()
+                .downcast_ref::<arrow::array::BooleanArray>()
+                .unwrap()
+                .value(0);
+            let point = path
+                .parent()
+                .unwrap()
+                .file_name()
+                .unwrap()
+                .to_string_lossy();
+            found.push((
+                strings(&table, "case")[0].clone(),
+                if point.contains('=') {
+                    point.into_owned()
+                } else {
+                    String::new()
+                },
+                strings(&table, "quantity")[0].clone(),
+                floats(&table, "observed")[0],
+                holds,
+            ));
+        }
+    }
+}
+
+#[test]
+fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
+    let workspace = Workspace::new();
+    let stderr = workspace.run_ok(&["run", &study(), "--out", "out", "--cache", "cache"]);
+    // The millimetre interference is solved, and warned about.
+    assert!(
+        stderr.contains("beyond the small strains (1 %)"),
+        "{stderr}"
+    );
+    let mut found = Vec::new();
+    verdicts(&workspace.path().join("out"), &mut found);
+    found.sort_by(|a, b| (&a.0, &a.1, &a.2).cmp(&(&b.0, &b.1, &b.2)));
+    for (case, point, quantity, observed, holds) in &found {
+        eprintln!("{case:<58} {point:<32} {quantity:<22} {observed:>10.3e} {holds}");
+    }
+    // 14 Hoffmann points, 7 × 2 brake points, 2 contrasts, 5 single cases.
+    assert_eq!(found.len(), 35);
+    let failing: Vec<_> = found.iter().filter(|verdict| !verdict.4).collect();
+    assert!(failing.is_empty(), "{failing:?}");
+
+    // Beyond what has a solution: a clear reason, nothing downstream.
+    for (set, reason) in [
+        (
+            "slow_sliding.mu=5",
+            "the sliding equilibrium is not unique, or does not exist, at this friction coefficient",
+        ),
+        ("slow_sliding.omega=0", "has no sliding direction"),
+    ] {
+        let output = workspace.squeal(&[
+            "run",
+            &study(),
+            "--out",
+            "out_fail",
+            "--cache",
+            "cache",
+            "--target",
+            "slow_check",
+            "--set",
+            set,
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{set}: {stderr}");
+        assert!(
+            stderr.contains("FAILED  slow_sliding: ") && stderr.contains(reason),
+            "{set}: {stderr}"
+        );
+        assert!(stderr.contains("skipped slow_check"), "{stderr}");
+    }
+}
