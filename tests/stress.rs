@@ -65,8 +65,8 @@ fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
     for (case, point, quantity, observed, holds) in &found {
         eprintln!("{case:<58} {point:<32} {quantity:<22} {observed:>10.3e} {holds}");
     }
-    // 14 Hoffmann points, 7 × 2 brake points, 2 contrasts, 5 single cases.
-    assert_eq!(found.len(), 35);
+    // 14 Hoffmann points, 7 × 2 brake points, 2 contrasts, 2 puck checks, 5 single cases.
+    assert_eq!(found.len(), 37);
     let failing: Vec<_> = found.iter().filter(|verdict| !verdict.4).collect();
     assert!(failing.is_empty(), "{failing:?}");
 
