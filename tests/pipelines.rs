@@ -423,6 +423,36 @@ fn the_quick_study_names_why_its_equilibrium_fails_at_extreme_friction() {
     }
 }
 
+/// Pads 10¹¹ times as stiff as by default (10⁸ times the disc): the eigenvalues two shifts
+/// find agree to only about 1e-5, and the stage says they are ill-conditioned rather than
+/// "missed".
+#[test]
+fn the_quick_study_names_ill_conditioned_eigenvalues_at_an_extreme_stiffness_contrast() {
+    let workspace = Workspace::new();
+    let study = pipeline("quick.yaml");
+    let output = workspace.squeal(&[
+        "run",
+        &study,
+        "--out",
+        "out",
+        "--cache",
+        "cache",
+        "--target",
+        "stability",
+        "--set",
+        "model.E_pad=3e19",
+    ]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("FAILED  stability: shifts at ")
+            && stderr.contains(" eigenvalues between ")
+            && stderr.contains(", but only to a relative ")
+            && stderr.contains("too ill-conditioned there for the digits to be trusted"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn an_interference_beyond_small_strains_is_warned_about_with_the_strain_it_gives() {
     let workspace = Workspace::new();

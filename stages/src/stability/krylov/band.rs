@@ -233,14 +233,27 @@ impl Cover {
                     self.omega_max,
                     self.half_rate,
                 )
-                .map_err(|(theirs, mine)| {
-                    StageError::new(format!(
-                        "shifts at {:.1} Hz and {:.1} Hz disagree on the eigenvalues between {:.1} and {:.1} Hz ({theirs} against {mine}): an eigenvalue was missed; raise max_basis",
+                .map_err(|mismatch| {
+                    let shifts = format!(
+                        "shifts at {:.1} Hz and {:.1} Hz",
                         self.report.shifts.last().map_or(0.0, |shift| shift.frequency_hz),
                         omega / (2.0 * PI),
+                    );
+                    let window = format!(
+                        "between {:.1} and {:.1} Hz",
                         window.0 / (2.0 * PI),
-                        window.1 / (2.0 * PI),
-                    ))
+                        window.1 / (2.0 * PI)
+                    );
+                    let Mismatch { theirs, mine, gap } = mismatch;
+                    StageError::new(if theirs == mine && gap < LOOSE_MATCH {
+                        format!(
+                            "{shifts} find the same {mine} eigenvalues {window}, but only to a relative {gap:.1e} (the check asks {MATCH:.0e}): they are too ill-conditioned there for the digits to be trusted (a stiffness contrast of 10⁸ between parts does it); bring the parts' stiffnesses closer, or model the stiff one as rigid"
+                        )
+                    } else {
+                        format!(
+                            "{shifts} disagree on the eigenvalues {window} ({theirs} against {mine}): an eigenvalue was missed; raise max_basis"
+                        )
+                    })
                 })?;
                 shift_report.overlap_matched = inside
                     .iter()
@@ -310,13 +323,28 @@ impl Cover {
 /// Checks that two shifts found the same eigenvalues in the band part of `window` (heights):
 /// each eigenvalue strictly inside, found by one, must be matched by the other. Returns the
 /// two counts on failure.
+/// Relative distance at which two shifts' copies of an eigenvalue match.
+const MATCH: f64 = 1e-6;
+/// Two overlaps whose eigenvalues pair up within this distance, though not within [`MATCH`],
+/// found the same eigenvalues, inaccurately.
+const LOOSE_MATCH: f64 = 1e-2;
+
+/// Two shifts' eigenvalues in their overlap that do not match: how many each found, and the
+/// largest relative distance from one's eigenvalue to the other's nearest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Mismatch {
+    theirs: usize,
+    mine: usize,
+    gap: f64,
+}
+
 fn check_overlap(
     theirs: &[c64],
     mine: &[c64],
     window: (f64, f64),
     omega_max: f64,
     half_rate: f64,
-) -> Result<(), (usize, usize)> {
+) -> Result<(), Mismatch> {
     let margin = 1e-6 * window.1;
     let within = |lambda: c64, slack: f64| {
         lambda.im >= window.0 - slack
@@ -340,12 +368,25 @@ fn check_overlap(
     if match_count(&mine_strict, &loose(theirs)) != mine_strict.len()
         || match_count(&theirs_strict, &loose(mine)) != theirs_strict.len()
     {
-        return Err((theirs_strict.len(), mine_strict.len()));
+        let nearest = |a: &[c64], b: &[c64]| {
+            a.iter()
+                .map(|lambda| {
+                    b.iter()
+                        .map(|other| (other - lambda).norm() / lambda.norm())
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .fold(0.0, f64::max)
+        };
+        return Err(Mismatch {
+            theirs: theirs_strict.len(),
+            mine: mine_strict.len(),
+            gap: nearest(&mine_strict, &loose(theirs)).max(nearest(&theirs_strict, &loose(mine))),
+        });
     }
     Ok(())
 }
 
-/// Number of one-to-one matches between two sets of eigenvalues (relative distance 1e-6).
+/// Number of one-to-one matches between two sets of eigenvalues (relative distance [`MATCH`]).
 fn match_count(a: &[c64], b: &[c64]) -> usize {
     let mut used = vec![false; b.len()];
     let mut matched = 0;
@@ -357,11 +398,37 @@ fn match_count(a: &[c64], b: &[c64]) -> usize {
             .map(|(j, other)| (j, (other - lambda).norm()))
             .min_by(|x, y| x.1.total_cmp(&y.1));
         if let Some((j, distance)) = best
-            && distance <= 1e-6 * lambda.norm()
+            && distance <= MATCH * lambda.norm()
         {
             used[j] = true;
             matched += 1;
         }
     }
     matched
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two shifts' copies of the same eigenvalues: matching, found by both only to a relative
+    /// 5e-6 (ill-conditioned), or one missed.
+    #[test]
+    fn an_overlap_tells_a_missed_eigenvalue_from_inaccurate_ones() {
+        let window = (10.0, 20.0);
+        let found = [c64::new(-0.01, 12.0), c64::new(-0.02, 15.0)];
+        let check = |mine: &[c64]| check_overlap(&found, mine, window, 100.0, 0.05);
+        assert_eq!(check(&found), Ok(()));
+        let inaccurate = [c64::new(-0.01, 12.00006), c64::new(-0.02, 15.0)];
+        let Err(mismatch) = check(&inaccurate) else {
+            panic!("a gap of 5e-6 passed")
+        };
+        assert_eq!((mismatch.theirs, mismatch.mine), (2, 2));
+        assert!((mismatch.gap - 5e-6).abs() < 1e-9, "{}", mismatch.gap);
+        assert!(mismatch.gap < LOOSE_MATCH);
+        let Err(missed) = check(&found[..1]) else {
+            panic!("a missed eigenvalue passed")
+        };
+        assert_eq!((missed.theirs, missed.mine), (2, 1));
+    }
 }
