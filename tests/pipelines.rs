@@ -203,6 +203,25 @@ fn the_hoffmann_sweep_through_coalescence_reports_condition_numbers_that_hold() 
     }
     let growing = (0..mu.len()).filter(|&row| unstable.value(row)).count();
     assert_eq!(growing, 11, "one growing root per point above μ_c");
+    // The tracker follows the two modes through the coalescence, by their shapes.
+    let tracked = read_parquet(&workspace.path().join("out/tracked/tracked.parquet"));
+    let branches = tracked
+        .column_by_name("branch")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Int64Array>()
+        .unwrap()
+        .values()
+        .iter()
+        .copied()
+        .collect::<std::collections::BTreeSet<i64>>();
+    assert_eq!(branches.len(), 2, "{branches:?}");
+    assert!(
+        workspace
+            .path()
+            .join("out/tracked/coalescence.png")
+            .exists()
+    );
 }
 
 #[test]

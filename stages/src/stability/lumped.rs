@@ -12,10 +12,11 @@ use faer::c64;
 
 use super::figure::stability_diagram;
 use super::sliding::{mul_complex, norm};
-use super::{EigenPair, conditioning, eigenvalue_table};
+use super::{EigenPair, conditioning, eigenvalue_table, mode_name};
 use crate::artifact::CscMatrix;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::table::Table;
 use squeal_linalg::matrix_market::read_matrix_market;
 
 /// Largest model the dense solve accepts.
@@ -127,7 +128,7 @@ impl Stage for StabilityMatrices {
         "stability.matrices"
     }
     fn version(&self) -> u32 {
-        // 2: condition numbers, kf_path
+        // 2: condition numbers, kf_path, shapes
         2
     }
     fn doc(&self) -> &'static str {
@@ -168,6 +169,11 @@ impl Stage for StabilityMatrices {
                 "eigenvalues",
                 ArtifactType::Table,
                 "mode, freq_hz, re, im, divergence_rate, unstable, residual, condition, error_bound",
+            ),
+            PortSpec::one(
+                "shapes",
+                ArtifactType::Table,
+                "one row per DOF (`dof`), mode_NNNN_re and mode_NNNN_im columns, each shape of unit norm: what stability.track follows",
             ),
             PortSpec::one(
                 "diagram",
@@ -216,11 +222,35 @@ impl Stage for StabilityMatrices {
         }
         let pairs = solve_matrices(&M, &C, &K, params.f_max_hz, 1e-8)?;
         let diagram = stability_diagram(&pairs, params.mu)?;
+        let n = M.n_rows;
+        let mut shapes = Table::new().with("dof", (0..n as i64).collect::<Vec<i64>>());
+        for (mode, pair) in pairs.iter().enumerate() {
+            // Unit norm, the largest component real and positive: one shape per mode, whatever
+            // phase the solver returned.
+            let largest = pair
+                .q
+                .iter()
+                .copied()
+                .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+                .unwrap_or(c64::new(1.0, 0.0));
+            let scale = largest.conj() / (largest.norm() * norm(&pair.q)).max(f64::MIN_POSITIVE);
+            let shape: Vec<c64> = pair.q.iter().map(|value| value * scale).collect();
+            shapes = shapes
+                .with(
+                    format!("{}_re", mode_name(mode)),
+                    shape.iter().map(|value| value.re).collect::<Vec<f64>>(),
+                )
+                .with(
+                    format!("{}_im", mode_name(mode)),
+                    shape.iter().map(|value| value.im).collect::<Vec<f64>>(),
+                );
+        }
         Ok(Outputs::from([
             (
                 "eigenvalues".to_string(),
                 Artifact::Table(eigenvalue_table(&pairs)),
             ),
+            ("shapes".to_string(), Artifact::Table(shapes)),
             ("diagram".to_string(), Artifact::Figure(diagram)),
         ]))
     }
