@@ -5,11 +5,11 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
-use common::{Workspace, statuses};
+use common::{Workspace, outputs_but_the_manifest, statuses};
 
 /// A sweep of three points over a 300,000-row table, each point through a short sleep, then
 /// gathered: stages computing, objects written, outputs exported, all take a noticeable time.
@@ -31,27 +31,6 @@ stages:
     kind: table.gather
     inputs: { tables: slow.table }
 ";
-
-/// Every file under `dir` but the manifest (which holds times), relative, with its bytes.
-fn outputs(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut files = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(folder) = stack.pop() {
-        for entry in std::fs::read_dir(&folder).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.file_name() != Some("manifest.parquet".as_ref()) {
-                files.push((
-                    path.strip_prefix(dir).unwrap().to_path_buf(),
-                    std::fs::read(&path).unwrap(),
-                ));
-            }
-        }
-    }
-    files.sort();
-    files
-}
 
 fn verify_is_clean(workspace: &Workspace, cache: &str, when: &str) {
     let verify = workspace.squeal(&["--cache", cache, "cache", "verify"]);
@@ -76,7 +55,7 @@ fn a_run_killed_at_50_random_points_reruns_to_the_bytes_of_an_uninterrupted_run(
     let started = Instant::now();
     reference.run_ok(&["run", "study.yaml", "--out", "out"]);
     let full = started.elapsed();
-    let expected = outputs(&reference.path().join("out"));
+    let expected = outputs_but_the_manifest(&reference.path().join("out"));
     assert_eq!(statuses(&reference.path().join("out")).len(), 8);
 
     let workspace = Workspace::new();
@@ -100,7 +79,7 @@ fn a_run_killed_at_50_random_points_reruns_to_the_bytes_of_an_uninterrupted_run(
         let when = format!("trial {trial}, killed after {delay:?}");
         verify_is_clean(&workspace, ".squeal/cache", &when);
         workspace.run_ok(&["run", "study.yaml", "--out", "out"]);
-        let got = outputs(&workspace.path().join("out"));
+        let got = outputs_but_the_manifest(&workspace.path().join("out"));
         assert_eq!(
             got.iter().map(|(path, _)| path).collect::<Vec<_>>(),
             expected.iter().map(|(path, _)| path).collect::<Vec<_>>(),
@@ -140,7 +119,7 @@ fn truncated_emptied_and_garbage_entries_are_recomputed_and_reported() {
     let reference = Workspace::new();
     reference.write("study.yaml", STUDY);
     reference.run_ok(&["run", "study.yaml", "--out", "out"]);
-    let expected = outputs(&reference.path().join("out"));
+    let expected = outputs_but_the_manifest(&reference.path().join("out"));
 
     let workspace = Workspace::new();
     workspace.write("study.yaml", STUDY);
@@ -195,7 +174,7 @@ fn truncated_emptied_and_garbage_entries_are_recomputed_and_reported() {
             "{instance}: {stderr}"
         );
     }
-    let got = outputs(&workspace.path().join("again"));
+    let got = outputs_but_the_manifest(&workspace.path().join("again"));
     assert_eq!(got.len(), expected.len());
     for ((path, bytes), (_, reference)) in got.iter().zip(&expected) {
         assert!(bytes == reference, "{} differs", path.display());
@@ -254,7 +233,7 @@ fn fault_full_disk_and_read_only_cache_give_clear_errors_and_lose_nothing() {
     let reference = Workspace::new();
     reference.write("study.yaml", STUDY);
     reference.run_ok(&["run", "study.yaml", "--out", "out"]);
-    let expected = outputs(&reference.path().join("out"));
+    let expected = outputs_but_the_manifest(&reference.path().join("out"));
 
     // A cache on a 3 MB file system: the source table (2.4 MB) fits, its first product does
     // not.
@@ -285,7 +264,7 @@ fn fault_full_disk_and_read_only_cache_give_clear_errors_and_lose_nothing() {
         "cached",
         "{stderr}"
     );
-    let got = outputs(&workspace.path().join("out"));
+    let got = outputs_but_the_manifest(&workspace.path().join("out"));
     assert_eq!(got.len(), expected.len());
     for ((path, bytes), (_, reference)) in got.iter().zip(&expected) {
         assert!(bytes == reference, "{} differs", path.display());

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{Workspace, statuses};
+use common::{Workspace, outputs_but_the_manifest, statuses};
 
 fn stdout(output: &std::process::Output) -> String {
     String::from_utf8_lossy(&output.stdout).into_owned()
@@ -312,27 +312,6 @@ impl Drop for Cluster {
     }
 }
 
-/// Every file under `dir`, relative, with its bytes.
-fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut files = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(folder) = stack.pop() {
-        for entry in std::fs::read_dir(&folder).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                files.push((
-                    path.strip_prefix(dir).unwrap().to_path_buf(),
-                    std::fs::read(&path).unwrap(),
-                ));
-            }
-        }
-    }
-    files.sort();
-    files
-}
-
 /// The `submitted N jobs (M tasks)` figure of a run.
 fn submitted(stderr: &str) -> (usize, usize) {
     let line = stderr
@@ -406,12 +385,8 @@ fn slurm_cluster_runs_studies_and_reports_failed_cancelled_timed_out_and_interru
         text.contains("ran     stability[mu=0.3] (in Slurm job "),
         "{text}"
     );
-    let outputs = |workspace: &Workspace| {
-        tree(&workspace.path().join("out/mu_sweep"))
-            .into_iter()
-            .filter(|(path, _)| path != Path::new("manifest.parquet"))
-            .collect::<Vec<_>>()
-    };
+    let outputs =
+        |workspace: &Workspace| outputs_but_the_manifest(&workspace.path().join("out/mu_sweep"));
     let (local_files, remote_files) = (outputs(&local), outputs(&remote));
     assert!(local_files.len() > 20);
     assert_eq!(
@@ -505,33 +480,45 @@ fn slurm_cluster_runs_studies_and_reports_failed_cancelled_timed_out_and_interru
     };
     assert_eq!(dry_run(&faults, &[]), ["bad", "after_bad", "slow"]);
 
+    // The slow stage alone, stopped by `stop(job id, driver pid)` once its job runs: the job's
+    // id and the run's stderr.
+    let stopped = |seconds: &str, stop: &dyn Fn(&str, u32) -> std::process::ExitStatus| {
+        let set = format!("slow.seconds={seconds}");
+        let child = cluster
+            .squeal_command(
+                &faults,
+                &[
+                    "run",
+                    "faults.yaml",
+                    "--executor",
+                    "slurm",
+                    "--poll",
+                    "0.5",
+                    "--target",
+                    "slow",
+                    "--set",
+                    &set,
+                ],
+            )
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let id = cluster.wait_running("squeal.faults.slow");
+        assert!(stop(&id, child.id()).success());
+        let output = child.wait_with_output().unwrap();
+        let text = stderr(&output);
+        assert_eq!(output.status.code(), Some(1), "{text}");
+        (id, text)
+    };
+
     // A job cancelled with scancel: CANCELLED, and only it is resubmitted.
-    let mut driver = cluster.squeal_command(
-        &faults,
-        &[
-            "run",
-            "faults.yaml",
-            "--executor",
-            "slurm",
-            "--poll",
-            "0.5",
-            "--target",
-            "slow",
-            "--set",
-            "slow.seconds=601",
-        ],
-    );
-    let child = driver.stderr(Stdio::piped()).spawn().unwrap();
-    let id = cluster.wait_running("squeal.faults.slow");
-    let status = Command::new("scancel")
-        .arg(&id)
-        .env("SLURM_CONF", cluster.conf())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let output = child.wait_with_output().unwrap();
-    let text = stderr(&output);
-    assert_eq!(output.status.code(), Some(1), "{text}");
+    let (id, text) = stopped("601", &|id, _| {
+        Command::new("scancel")
+            .arg(id)
+            .env("SLURM_CONF", cluster.conf())
+            .status()
+            .unwrap()
+    });
     assert!(
         text.contains(&format!(
             "FAILED  slow: Slurm job {id} CANCELLED: cancelled (scancel, or an administrator)"
@@ -544,31 +531,12 @@ fn slurm_cluster_runs_studies_and_reports_failed_cancelled_timed_out_and_interru
     );
 
     // An interrupted driver (Ctrl-C) cancels its jobs and writes what finished.
-    let mut driver = cluster.squeal_command(
-        &faults,
-        &[
-            "run",
-            "faults.yaml",
-            "--executor",
-            "slurm",
-            "--poll",
-            "0.5",
-            "--target",
-            "slow",
-            "--set",
-            "slow.seconds=602",
-        ],
-    );
-    let child = driver.stderr(Stdio::piped()).spawn().unwrap();
-    let id = cluster.wait_running("squeal.faults.slow");
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let output = child.wait_with_output().unwrap();
-    let text = stderr(&output);
-    assert_eq!(output.status.code(), Some(1), "{text}");
+    let (id, text) = stopped("602", &|_, pid| {
+        Command::new("kill")
+            .args(["-INT", &pid.to_string()])
+            .status()
+            .unwrap()
+    });
     assert!(
         text.contains(&format!("interrupted: cancelled Slurm jobs {id}")),
         "{text}"

@@ -99,3 +99,24 @@ fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
         assert!(stderr.contains("skipped slow_check"), "{stderr}");
     }
 }
+
+/// The μ sweep of the stress study on the coarse brake (`pipelines/stress/coarse_brake.yaml`):
+/// every point's Krylov band against the dense solve (about a minute a point).
+#[test]
+#[ignore = "about 5 min: run by .ci/run with the slow tests"]
+fn the_coarse_brake_from_mu_0_to_1_5_matches_the_dense_solve_at_every_point() {
+    let workspace = Workspace::new();
+    let study = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("pipelines/stress/coarse_brake.yaml")
+        .display()
+        .to_string();
+    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
+    let mut found = Vec::new();
+    verdicts(&workspace.path().join("out"), &mut found);
+    for (case, point, quantity, observed, holds) in &found {
+        eprintln!("{case:<34} {point:<12} {quantity:<18} {observed:>10.3e} {holds}");
+    }
+    assert_eq!(found.len(), 14);
+    let failing: Vec<_> = found.iter().filter(|verdict| !verdict.4).collect();
+    assert!(failing.is_empty(), "{failing:?}");
+}

@@ -150,3 +150,25 @@ pub fn ran(out: &Path) -> Vec<String> {
         .map(|(stage, _)| stage)
         .collect()
 }
+
+/// Every file under `dir` but the manifest (which holds times), relative, with its bytes,
+/// sorted: what two runs must write identically.
+pub fn outputs_but_the_manifest(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.file_name() != Some("manifest.parquet".as_ref()) {
+                files.push((
+                    path.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&path).unwrap(),
+                ));
+            }
+        }
+    }
+    files.sort();
+    files
+}

@@ -266,14 +266,7 @@ impl SlidingSystem {
             mu,
             mass_damping,
         };
-        system.M_sym = system.congruence(&system.M);
-        system.C_sym = system.congruence(&system.C);
-        system.K_sym = system.congruence(&system.K);
-        system.norms = [
-            system.M_sym.norm_1(),
-            system.C_sym.norm_1(),
-            system.K_sym.norm_1(),
-        ];
+        system.set_symmetric_parts();
         system.dof_of_node = model
             .dof_of_node
             .iter()
@@ -313,15 +306,20 @@ impl SlidingSystem {
             mu: self.mu,
             mass_damping: PairedRows::new(&self.M, &self.C),
         };
-        system.M_sym = system.congruence(&system.M);
-        system.C_sym = system.congruence(&system.C);
-        system.K_sym = system.congruence(&system.K);
-        system.norms = [
-            system.M_sym.norm_1(),
-            system.C_sym.norm_1(),
-            system.K_sym.norm_1(),
-        ];
+        system.set_symmetric_parts();
         system
+    }
+
+    /// `Tᴺᵀ (M, Ĉ, K) Tᴺ` of the trial space, and their norms.
+    fn set_symmetric_parts(&mut self) {
+        self.M_sym = self.congruence(&self.M);
+        self.C_sym = self.congruence(&self.C);
+        self.K_sym = self.congruence(&self.K);
+        self.norms = [
+            self.M_sym.norm_1(),
+            self.C_sym.norm_1(),
+            self.K_sym.norm_1(),
+        ];
     }
 
     /// `yᵀ Q̃′(λ) x = (Tᵘ y)ᵀ (2λ M + Ĉ) (Tᴺ x)`, with `y` a left eigenvector: the

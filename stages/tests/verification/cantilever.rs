@@ -79,16 +79,10 @@ fn cantilever_frequency_converges_at_second_order() {
         .iter()
         .map(|&n| {
             let error = (frequency(n) - reference).abs() / reference;
-            ((case.length_m / n as f64).ln(), error.ln())
+            (case.length_m / n as f64, error)
         })
         .collect();
-    let mean_x = points.iter().map(|p| p.0).sum::<f64>() / points.len() as f64;
-    let mean_y = points.iter().map(|p| p.1).sum::<f64>() / points.len() as f64;
-    let slope = points
-        .iter()
-        .map(|p| (p.0 - mean_x) * (p.1 - mean_y))
-        .sum::<f64>()
-        / points.iter().map(|p| (p.0 - mean_x).powi(2)).sum::<f64>();
+    let slope = crate::fit::log_log_slope(&points);
     assert!(
         (slope - case.expected_slope).abs() < case.slope_tolerance,
         "log-log slope {slope}, points {points:?}"

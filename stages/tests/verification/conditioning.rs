@@ -129,22 +129,9 @@ fn near_hoffmanns_coalescence_kappa_grows_as_the_inverse_square_root_and_bounds_
             "|μ − μ_c| = {distance:.0e}: κ = {kappa:.3e}, error bound {:.1e}, perturbations reach {largest:.2} of κ ε |λ|",
             pair.condition * pair.residual
         );
-        points.push((distance.ln(), kappa.ln()));
+        points.push((distance, kappa));
     }
-    // Least-squares slope of ln κ against ln |μ − μ_c|.
-    let n = points.len() as f64;
-    let (mean_x, mean_y) = (
-        points.iter().map(|p| p.0).sum::<f64>() / n,
-        points.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let slope = points
-        .iter()
-        .map(|(x, y)| (x - mean_x) * (y - mean_y))
-        .sum::<f64>()
-        / points
-            .iter()
-            .map(|(x, _)| (x - mean_x).powi(2))
-            .sum::<f64>();
+    let slope = crate::fit::log_log_slope(&points);
     assert!(
         (slope - case.slope).abs() < case.slope_tolerance,
         "κ ∝ |μ − μ_c|^{slope:.4}"

@@ -231,18 +231,7 @@ fn the_response_converges_to_the_exact_modal_solution_at_the_scheme_order() {
                 (tau, error)
             })
             .collect();
-        // Least-squares slope of log(error) against log(tau).
-        let points: Vec<(f64, f64)> = errors.iter().map(|(t, e)| (t.ln(), e.ln())).collect();
-        let mean_x = points.iter().map(|p| p.0).sum::<f64>() / points.len() as f64;
-        let mean_y = points.iter().map(|p| p.1).sum::<f64>() / points.len() as f64;
-        let slope = points
-            .iter()
-            .map(|(x, y)| (x - mean_x) * (y - mean_y))
-            .sum::<f64>()
-            / points
-                .iter()
-                .map(|(x, _)| (x - mean_x).powi(2))
-                .sum::<f64>();
+        let slope = crate::fit::log_log_slope(&errors);
         assert!(
             (slope - expected_order).abs() < case.order_tolerance,
             "theta = {theta}: order {slope}, errors {errors:?}"
