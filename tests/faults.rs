@@ -91,6 +91,7 @@ fn a_run_killed_at_50_random_points_reruns_to_the_bytes_of_an_uninterrupted_run(
         verify_is_clean(&workspace, ".squeal/cache", &when);
     }
     // Most kills landed while the run was working, not after it ended.
+    eprintln!("{killed_running} of 50 kills hit a running run (uninterrupted: {full:?})");
     assert!(
         killed_running >= 35,
         "{killed_running} of 50 kills hit a running run"

@@ -101,9 +101,9 @@ fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
 }
 
 /// The μ sweep of the stress study on the coarse brake (`pipelines/stress/coarse_brake.yaml`):
-/// every point's Krylov band against the dense solve (about a minute a point).
+/// every point's Krylov band against the dense solve.
 #[test]
-#[ignore = "about 5 min: run by .ci/run with the slow tests"]
+#[ignore = "about 2.5 min: run by .ci/run with the slow tests"]
 fn the_coarse_brake_from_mu_0_to_1_5_matches_the_dense_solve_at_every_point() {
     let workspace = Workspace::new();
     let study = Path::new(env!("CARGO_MANIFEST_DIR"))
