@@ -1,4 +1,4 @@
-//! `pipelines/stress/stress.yaml`: every verdict of the stress study holds, and what must stop
+//! `pipelines/stress.yaml`: every verdict of the stress study holds, and what must stop
 //! instead stops with its reason.
 
 mod common;
@@ -7,61 +7,54 @@ use std::path::Path;
 
 use common::{Workspace, floats, read_parquet, strings};
 
-fn study() -> String {
+fn pipeline(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("pipelines/stress/stress.yaml")
+        .join("pipelines")
+        .join(name)
         .display()
         .to_string()
 }
 
-/// Every `verdict.parquet` under `dir`, with the folder of its sweep point.
-fn verdicts(dir: &Path, found: &mut Vec<(String, String, String, f64, bool)>) {
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            verdicts(&path, found);
-        } else if path.file_name() == Some("verdict.parquet".as_ref()) {
-            let table = read_parquet(&path);
-            let holds = table
-                .column_by_name("holds")
-                .unwrap()
-                .as_any()
-                .downcast_ref::<arrow::array::BooleanArray>()
-                .unwrap()
-                .value(0);
-            let point = path
-                .parent()
-                .unwrap()
-                .file_name()
-                .unwrap()
-                .to_string_lossy();
-            found.push((
-                strings(&table, "case")[0].clone(),
-                if point.contains('=') {
-                    point.into_owned()
-                } else {
-                    String::new()
-                },
-                strings(&table, "quantity")[0].clone(),
-                floats(&table, "observed")[0],
-                holds,
-            ));
-        }
-    }
+/// The rows of a stress table: case, point, quantity, observed, holds.
+fn verdicts(out: &Path) -> Vec<(String, String, String, f64, bool)> {
+    let table = read_parquet(&out.join("verdicts/gathered.parquet"));
+    let holds = table
+        .column_by_name("holds")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<arrow::array::BooleanArray>()
+        .unwrap()
+        .clone();
+    let (case, point, quantity) = (
+        strings(&table, "case"),
+        strings(&table, "point"),
+        strings(&table, "quantity"),
+    );
+    let observed = floats(&table, "observed");
+    (0..table.num_rows())
+        .map(|row| {
+            (
+                case[row].clone(),
+                point[row].clone(),
+                quantity[row].clone(),
+                observed[row],
+                holds.value(row),
+            )
+        })
+        .collect()
 }
 
 #[test]
 fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
     let workspace = Workspace::new();
-    let stderr = workspace.run_ok(&["run", &study(), "--out", "out", "--cache", "cache"]);
+    let study = pipeline("stress.yaml");
+    let stderr = workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
     // The millimetre interference is solved, and warned about.
     assert!(
         stderr.contains("beyond the small strains (1 %)"),
         "{stderr}"
     );
-    let mut found = Vec::new();
-    verdicts(&workspace.path().join("out"), &mut found);
-    found.sort_by(|a, b| (&a.0, &a.1, &a.2).cmp(&(&b.0, &b.1, &b.2)));
+    let found = verdicts(&workspace.path().join("out"));
     for (case, point, quantity, observed, holds) in &found {
         eprintln!("{case:<58} {point:<32} {quantity:<22} {observed:>10.3e} {holds}");
     }
@@ -80,7 +73,7 @@ fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
     ] {
         let output = workspace.squeal(&[
             "run",
-            &study(),
+            &study,
             "--out",
             "out_fail",
             "--cache",
@@ -100,19 +93,15 @@ fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
     }
 }
 
-/// The μ sweep of the stress study on the coarse brake (`pipelines/stress/coarse_brake.yaml`):
+/// The μ sweep of the stress study on the coarse brake (`pipelines/stress_coarse_brake.yaml`):
 /// every point's Krylov band against the dense solve.
 #[test]
 #[ignore = "about 2.5 min: run by .ci/run with the slow tests"]
 fn the_coarse_brake_from_mu_0_to_1_5_matches_the_dense_solve_at_every_point() {
     let workspace = Workspace::new();
-    let study = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("pipelines/stress/coarse_brake.yaml")
-        .display()
-        .to_string();
+    let study = pipeline("stress_coarse_brake.yaml");
     workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
-    let mut found = Vec::new();
-    verdicts(&workspace.path().join("out"), &mut found);
+    let found = verdicts(&workspace.path().join("out"));
     for (case, point, quantity, observed, holds) in &found {
         eprintln!("{case:<34} {point:<12} {quantity:<18} {observed:>10.3e} {holds}");
     }

@@ -1,6 +1,7 @@
-//! `check`: one figure of a table against its acceptance range, as a one-row verdict table.
-//! Gathered over a study (`table.gather`), the verdicts make a stress or acceptance table:
-//! case, what was expected, what was observed, whether it holds.
+//! `check`: one figure of a table against its acceptance range, a verdict row per point of a
+//! sweep. Checks chain (`previous`: the verdicts of the check before, to which this one's rows
+//! are added), so that the last check of a study holds its whole stress or acceptance table:
+//! case, sweep point, what was expected, what was observed, whether it holds.
 //!
 //! The figure is a quantity of a stage's summary (`quantity`, `value` rows), or the largest
 //! value of a column (the worst residual or error bound of an eigenvalue table). NaN never
@@ -81,17 +82,25 @@ impl Stage for Check {
         ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
-        vec![PortSpec::one(
-            "table",
-            ArtifactType::Table,
-            "a stage's summary or any table with the figure",
-        )]
+        vec![
+            PortSpec::many(
+                "tables",
+                ArtifactType::Table,
+                "a stage's summary or any table with the figure, at every point of its sweep",
+            ),
+            PortSpec::one(
+                "previous",
+                ArtifactType::Table,
+                "the verdicts of the check before, to which this check's rows are added",
+            )
+            .optional(),
+        ]
     }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
-            "verdict",
+            "verdicts",
             ArtifactType::Table,
-            "case, expected, quantity, observed, at_least, at_most, holds",
+            "case, point (the sweep coordinates), expected, quantity, observed, at_least, at_most, holds: the previous check's rows, then one per point",
         )]
     }
     fn check_params(&self, params: &Params) -> Result<(), StageError> {
@@ -99,22 +108,93 @@ impl Stage for Check {
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let params: CheckParams = params.typed()?;
-        let value = observed(inputs.table("table")?, &params.quantity)?;
         let at_least = params.at_least.unwrap_or(f64::NEG_INFINITY);
         let at_most = params.at_most.unwrap_or(f64::INFINITY);
-        let holds = value >= at_least && value <= at_most;
-        let verdict = Table::new()
-            .with("case", vec![params.case])
-            .with("expected", vec![params.expected])
-            .with("quantity", vec![params.quantity])
-            .with("observed", vec![value])
-            .with("at_least", vec![at_least])
-            .with("at_most", vec![at_most])
-            .with("holds", vec![holds]);
+        let mut rows = match inputs.get_optional::<Table>("previous")? {
+            Some(previous) => Verdicts::read(previous)?,
+            None => Verdicts::default(),
+        };
+        for (coords, artifact) in inputs.many("tables")? {
+            let table = artifact
+                .as_table()
+                .ok_or_else(|| StageError::new("tables: not a table"))?;
+            let value = observed(table, &params.quantity)?;
+            rows.case.push(params.case.clone());
+            rows.point.push(
+                coords
+                    .iter()
+                    .map(|(name, value)| format!("{name}={value}"))
+                    .collect::<Vec<_>>()
+                    .join(" "),
+            );
+            rows.expected.push(params.expected.clone());
+            rows.quantity.push(params.quantity.clone());
+            rows.observed.push(value);
+            rows.at_least.push(at_least);
+            rows.at_most.push(at_most);
+            rows.holds.push(value >= at_least && value <= at_most);
+        }
         Ok(Outputs::from([(
-            "verdict".to_string(),
-            Artifact::Table(verdict),
+            "verdicts".to_string(),
+            Artifact::Table(rows.table()),
         )]))
+    }
+}
+
+/// The columns of a verdict table.
+#[derive(Debug, Default)]
+struct Verdicts {
+    case: Vec<String>,
+    point: Vec<String>,
+    expected: Vec<String>,
+    quantity: Vec<String>,
+    observed: Vec<f64>,
+    at_least: Vec<f64>,
+    at_most: Vec<f64>,
+    holds: Vec<bool>,
+}
+
+impl Verdicts {
+    fn read(table: &Table) -> Result<Verdicts, StageError> {
+        let strings = |name: &str| match table.column(name) {
+            Some(ColumnData::Str(values)) => Ok(values.clone()),
+            _ => Err(StageError::new(format!(
+                "previous: not a check's verdicts (no string column `{name}`)"
+            ))),
+        };
+        let floats = |name: &str| match table.column(name) {
+            Some(ColumnData::F64(values)) => Ok(values.clone()),
+            _ => Err(StageError::new(format!(
+                "previous: not a check's verdicts (no f64 column `{name}`)"
+            ))),
+        };
+        let Some(ColumnData::Bool(holds)) = table.column("holds") else {
+            return Err(StageError::new(
+                "previous: not a check's verdicts (no bool column `holds`)",
+            ));
+        };
+        Ok(Verdicts {
+            case: strings("case")?,
+            point: strings("point")?,
+            expected: strings("expected")?,
+            quantity: strings("quantity")?,
+            observed: floats("observed")?,
+            at_least: floats("at_least")?,
+            at_most: floats("at_most")?,
+            holds: holds.clone(),
+        })
+    }
+
+    fn table(self) -> Table {
+        Table::new()
+            .with("case", self.case)
+            .with("point", self.point)
+            .with("expected", self.expected)
+            .with("quantity", self.quantity)
+            .with("observed", self.observed)
+            .with("at_least", self.at_least)
+            .with("at_most", self.at_most)
+            .with("holds", self.holds)
     }
 }
 
@@ -124,8 +204,8 @@ mod tests {
     use crate::stage::{Input, Value};
     use std::sync::Arc;
 
-    fn verdict(table: Table, quantity: &str, at_most: f64) -> Result<(f64, bool), StageError> {
-        let params = Params(
+    fn params(quantity: &str, at_most: f64) -> Params {
+        Params(
             [
                 ("case", Value::Str("c".into())),
                 ("expected", Value::Str("e".into())),
@@ -136,27 +216,46 @@ mod tests {
             .into_iter()
             .map(|(name, value)| (name.to_string(), value))
             .collect(),
+        )
+    }
+
+    fn run(
+        points: Vec<(crate::stage::Coords, Table)>,
+        previous: Option<Table>,
+        quantity: &str,
+        at_most: f64,
+    ) -> Result<Table, StageError> {
+        let mut inputs = Inputs::default();
+        inputs.0.insert(
+            "tables".to_string(),
+            Input::Many(
+                points
+                    .into_iter()
+                    .map(|(coords, table)| (coords, Arc::new(Artifact::Table(table))))
+                    .collect(),
+            ),
         );
-        let inputs = Inputs(
-            [(
-                "table".to_string(),
-                Input::One(Arc::new(Artifact::Table(table))),
-            )]
-            .into(),
-        );
-        let outputs = Check.run(&params, &inputs)?;
-        let Artifact::Table(verdict) = &outputs["verdict"] else {
+        if let Some(previous) = previous {
+            inputs.0.insert(
+                "previous".to_string(),
+                Input::One(Arc::new(Artifact::Table(previous))),
+            );
+        }
+        let outputs = Check.run(&params(quantity, at_most), &inputs)?;
+        let Artifact::Table(verdicts) = &outputs["verdicts"] else {
             panic!("a table")
         };
-        let observed = match verdict.column("observed") {
-            Some(ColumnData::F64(values)) => values[0],
-            _ => panic!("observed"),
+        Ok(verdicts.clone())
+    }
+
+    fn verdict(table: Table, quantity: &str, at_most: f64) -> Result<(f64, bool), StageError> {
+        let verdicts = run(vec![(Vec::new(), table)], None, quantity, at_most)?;
+        let (Some(ColumnData::F64(observed)), Some(ColumnData::Bool(holds))) =
+            (verdicts.column("observed"), verdicts.column("holds"))
+        else {
+            panic!("observed, holds")
         };
-        let holds = match verdict.column("holds") {
-            Some(ColumnData::Bool(values)) => values[0],
-            _ => panic!("holds"),
-        };
-        Ok((observed, holds))
+        Ok((observed[0], holds[0]))
     }
 
     #[test]
@@ -184,6 +283,37 @@ mod tests {
             error
                 .message
                 .contains("no quantity or numeric column `condition` (columns: error_bound)")
+        );
+    }
+
+    #[test]
+    fn a_chain_of_checks_adds_a_row_per_point_to_the_verdicts_before() {
+        let summary = |value: f64| Table::quantities(&[("worst_residual", value)]);
+        let first = run(
+            vec![(Vec::new(), summary(1e-13))],
+            None,
+            "worst_residual",
+            1e-10,
+        )
+        .unwrap();
+        let points = vec![
+            (vec![("mu".to_string(), Value::Float(0.5))], summary(1e-12)),
+            (vec![("mu".to_string(), Value::Float(1.5))], summary(1e-9)),
+        ];
+        let all = run(points, Some(first), "worst_residual", 1e-10).unwrap();
+        assert_eq!(all.n_rows(), 3);
+        let (Some(ColumnData::Str(point)), Some(ColumnData::Bool(holds))) =
+            (all.column("point"), all.column("holds"))
+        else {
+            panic!("point, holds")
+        };
+        assert_eq!(point, &["", "mu=0.5", "mu=1.5"]);
+        assert_eq!(holds, &[true, true, false]);
+        let not_verdicts = run(Vec::new(), Some(summary(1.0)), "worst_residual", 1.0).unwrap_err();
+        assert!(
+            not_verdicts
+                .message
+                .contains("previous: not a check's verdicts")
         );
     }
 }
