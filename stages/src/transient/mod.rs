@@ -68,6 +68,7 @@
 pub mod contact;
 pub mod energy;
 mod figure;
+mod products;
 pub mod reduced;
 pub mod scheme;
 #[cfg(test)]
@@ -168,8 +169,8 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 6: factors lighter than 100,000 entries swept sequentially (their last bits change).
-        6
+        // 7: M v (and C v under Rayleigh damping) derived from the step equation (last bits).
+        7
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

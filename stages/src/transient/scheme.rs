@@ -11,29 +11,21 @@
 //!
 //! solved as in [`squeal_linalg::cholesky`]: one forward sweep, the contact problem on the
 //! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep (the independent subtrees of J's elimination
-//! tree in parallel, [`squeal_linalg::sweeps`]). `C v` and `K v` come from one pass over
-//! their union pattern; `M v` from the step's own equation,
-//!
-//! ```text
-//! M v¹ = τ (J v¹ − θ C v¹ − τθ² K v¹),   J v¹ = F_MTD + Hᵀ r  (the right-hand side just solved)
-//! ```
-//!
-//! and `K u` by its recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one
-//! product with two matrices. (The solve's backward error, ε‖J‖‖v‖ per step, is all that
-//! separates the derived `M v` from the product.)
+//! tree in parallel, [`squeal_linalg::sweeps`]). `M v` comes from the step's own equation
+//! (and `C v` too when the damping is Rayleigh's row by row, [`super::products`]), `K u` by its
+//! recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one pass over `K` (with `C`
+//! for other damping). (The solve's backward error, ε‖J‖‖v‖ per step, is all that separates
+//! the derived products from computed ones.)
 
 use faer::Par;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::CscMatrix;
 use squeal_linalg::cholesky::{Cholesky, InterfaceSolve};
 
 use super::contact::{self, ContactSolver, PairState, Solver, classify};
 use super::energy::{Audit, StepWork};
+use super::products::Products;
 use crate::stage::Checkpoints;
-
-/// Rows of each fixed chunk of the fused products (independent of the thread count).
-const PRODUCT_CHUNK: usize = 4096;
 
 /// The structure the scheme integrates.
 pub struct Structure<'a> {
@@ -161,71 +153,6 @@ pub enum Failure {
     },
 }
 
-/// `C x` and `K x` in one pass over the union of their patterns.
-struct FusedProducts {
-    col_ptr: Vec<usize>,
-    /// `u32` halves the index traffic: the product is bound by memory bandwidth.
-    row_idx: Vec<u32>,
-    values: Vec<[f64; 2]>,
-}
-
-impl FusedProducts {
-    fn new(matrices: [&CscMatrix; 2]) -> FusedProducts {
-        let n = matrices[0].n_cols;
-        assert!(n <= u32::MAX as usize, "more unknowns than u32 indices");
-        let mut col_ptr = vec![0];
-        let mut row_idx = Vec::new();
-        let mut values: Vec<[f64; 2]> = Vec::new();
-        let mut column: Vec<(usize, usize, f64)> = Vec::new();
-        for col in 0..n {
-            column.clear();
-            for (which, A) in matrices.iter().enumerate() {
-                for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-                    column.push((A.row_idx[entry], which, A.values[entry]));
-                }
-            }
-            column.sort_by_key(|&(row, which, _)| (row, which));
-            let mut last = usize::MAX;
-            for &(row, which, value) in &column {
-                if row != last {
-                    row_idx.push(row as u32);
-                    values.push([0.0; 2]);
-                    last = row;
-                }
-                values.last_mut().expect("an entry was pushed")[which] += value;
-            }
-            col_ptr.push(row_idx.len());
-        }
-        FusedProducts {
-            col_ptr,
-            row_idx,
-            values,
-        }
-    }
-
-    /// `C x` and `K x` into the last two slots of `out`, laid out `(M x, C x, K x)` per row:
-    /// the matrices are symmetric, so row `i` is read as column `i`; each output entry is
-    /// summed by one task in a fixed order.
-    fn apply(&self, x: &[f64], out: &mut [[f64; 3]]) {
-        out.par_chunks_mut(PRODUCT_CHUNK)
-            .enumerate()
-            .for_each(|(chunk, slots)| {
-                for (offset, slot) in slots.iter_mut().enumerate() {
-                    let i = chunk * PRODUCT_CHUNK + offset;
-                    let mut sum = [0.0; 2];
-                    for entry in self.col_ptr[i]..self.col_ptr[i + 1] {
-                        let value = self.values[entry];
-                        let x_j = x[self.row_idx[entry] as usize];
-                        sum[0] += value[0] * x_j;
-                        sum[1] += value[1] * x_j;
-                    }
-                    slot[1] = sum[0];
-                    slot[2] = sum[1];
-                }
-            });
-    }
-}
-
 fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
     H_rows
         .iter()
@@ -265,7 +192,7 @@ struct Operators<'s> {
     settings: &'s Settings,
     cholesky: Cholesky,
     interface_solve: InterfaceSolve,
-    products: FusedProducts,
+    products: Products,
     /// `Hᵀ r_e`, the equilibrium's contact force.
     equilibrium_force: Vec<f64>,
     /// The largest equilibrium reaction, the contact residual's force scale.
@@ -298,7 +225,7 @@ impl<'s> Operators<'s> {
             settings,
             cholesky,
             interface_solve,
-            products: FusedProducts::new([structure.C, structure.K]),
+            products: Products::new(structure.M, structure.C, structure.K),
             equilibrium_force,
             force_scale: contact_state
                 .r_e
@@ -330,11 +257,14 @@ impl<'s> Operators<'s> {
     /// The state at step 0, the departure `(u, v)`, with its history row and snapshot.
     fn initial_state(&self, u: Vec<f64>, v: Vec<f64>) -> State {
         let H_rows = &self.structure.H_rows;
-        let mut MCK_v = vec![[0.0; 3]; v.len()];
-        self.products.apply(&v, &mut MCK_v);
-        for (slot, M_v) in MCK_v.iter_mut().zip(self.structure.M.mul_vec(&v)) {
-            slot[0] = M_v;
-        }
+        let mut MCK_v: Vec<[f64; 3]> = self
+            .structure
+            .M
+            .mul_vec(&v)
+            .into_iter()
+            .map(|M_v| [M_v, 0.0, 0.0])
+            .collect();
+        self.products.with_mass(&v, &mut MCK_v);
         let K_u = self.structure.K.mul_vec(&u);
         let audit = Audit::new(&u, &v, &MCK_v, &K_u);
         let mut state = State {
@@ -436,12 +366,10 @@ impl<'s> Operators<'s> {
         if work.v_new.iter().any(|value| !value.is_finite()) {
             return Err(Failure::NotFinite { step, t });
         }
-        self.products.apply(&work.v_new, &mut work.MCK_v_new);
-        // M v¹ = τ (F_MTD + Hᵀ r − θ C v¹ − τθ² K v¹).
+        // J v¹ = F_MTD + Hᵀ r gives M v¹ (and C v¹ for Rayleigh damping) without a product.
         add_h_transpose_times(&self.structure.H_rows, &state.r, &mut work.rhs);
-        for (slot, J_v) in work.MCK_v_new.iter_mut().zip(&work.rhs) {
-            slot[0] = tau * (J_v - theta * slot[1] - tau * theta * theta * slot[2]);
-        }
+        self.products
+            .of_solution(&work.v_new, &work.rhs, tau, theta, &mut work.MCK_v_new);
         // u¹ = u⁰ + τ v^θ, K u¹ = K u⁰ + τ K v^θ, δ¹ = δ⁰ + τ w^θ.
         work.u_old.copy_from_slice(&state.u);
         work.K_u_old.copy_from_slice(&state.K_u);
