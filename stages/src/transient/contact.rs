@@ -121,7 +121,7 @@ pub fn classify(r: &[f64], w: &[f64], p: usize, sliding_speed: f64) -> PairState
 /// The slip speed `‖s‖` of pair `p` and the friction direction `d = −s/‖s‖` (zero without slip).
 fn slip(w: &[f64], p: usize, sliding_speed: f64) -> (f64, [f64; 2]) {
     let s = [w[3 * p + 1] - sliding_speed, w[3 * p + 2]];
-    let length = s[0].hypot(s[1]);
+    let length = norm(s);
     if length > 0.0 {
         (length, [-s[0] / length, -s[1] / length])
     } else {
@@ -188,7 +188,7 @@ impl Problem<'_> {
             r[2] - step.rho_T[p] * slip[1],
         ];
         let radius = self.mu * r_n;
-        let length = trial[0].hypot(trial[1]);
+        let length = norm(trial);
         let scale = if length > radius {
             radius / length
         } else {
@@ -217,6 +217,12 @@ impl Problem<'_> {
     }
 }
 
+/// The length of a tangential vector. (`hypot`'s guard against overflow is a library call in
+/// the innermost loop, and forces and velocities here are nowhere near 1e154.)
+fn norm(x: [f64; 2]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1]).sqrt()
+}
+
 fn pair(values: &[f64], p: usize) -> [f64; 3] {
     [values[3 * p], values[3 * p + 1], values[3 * p + 2]]
 }
@@ -229,13 +235,15 @@ fn column<'a>(W: MatRef<'a, f64>, k: usize) -> &'a [f64] {
         .as_slice()
 }
 
-/// `w = w_free + W r`, column by column (contiguous reads).
-fn velocities(problem: &Problem, r: &[f64], w: &mut [f64]) {
-    w.copy_from_slice(problem.w_free);
-    for (k, &r_k) in r.iter().enumerate() {
-        if r_k != 0.0 {
-            for (slot, W_ik) in w.iter_mut().zip(column(problem.W, k)) {
-                *slot += W_ik * r_k;
+squeal_linalg::widest_vectors! {
+    /// `w = w_free + W r`, column by column (contiguous reads).
+    fn velocities(problem: &Problem, r: &[f64], w: &mut [f64]) {
+        w.copy_from_slice(problem.w_free);
+        for (k, &r_k) in r.iter().enumerate() {
+            if r_k != 0.0 {
+                for (slot, W_ik) in w.iter_mut().zip(column(problem.W, k)) {
+                    *slot += W_ik * r_k;
+                }
             }
         }
     }
@@ -641,36 +649,38 @@ fn basis_of(problem: &Problem, r: &[f64], w: &[f64]) -> Basis {
     }
 }
 
-/// One Gauss–Seidel sweep over the pairs; `w` is kept equal to `w_free + W r`.
-fn gauss_seidel_sweep(problem: &Problem, step: &Step, r: &mut [f64], w: &mut [f64]) {
-    let W = problem.W;
-    for p in 0..problem.n_pairs() {
-        let k = 3 * p;
-        let start = pair(r, p);
-        let mut r_p = start;
-        let mut w_p = pair(w, p);
-        for _ in 0..LOCAL_ITERATIONS {
-            let projected = problem.project(p, step, r_p, w_p);
-            let delta = [
-                projected[0] - r_p[0],
-                projected[1] - r_p[1],
-                projected[2] - r_p[2],
-            ];
-            if delta == [0.0; 3] {
-                break;
+squeal_linalg::widest_vectors! {
+    /// One Gauss–Seidel sweep over the pairs; `w` is kept equal to `w_free + W r`.
+    fn gauss_seidel_sweep(problem: &Problem, step: &Step, r: &mut [f64], w: &mut [f64]) {
+        let W = problem.W;
+        for p in 0..problem.n_pairs() {
+            let k = 3 * p;
+            let start = pair(r, p);
+            let mut r_p = start;
+            let mut w_p = pair(w, p);
+            for _ in 0..LOCAL_ITERATIONS {
+                let projected = problem.project(p, step, r_p, w_p);
+                let delta = [
+                    projected[0] - r_p[0],
+                    projected[1] - r_p[1],
+                    projected[2] - r_p[2],
+                ];
+                if delta == [0.0; 3] {
+                    break;
+                }
+                for (i, slot) in w_p.iter_mut().enumerate() {
+                    *slot += (0..3).map(|j| W[(k + i, k + j)] * delta[j]).sum::<f64>();
+                }
+                r_p = projected;
             }
-            for (i, slot) in w_p.iter_mut().enumerate() {
-                *slot += (0..3).map(|j| W[(k + i, k + j)] * delta[j]).sum::<f64>();
+            let delta = [r_p[0] - start[0], r_p[1] - start[1], r_p[2] - start[2]];
+            if delta != [0.0; 3] {
+                let (c0, c1, c2) = (column(W, k), column(W, k + 1), column(W, k + 2));
+                for (row, slot) in w.iter_mut().enumerate() {
+                    *slot += c0[row] * delta[0] + c1[row] * delta[1] + c2[row] * delta[2];
+                }
+                r[k..k + 3].copy_from_slice(&r_p);
             }
-            r_p = projected;
-        }
-        let delta = [r_p[0] - start[0], r_p[1] - start[1], r_p[2] - start[2]];
-        if delta != [0.0; 3] {
-            let (c0, c1, c2) = (column(W, k), column(W, k + 1), column(W, k + 2));
-            for (row, slot) in w.iter_mut().enumerate() {
-                *slot += c0[row] * delta[0] + c1[row] * delta[1] + c2[row] * delta[2];
-            }
-            r[k..k + 3].copy_from_slice(&r_p);
         }
     }
 }
