@@ -169,7 +169,8 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 7: M v (and C v under Rayleigh damping) derived from the step equation (last bits).
+        // 7: M v (and C v under Rayleigh damping) derived from the step equation, one
+        // projection per pair and Gauss-Seidel sweep (last bits).
         7
     }
     fn doc(&self) -> &'static str {
