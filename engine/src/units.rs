@@ -2,22 +2,24 @@
 //!
 //! Parameters are SI. A numeric parameter may be written as a bare number (SI) or as a string
 //! `"<number> <unit>"` whose unit is the declared one with an optional decimal prefix
-//! (`40 mm`, `17 kHz`, `210 GPa`); the value is converted to SI before it is hashed, so `0.04`
-//! and `"40 mm"` are the same parameter value.
+//! (`40 mm`, `17 kHz`, `210 GPa`); the value is converted to SI (rounded once, as the number
+//! written in SI would be) before it is hashed, so `0.04` and `"40 mm"`, or `5e-6` and
+//! `"5 us"`, are the same parameter value.
 
 use squeal_stages::{ParamSpec, ParamType, Value};
 
 use crate::spec::RawValue;
 
-const PREFIXES: &[(&str, f64)] = &[
-    ("G", 1e9),
-    ("M", 1e6),
-    ("k", 1e3),
-    ("c", 1e-2),
-    ("m", 1e-3),
-    ("u", 1e-6),
-    ("µ", 1e-6),
-    ("n", 1e-9),
+/// Decimal prefixes and their powers of ten.
+const PREFIXES: &[(&str, i32)] = &[
+    ("G", 9),
+    ("M", 6),
+    ("k", 3),
+    ("c", -2),
+    ("m", -3),
+    ("u", -6),
+    ("µ", -6),
+    ("n", -9),
 ];
 
 /// Checks `raw` against `spec`, converting units. The error is one line, without location.
@@ -60,8 +62,8 @@ fn with_unit(spec: &ParamSpec, text: &str) -> Result<f64, String> {
             c.is_whitespace() || (c.is_alphabetic() && c != 'e' && c != 'E') || c == 'µ'
         })
         .unwrap_or(text.len());
-    let (number, unit) = (text[..split].trim(), text[split..].trim());
-    let number: f64 = number.parse().map_err(|_| {
+    let (number_text, unit) = (text[..split].trim(), text[split..].trim());
+    let number: f64 = number_text.parse().map_err(|_| {
         format!(
             "expected a number with an optional unit ({}), found \"{text}\"",
             unit_name(spec)
@@ -71,9 +73,9 @@ fn with_unit(spec: &ParamSpec, text: &str) -> Result<f64, String> {
         return Ok(number);
     }
     if !spec.unit.is_empty() {
-        for (prefix, factor) in PREFIXES {
+        for &(prefix, power) in PREFIXES {
             if unit.strip_prefix(prefix) == Some(spec.unit) {
-                return Ok(number * factor);
+                return Ok(shifted(number_text, number, power));
             }
         }
     }
@@ -81,6 +83,23 @@ fn with_unit(spec: &ParamSpec, text: &str) -> Result<f64, String> {
         "unit `{unit}` does not match the parameter's unit ({})",
         unit_name(spec)
     ))
+}
+
+/// The decimal number `text` (which parses to `number`) times `10^power`, rounded once:
+/// `"5 us"` is exactly the value of `5e-6` (`5.0 * 1e-6` is not), so a value means one
+/// parameter whichever way it is written, and sweep instances are named by the number written.
+fn shifted(text: &str, number: f64, power: i32) -> f64 {
+    let (mantissa, exponent) = match text.find(['e', 'E']) {
+        Some(at) => (&text[..at], text[at + 1..].parse::<i32>().ok()),
+        None => (text, Some(0)),
+    };
+    exponent
+        .and_then(|exponent| {
+            format!("{mantissa}e{}", exponent.checked_add(power)?)
+                .parse()
+                .ok()
+        })
+        .unwrap_or(number * 10f64.powi(power))
 }
 
 fn unit_name(spec: &ParamSpec) -> String {
@@ -114,6 +133,18 @@ mod tests {
         check(&thickness, RawValue::Str("4cm".into()), float(0.04));
         check(&thickness, RawValue::Str("0.04 m".into()), float(0.04));
         check(&thickness, RawValue::Str("4e1 mm".into()), float(0.04));
+        // Rounded once, as the number written in SI: 5.0 * 1e-6 is 4.9999999999999996e-6.
+        let tau = ParamSpec::float("tau", 1e-6, "s", "time step");
+        check(&tau, RawValue::Str("5 us".into()), float(5e-6));
+        check(&tau, RawValue::Str("100 us".into()), float(1e-4));
+        check(&tau, RawValue::Str("0.3 ms".into()), float(3e-4));
+        check(&tau, RawValue::Str("2.5E-1 ns".into()), float(2.5e-10));
+        check(&tau, RawValue::Str("-7 ks".into()), float(-7e3));
+        check(
+            &tau,
+            RawValue::Str("1e99999999999 us".into()),
+            Err("out of range"),
+        );
         check(
             &thickness,
             RawValue::Str("40 Hz".into()),
