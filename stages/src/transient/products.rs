@@ -29,7 +29,7 @@ use squeal_linalg::CscMatrix;
 
 /// Rows of each fixed chunk of the products (independent of the thread count).
 const PRODUCT_CHUNK: usize = 4096;
-/// How closely `C` must be `diag(a) M + diag(b) K`, relative to the size of each entry's terms.
+/// How closely `C` must be `diag(a) M + diag(b) K`, relative to the row's largest terms.
 const RAYLEIGH_TOLERANCE: f64 = 1e-12;
 
 /// One symmetric matrix or two, read row by row (as columns: they are symmetric).
