@@ -5,18 +5,10 @@ mod common;
 use std::path::Path;
 
 use arrow::array::{Array, Int64Array};
-use common::{Workspace, floats, read_parquet, strings};
-
-fn pipeline(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("pipelines")
-        .join(name)
-        .display()
-        .to_string()
-}
+use common::{Workspace, booleans, floats, pipeline, read_parquet, strings};
 
 #[test]
-fn quick_study_runs_and_is_coarse() {
+fn targeted_runs_and_is_coarse() {
     let workspace = Workspace::new();
     let study = pipeline("quick.yaml");
     workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
@@ -114,15 +106,10 @@ fn the_mu_sweep_tracks_modes_across_mu() {
     values.sort_by(f64::total_cmp);
     values.dedup();
     assert_eq!(values.len(), 7, "{values:?}");
-    let unstable = tracked
-        .column_by_name("unstable")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<arrow::array::BooleanArray>()
-        .unwrap();
+    let unstable = booleans(&tracked, "unstable");
     // Without friction nothing is unstable; at mu = 0.6 something is.
     let unstable_at =
-        |value: f64| (0..tracked.num_rows()).any(|row| mu[row] == value && unstable.value(row));
+        |value: f64| (0..tracked.num_rows()).any(|row| mu[row] == value && unstable[row]);
     assert!(!unstable_at(0.0));
     assert!(unstable_at(0.6));
     let png = std::fs::read(workspace.path().join("out/tracked/coalescence.png")).unwrap();
@@ -163,13 +150,7 @@ fn the_hoffmann_sweep_through_coalescence_reports_condition_numbers_that_hold() 
         floats(&table, "im"),
     );
     let (condition, bound) = (floats(&table, "condition"), floats(&table, "error_bound"));
-    let unstable = table
-        .column_by_name("unstable")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<arrow::array::BooleanArray>()
-        .unwrap()
-        .clone();
+    let unstable = booleans(&table, "unstable");
     let mu_c = 0.270_148_607_487_333_67;
     assert_eq!(mu.len(), 44);
     for row in 0..mu.len() {
@@ -181,7 +162,7 @@ fn the_hoffmann_sweep_through_coalescence_reports_condition_numbers_that_hold() 
             bound[row]
         );
         if mu[row] < mu_c {
-            assert!(!unstable.value(row));
+            assert!(!unstable[row]);
             assert!(
                 re[row].abs() <= bound[row] * modulus,
                 "μ = {}: Re λ = {:e} beyond the bound {:e}",
@@ -201,7 +182,7 @@ fn the_hoffmann_sweep_through_coalescence_reports_condition_numbers_that_hold() 
             );
         }
     }
-    let growing = (0..mu.len()).filter(|&row| unstable.value(row)).count();
+    let growing = (0..mu.len()).filter(|&row| unstable[row]).count();
     assert_eq!(growing, 11, "one growing root per point above μ_c");
     // The tracker follows the two modes through the coalescence, by their shapes.
     let tracked = read_parquet(&workspace.path().join("out/tracked/tracked.parquet"));
@@ -442,6 +423,13 @@ fn the_quick_study_names_why_its_equilibrium_fails_at_extreme_friction() {
     }
 }
 
+/// The arguments of a run of `study` up to `target`, with one parameter `set`.
+fn targeted_run<'a>(study: &'a str, target: &'a str, set: &'a str) -> [&'a str; 10] {
+    [
+        "run", study, "--out", "out", "--cache", "cache", "--target", target, "--set", set,
+    ]
+}
+
 /// Pads 10¹¹ times as stiff as by default (10⁸ times the disc): the eigenvalues two shifts
 /// find agree to only about 1e-5, and the stage says they are ill-conditioned rather than
 /// "missed".
@@ -449,18 +437,7 @@ fn the_quick_study_names_why_its_equilibrium_fails_at_extreme_friction() {
 fn the_quick_study_names_ill_conditioned_eigenvalues_at_an_extreme_stiffness_contrast() {
     let workspace = Workspace::new();
     let study = pipeline("quick.yaml");
-    let output = workspace.squeal(&[
-        "run",
-        &study,
-        "--out",
-        "out",
-        "--cache",
-        "cache",
-        "--target",
-        "stability",
-        "--set",
-        "model.E_pad=3e19",
-    ]);
+    let output = workspace.squeal(&targeted_run(&study, "stability", "model.E_pad=3e19"));
     assert_eq!(output.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
@@ -476,18 +453,11 @@ fn the_quick_study_names_ill_conditioned_eigenvalues_at_an_extreme_stiffness_con
 fn an_interference_beyond_small_strains_is_warned_about_with_the_strain_it_gives() {
     let workspace = Workspace::new();
     let study = pipeline("quick.yaml");
-    let stderr = workspace.run_ok(&[
-        "run",
+    let stderr = workspace.run_ok(&targeted_run(
         &study,
-        "--out",
-        "out",
-        "--cache",
-        "cache",
-        "--target",
         "equilibrium",
-        "--set",
         "equilibrium.interference=1 mm",
-    ]);
+    ));
     assert!(
         stderr.contains("WARN equilibrium: strains reach 5.69 % (element 384, part `pad`), beyond the small strains (1 %)"),
         "{stderr}"

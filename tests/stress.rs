@@ -5,26 +5,12 @@ mod common;
 
 use std::path::Path;
 
-use common::{Workspace, floats, read_parquet, strings};
-
-fn pipeline(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("pipelines")
-        .join(name)
-        .display()
-        .to_string()
-}
+use common::{Workspace, booleans, floats, pipeline, read_parquet, strings};
 
 /// The rows of a stress table: case, point, quantity, observed, holds.
 fn verdicts(out: &Path) -> Vec<(String, String, String, f64, bool)> {
     let table = read_parquet(&out.join("verdicts/gathered.parquet"));
-    let holds = table
-        .column_by_name("holds")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<arrow::array::BooleanArray>()
-        .unwrap()
-        .clone();
+    let holds = booleans(&table, "holds");
     let (case, point, quantity) = (
         strings(&table, "case"),
         strings(&table, "point"),
@@ -38,10 +24,21 @@ fn verdicts(out: &Path) -> Vec<(String, String, String, f64, bool)> {
                 point[row].clone(),
                 quantity[row].clone(),
                 observed[row],
-                holds.value(row),
+                holds[row],
             )
         })
         .collect()
+}
+
+/// Prints the stress table under `out` and checks it has `rows` verdicts, every one holding.
+fn assert_every_verdict_holds(out: &Path, rows: usize) {
+    let found = verdicts(out);
+    for (case, point, quantity, observed, holds) in &found {
+        eprintln!("{case:<58} {point:<32} {quantity:<22} {observed:>10.3e} {holds}");
+    }
+    assert_eq!(found.len(), rows);
+    let failing: Vec<_> = found.iter().filter(|verdict| !verdict.4).collect();
+    assert!(failing.is_empty(), "{failing:?}");
 }
 
 #[test]
@@ -54,14 +51,8 @@ fn every_stress_verdict_holds_and_what_cannot_be_solved_says_why() {
         stderr.contains("beyond the small strains (1 %)"),
         "{stderr}"
     );
-    let found = verdicts(&workspace.path().join("out"));
-    for (case, point, quantity, observed, holds) in &found {
-        eprintln!("{case:<58} {point:<32} {quantity:<22} {observed:>10.3e} {holds}");
-    }
     // 14 Hoffmann points, 7 × 2 brake points, 2 contrasts, 2 puck checks, 5 single cases.
-    assert_eq!(found.len(), 37);
-    let failing: Vec<_> = found.iter().filter(|verdict| !verdict.4).collect();
-    assert!(failing.is_empty(), "{failing:?}");
+    assert_every_verdict_holds(&workspace.path().join("out"), 37);
 
     // Beyond what has a solution: a clear reason, nothing downstream.
     for (set, reason) in [
@@ -101,11 +92,5 @@ fn the_coarse_brake_from_mu_0_to_1_5_matches_the_dense_solve_at_every_point() {
     let workspace = Workspace::new();
     let study = pipeline("stress_coarse_brake.yaml");
     workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
-    let found = verdicts(&workspace.path().join("out"));
-    for (case, point, quantity, observed, holds) in &found {
-        eprintln!("{case:<34} {point:<12} {quantity:<18} {observed:>10.3e} {holds}");
-    }
-    assert_eq!(found.len(), 14);
-    let failing: Vec<_> = found.iter().filter(|verdict| !verdict.4).collect();
-    assert!(failing.is_empty(), "{failing:?}");
+    assert_every_verdict_holds(&workspace.path().join("out"), 14);
 }

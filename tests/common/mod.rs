@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use arrow::array::{Array, Float64Array, StringArray};
+use arrow::array::{Array, BooleanArray, Float64Array, StringArray};
 use arrow::record_batch::RecordBatch;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -98,6 +98,15 @@ impl Workspace {
     }
 }
 
+/// The path of a study of the repository's `pipelines/`.
+pub fn pipeline(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("pipelines")
+        .join(name)
+        .display()
+        .to_string()
+}
+
 pub fn read_parquet(path: &Path) -> RecordBatch {
     let file = std::fs::File::open(path).unwrap_or_else(|err| panic!("{}: {err}", path.display()));
     let reader = ParquetRecordBatchReaderBuilder::try_new(file)
@@ -131,6 +140,17 @@ pub fn floats(batch: &RecordBatch, column: &str) -> Vec<f64> {
         .expect("f64 column")
         .values()
         .to_vec()
+}
+
+pub fn booleans(batch: &RecordBatch, column: &str) -> Vec<bool> {
+    let array = batch
+        .column_by_name(column)
+        .unwrap_or_else(|| panic!("no column {column}"));
+    let array = array
+        .as_any()
+        .downcast_ref::<BooleanArray>()
+        .expect("boolean column");
+    (0..array.len()).map(|idx| array.value(idx)).collect()
 }
 
 /// `manifest.parquet` as stage instance → status.

@@ -221,14 +221,10 @@ mod tests {
 
     fn combination(terms: &[(f64, &CscMatrix)]) -> CscMatrix {
         let n = terms[0].1.n_cols;
-        let mut triplets = Vec::new();
-        for &(factor, A) in terms {
-            for col in 0..n {
-                for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-                    triplets.push((A.row_idx[entry], col, factor * A.values[entry]));
-                }
-            }
-        }
+        let triplets = terms
+            .iter()
+            .flat_map(|&(factor, A)| A.triplets().map(move |(i, j, v)| (i, j, factor * v)))
+            .collect();
         CscMatrix::from_triplets(n, n, triplets)
     }
 
@@ -250,15 +246,13 @@ mod tests {
         );
         let part = |i: usize| usize::from(i >= 20);
         let (alpha, beta) = ([3.0, 40.0], [2e-6, 5e-8]);
-        let mut triplets = Vec::new();
-        for (A, coefficients) in [(&M, alpha), (&K, beta)] {
-            for col in 0..n {
-                for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-                    let row = A.row_idx[entry];
-                    triplets.push((row, col, coefficients[part(row)] * A.values[entry]));
-                }
-            }
-        }
+        let triplets = [(&M, alpha), (&K, beta)]
+            .into_iter()
+            .flat_map(|(A, coefficients)| {
+                A.triplets()
+                    .map(move |(row, col, value)| (row, col, coefficients[part(row)] * value))
+            })
+            .collect();
         let C = CscMatrix::from_triplets(n, n, triplets);
         let rayleigh = Products::new(&M, &C, &K);
         assert!(rayleigh.is_rayleigh());
