@@ -211,6 +211,16 @@ fn a_reduced_run_grows_at_the_rate_of_the_unstable_mode_it_starts_from() {
         (measured - expected).abs() < 0.02 * expected,
         "reduced growth rate {measured} /s against Re lambda = {expected} /s"
     );
+    // The modal coordinates are eliminated last, so the bodies' interface blocks, which do not
+    // couple, stay apart in J's factor: the dense factor would hold n² entries (supernodes are
+    // stored whole).
+    let summary = outputs["summary"].as_table().unwrap();
+    let n = quantity(summary, "unknowns");
+    let entries = quantity(summary, "factor_entries");
+    assert!(
+        entries < 0.7 * n * n,
+        "J's factor holds {entries} entries for {n} reduced unknowns"
+    );
 }
 
 #[test]

@@ -169,9 +169,9 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 7: M v (and C v under Rayleigh damping) derived from the step equation, one
-        // projection per pair and Gauss-Seidel sweep (last bits).
-        7
+        // 8: a reduced model's J eliminates its modal coordinates last (the last bits of
+        // reduced runs).
+        8
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
