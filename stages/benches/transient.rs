@@ -6,7 +6,10 @@
 //! peak memory.
 //! Run with `cargo bench -p squeal-stages --bench transient`. `SQUEAL_BENCH_STEPS` (20,000),
 //! `SQUEAL_BENCH_TAU` (1e-6 s), `SQUEAL_BENCH_KICK` (1e-3 m/s) and `SQUEAL_BENCH_SOLVER`
-//! (`active_set`, `gauss_seidel` or `fixed_point`) override the run.
+//! (`active_set`, `gauss_seidel` or `fixed_point`) override the run. `SQUEAL_BENCH_BASIS=N`
+//! runs it on a reduced model instead: a Craig–Bampton basis of N fixed-interface modes, which
+//! like every basis kind keeps the interface's DOFs and their static modes (the kind needs no
+//! stability stage, and a reduced step's cost depends on the sizes, not on the vectors).
 //!
 //! With `SQUEAL_EXPORT_DIR=<dir>`, M, C, K (Matrix Market), the rows of H, the pairs' data and
 //! the initial velocity are written there for `transient_scipy.py`, the same scheme
@@ -17,14 +20,22 @@ use std::time::Instant;
 
 use faer::{MatMut, Par};
 use squeal_linalg::matrix_market::write_matrix_market;
-use squeal_stages::NoCheckpoints;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use squeal_stages::artifact::basis::StaticModes;
+use squeal_stages::artifact::{Artifact, Basis, Equilibrium, Model};
 use squeal_stages::assemble::with_default_materials;
+use squeal_stages::basis::ReductionBasis;
 use squeal_stages::contact::lcp::LcpSettings;
 use squeal_stages::equilibrium::{Load, Solver, solve as equilibrium};
 use squeal_stages::mesh::brake::{BrakeGeometry, brake};
+use squeal_stages::stage::{Input, Inputs, Params, Value};
 use squeal_stages::transient::contact::Solver as ContactSolver;
+use squeal_stages::transient::reduced::ReducedModel;
 use squeal_stages::transient::scheme::{Settings, Structure, factorise_J, integrate};
 use squeal_stages::transient::{kick, structure_of};
+use squeal_stages::{NoCheckpoints, Stage};
 
 /// Peak resident memory of this process (MiB), from /proc.
 fn peak_memory_mib() -> f64 {
@@ -61,7 +72,7 @@ fn main() {
     .expect("equilibrium");
     let n_steps: usize = env_or("STEPS", 20_000);
     let tau: f64 = env_or("TAU", 1e-6);
-    let (structure, contact_state) = structure_of(&model, &equilibrium).expect("structure");
+    let (full, contact_state) = structure_of(&model, &equilibrium).expect("structure");
     let (u0, v0) = kick(&model, &equilibrium, env_or("KICK", 1e-3));
     println!(
         "default brake: {} free DOFs, {} pairs ({} closed); tau = {tau:e} s, {n_steps} steps",
@@ -70,11 +81,38 @@ fn main() {
         equilibrium.closed.iter().filter(|closed| **closed).count(),
     );
     if let Ok(dir) = std::env::var("SQUEAL_EXPORT_DIR") {
-        export(&dir, &structure, &contact_state, &v0);
+        export(&dir, &full, &contact_state, &v0);
     }
+    let n_modes: usize = env_or("BASIS", 0);
+    let basis = (n_modes > 0).then(|| craig_bampton(&model, &equilibrium, n_modes));
+    let static_modes = basis.as_ref().map(|basis| {
+        let interface: Vec<usize> = basis.interface.iter().map(|&dof| dof as usize).collect();
+        StaticModes::new(&model, &interface).expect("static modes")
+    });
+    let reduced = basis
+        .as_ref()
+        .zip(static_modes.as_ref())
+        .map(|(basis, static_modes)| {
+            ReducedModel::new(&model, basis, static_modes, &full).expect("reduced model")
+        });
+    let reduced_structure = reduced.as_ref().map(ReducedModel::structure);
+    let structure = reduced_structure.as_ref().unwrap_or(&full);
+    let (u0, v0) = match (&basis, &static_modes) {
+        (Some(basis), Some(static_modes)) => {
+            println!(
+                "on a Craig-Bampton basis of {n_modes} modes: {} reduced unknowns",
+                basis.n_reduced()
+            );
+            (
+                static_modes.restrict(basis, &model.M, &u0),
+                static_modes.restrict(basis, &model.M, &v0),
+            )
+        }
+        _ => (u0, v0),
+    };
 
     let theta = 0.5;
-    let solve = plain_solve_ms(&structure, theta, tau);
+    let solve = plain_solve_ms(structure, theta, tau);
     // The peak memory reported is the run's: reset the high-water mark (Linux).
     let _ = std::fs::write("/proc/self/clear_refs", "5");
 
@@ -96,7 +134,7 @@ fn main() {
     };
     let clock = Instant::now();
     let run = integrate(
-        &structure,
+        structure,
         &contact_state,
         &settings,
         u0,
@@ -151,6 +189,36 @@ fn main() {
             .fold(0.0, f64::max),
         squeal_stages::transient::peak_energy(&run.history)
     );
+}
+
+/// The `basis` stage's Craig–Bampton basis of `n_modes` fixed-interface modes.
+fn craig_bampton(model: &Model, equilibrium: &Equilibrium, n_modes: usize) -> Basis {
+    let stage = ReductionBasis;
+    let mut params: BTreeMap<String, Value> = stage
+        .params()
+        .into_iter()
+        .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
+        .collect();
+    params.insert("kind".into(), Value::Str("craig_bampton".into()));
+    params.insert("n_modes".into(), Value::Int(n_modes as i64));
+    let input = |artifact: Artifact| Input::One(Arc::new(artifact));
+    let inputs = Inputs(BTreeMap::from([
+        (
+            "model".to_string(),
+            input(Artifact::Model(Box::new(model.clone()))),
+        ),
+        (
+            "equilibrium".to_string(),
+            input(Artifact::Equilibrium(Box::new(equilibrium.clone()))),
+        ),
+    ]));
+    let clock = Instant::now();
+    let mut outputs = stage.run(&Params(params), &inputs).expect("basis");
+    println!("basis built in {:.1} s", clock.elapsed().as_secs_f64());
+    match outputs.remove("basis") {
+        Some(Artifact::Basis(basis)) => *basis,
+        _ => panic!("the basis stage gave no basis"),
+    }
 }
 
 /// One plain solve with J's factor (the same ordering as the run's), the yardstick of a step
