@@ -169,9 +169,9 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 8: a reduced model's J eliminates its modal coordinates last (the last bits of
-        // reduced runs).
-        8
+        // 9: a reduced model's J eliminates its modal coordinates last, and its products
+        // run over the lower triangles (the last bits of reduced runs).
+        9
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

@@ -7,9 +7,10 @@
 //! ```
 //!
 //! with `J v¹` the right-hand side just solved. In general `C v¹` and `K v¹` then come from one
-//! pass over the union of their patterns ([`Products::Fused`]). When the damping is Rayleigh's
-//! row by row, `C = diag(a) M + diag(b) K` (Rayleigh damping per part, on parts that share no
-//! node: the FE models' case), `C v¹` needs no product either: row by row,
+//! pass over their lower triangles, stored as runs of consecutive rows ([`Products::Fused`],
+//! [`LowerRuns`]: a reduced model's dense matrices). When the damping is Rayleigh's row by
+//! row, `C = diag(a) M + diag(b) K` (Rayleigh damping per part, on parts that share no node:
+//! the FE models' case), `C v¹` needs no product either: row by row,
 //!
 //! ```text
 //! (J v)_i = (1/τ + θ a_i)(M v)_i + (θ b_i + τθ²)(K v)_i
@@ -17,12 +18,12 @@
 //!    (C v)_i = a_i (M v)_i + b_i (K v)_i
 //! ```
 //!
-//! so a step streams `K` alone ([`Products::Rayleigh`]), 12 bytes an entry instead of 20. The
-//! rows' `a`, `b` are found by least squares on each row's entries and accepted only if every
-//! entry of `C` (and every zero of `C` under an entry of `M` or `K`) agrees to rounding
-//! (`RAYLEIGH_TOLERANCE` of the row's largest terms); otherwise the fused products are used.
-//! Either way the products are summed row by row in a fixed order, so their bits do not depend
-//! on the thread count.
+//! so a step streams `K` alone ([`Products::Rayleigh`]: both triangles, row by row, 12 bytes
+//! an entry). The rows' `a`, `b` are found by least squares on each row's entries and accepted
+//! only if every entry of `C` (and every zero of `C` under an entry of `M` or `K`) agrees to
+//! rounding (`RAYLEIGH_TOLERANCE` of the row's largest terms); otherwise the fused products are
+//! used. Either way every sum's order is fixed by the pattern, so the bits do not depend on
+//! the thread count.
 
 use rayon::prelude::*;
 use squeal_linalg::CscMatrix;
@@ -89,10 +90,155 @@ impl<const N: usize> Rows<N> {
     }
 }
 
+/// Columns of each fixed chunk of [`LowerRuns`]'s product (independent of the thread count).
+const RUN_CHUNK: usize = 256;
+/// Partial sums of a run's dot products: independent chains the vector unit can carry.
+const LANES: usize = 8;
+
+/// `C` and `K` by their lower triangles, each column's entries below the diagonal stored as
+/// runs of consecutive rows, for the fused products. A reduced model's matrices are dense but
+/// for the blocks between separate bodies, so a column is a few long runs: the product reads
+/// each stored entry once and no index per entry, for its row (a dot product with `x`) and for
+/// its column (`x_j` times the run, added to the rows below), 8 bytes a matrix entry where
+/// both triangles with an index per entry took 20 for `C` and `K`.
+///
+/// The columns are split into fixed chunks ([`RUN_CHUNK`]), each adding into its own partial
+/// sums of the rows from its first column on; row `i` adds its chunks' partials in chunk
+/// order. Every sum's order is fixed by the pattern alone, so the bits do not depend on the
+/// thread count.
+pub(crate) struct LowerRuns {
+    diagonal: Vec<[f64; 2]>,
+    /// Column `j`'s runs are `runs[col_runs[j]..col_runs[j + 1]]`.
+    col_runs: Vec<usize>,
+    runs: Vec<Run>,
+    /// The runs' values, `C`'s and `K`'s, one after the other in run order.
+    C: Vec<f64>,
+    K: Vec<f64>,
+}
+
+/// Rows `first..first + len` of a column, their values at `offset..offset + len`.
+struct Run {
+    first: usize,
+    offset: usize,
+    len: usize,
+}
+
+impl LowerRuns {
+    fn new(C: &CscMatrix, K: &CscMatrix) -> LowerRuns {
+        let CK = Rows::new([C, K]);
+        let n = CK.col_ptr.len() - 1;
+        let mut lower = LowerRuns {
+            diagonal: vec![[0.0; 2]; n],
+            col_runs: vec![0],
+            runs: Vec::new(),
+            C: Vec::new(),
+            K: Vec::new(),
+        };
+        for j in 0..n {
+            for entry in CK.col_ptr[j]..CK.col_ptr[j + 1] {
+                let (row, [c, k]) = (CK.row_idx[entry] as usize, CK.values[entry]);
+                if row == j {
+                    lower.diagonal[j] = [c, k];
+                } else if row > j {
+                    // A run continues within its column only.
+                    let in_column = lower.col_runs[j] < lower.runs.len();
+                    match lower.runs.last_mut() {
+                        Some(run) if in_column && run.first + run.len == row => run.len += 1,
+                        _ => lower.runs.push(Run {
+                            first: row,
+                            offset: lower.C.len(),
+                            len: 1,
+                        }),
+                    }
+                    lower.C.push(c);
+                    lower.K.push(k);
+                }
+            }
+            lower.col_runs.push(lower.runs.len());
+        }
+        lower
+    }
+
+    /// `[C x, K x]` per row.
+    fn times(&self, x: &[f64]) -> Vec<[f64; 2]> {
+        let n = self.diagonal.len();
+        let partials: Vec<[Vec<f64>; 2]> = (0..n)
+            .step_by(RUN_CHUNK)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|start| {
+                let mut partial = [vec![0.0; n - start], vec![0.0; n - start]];
+                for j in start..(start + RUN_CHUNK).min(n) {
+                    let mut gathered = [self.diagonal[j][0] * x[j], self.diagonal[j][1] * x[j]];
+                    for run in &self.runs[self.col_runs[j]..self.col_runs[j + 1]] {
+                        let values = run.offset..run.offset + run.len;
+                        let rows = run.first - start..run.first - start + run.len;
+                        let [C_rows, K_rows] = &mut partial;
+                        run_times(
+                            [&self.C[values.clone()], &self.K[values]],
+                            &x[run.first..run.first + run.len],
+                            x[j],
+                            &mut gathered,
+                            [&mut C_rows[rows.clone()], &mut K_rows[rows]],
+                        );
+                    }
+                    partial[0][j - start] += gathered[0];
+                    partial[1][j - start] += gathered[1];
+                }
+                partial
+            })
+            .collect();
+        (0..n)
+            .map(|i| {
+                let mut sum = [0.0; 2];
+                for (chunk, [C_part, K_part]) in partials[..=i / RUN_CHUNK].iter().enumerate() {
+                    sum[0] += C_part[i - chunk * RUN_CHUNK];
+                    sum[1] += K_part[i - chunk * RUN_CHUNK];
+                }
+                sum
+            })
+            .collect()
+    }
+}
+
+squeal_linalg::widest_vectors! {
+    /// One run of column `j` of both triangles: its dot products with `x` over its rows added
+    /// to `gathered` (in [`LANES`] chains, summed by a fixed tree), and `x_j` times it added to
+    /// those rows' partial sums.
+    fn run_times(
+        values: [&[f64]; 2],
+        x: &[f64],
+        x_j: f64,
+        gathered: &mut [f64; 2],
+        rows: [&mut [f64]; 2],
+    ) {
+        for ((values, rows), gathered) in values.into_iter().zip(rows).zip(gathered.iter_mut()) {
+            let mut lanes = [0.0; LANES];
+            let whole = values.len() - values.len() % LANES;
+            let chunks = values[..whole]
+                .chunks_exact(LANES)
+                .zip(x[..whole].chunks_exact(LANES))
+                .zip(rows[..whole].chunks_exact_mut(LANES));
+            for ((values, x), rows) in chunks {
+                for lane in 0..LANES {
+                    lanes[lane] += values[lane] * x[lane];
+                    rows[lane] += values[lane] * x_j;
+                }
+            }
+            for (lane, k) in (whole..values.len()).enumerate() {
+                lanes[lane] += values[k] * x[k];
+                rows[k] += values[k] * x_j;
+            }
+            let [l0, l1, l2, l3, l4, l5, l6, l7] = lanes;
+            *gathered += ((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7));
+        }
+    }
+}
+
 /// How a run gets its products.
 pub(crate) enum Products {
-    /// `C` and `K` in one pass over their union pattern.
-    Fused(Rows<2>),
+    /// `C` and `K` in one pass over their lower triangles.
+    Fused(LowerRuns),
     /// `K` alone: `C = diag(a) M + diag(b) K`.
     Rayleigh {
         K: Rows<1>,
@@ -109,8 +255,12 @@ impl Products {
                 a,
                 b,
             },
-            None => Products::Fused(Rows::new([C, K])),
+            None => Products::fused(C, K),
         }
+    }
+
+    fn fused(C: &CscMatrix, K: &CscMatrix) -> Products {
+        Products::Fused(LowerRuns::new(C, K))
     }
 
     /// Whether a step streams `K` alone.
@@ -121,46 +271,52 @@ impl Products {
 
     /// `C x` and `K x` into the last two slots of `out`, given `M x` in its first.
     pub fn with_mass(&self, x: &[f64], out: &mut [[f64; 3]]) {
-        self.by_chunks(out, |i, slot| match self {
-            Products::Fused(CK) => [slot[1], slot[2]] = CK.row_times(i, x),
-            Products::Rayleigh { K, a, b } => {
+        match self {
+            Products::Fused(CK) => {
+                for (slot, [C_x, K_x]) in out.iter_mut().zip(CK.times(x)) {
+                    [slot[1], slot[2]] = [C_x, K_x];
+                }
+            }
+            Products::Rayleigh { K, a, b } => by_chunks(out, |i, slot| {
                 let [K_x] = K.row_times(i, x);
                 slot[1] = a[i] * slot[0] + b[i] * K_x;
                 slot[2] = K_x;
-            }
-        });
+            }),
+        }
     }
 
     /// `(M x, C x, K x)` into `out` for a step's solution `x`, given `J x` (the right-hand side
     /// it solved), `J = M/τ + θ C + τθ² K`.
     pub fn of_solution(&self, x: &[f64], J_x: &[f64], tau: f64, theta: f64, out: &mut [[f64; 3]]) {
-        self.by_chunks(out, |i, slot| match self {
+        match self {
             Products::Fused(CK) => {
-                let [C_x, K_x] = CK.row_times(i, x);
-                *slot = [
-                    tau * (J_x[i] - theta * C_x - tau * theta * theta * K_x),
-                    C_x,
-                    K_x,
-                ];
+                for (i, (slot, [C_x, K_x])) in out.iter_mut().zip(CK.times(x)).enumerate() {
+                    *slot = [
+                        tau * (J_x[i] - theta * C_x - tau * theta * theta * K_x),
+                        C_x,
+                        K_x,
+                    ];
+                }
             }
-            Products::Rayleigh { K, a, b } => {
+            Products::Rayleigh { K, a, b } => by_chunks(out, |i, slot| {
                 let [K_x] = K.row_times(i, x);
                 let M_x = tau * (J_x[i] - (theta * b[i] + tau * theta * theta) * K_x)
                     / (1.0 + tau * theta * a[i]);
                 *slot = [M_x, a[i] * M_x + b[i] * K_x, K_x];
+            }),
+        }
+    }
+}
+
+/// `row(i, out_i)` for every row, over fixed chunks of rows in parallel.
+fn by_chunks(out: &mut [[f64; 3]], row: impl Fn(usize, &mut [f64; 3]) + Sync) {
+    out.par_chunks_mut(PRODUCT_CHUNK)
+        .enumerate()
+        .for_each(|(chunk, slots)| {
+            for (offset, slot) in slots.iter_mut().enumerate() {
+                row(chunk * PRODUCT_CHUNK + offset, slot);
             }
         });
-    }
-
-    fn by_chunks(&self, out: &mut [[f64; 3]], row: impl Fn(usize, &mut [f64; 3]) + Sync) {
-        out.par_chunks_mut(PRODUCT_CHUNK)
-            .enumerate()
-            .for_each(|(chunk, slots)| {
-                for (offset, slot) in slots.iter_mut().enumerate() {
-                    row(chunk * PRODUCT_CHUNK + offset, slot);
-                }
-            });
-    }
 }
 
 /// `(a, b)` with `C = diag(a) M + diag(b) K` to rounding, if there are such.
@@ -256,7 +412,7 @@ mod tests {
         let C = CscMatrix::from_triplets(n, n, triplets);
         let rayleigh = Products::new(&M, &C, &K);
         assert!(rayleigh.is_rayleigh());
-        let fused = Products::Fused(Rows::new([&C, &K]));
+        let fused = Products::fused(&C, &K);
         let (tau, theta) = (1e-6, 0.6);
         let J = combination(&[(1.0 / tau, &M), (theta, &C), (tau * theta * theta, &K)]);
         let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
@@ -284,6 +440,74 @@ mod tests {
             let scale = exact[1].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             assert!((given[i][1] - exact[1][i]).abs() <= 1e-12 * scale);
             assert_eq!(given[i][2], exact[2][i]);
+        }
+    }
+
+    /// A reduced model's pattern: dense blocks, two bodies that do not couple, runs longer
+    /// and shorter than the lanes, more columns than a chunk. The fused products agree with
+    /// both triangles' products to rounding, and their bits do not depend on the thread count.
+    #[test]
+    fn products_over_the_lower_runs_agree_and_keep_their_bits_on_any_thread_count() {
+        let n = 2 * RUN_CHUNK + 77;
+        let body = |i: usize| match i {
+            _ if i < 200 => Some(0),
+            _ if i < 411 => Some(1),
+            _ => None, // modal coordinates: coupled with every body
+        };
+        let dense = |scale: f64| {
+            let mut triplets = Vec::new();
+            for j in 0..n {
+                for i in j..n {
+                    let coupled = match (body(i), body(j)) {
+                        (Some(a), Some(b)) => a == b,
+                        _ => true,
+                    };
+                    // A gap in each column: runs end and start again within it.
+                    if coupled && (i == j || (i + 3 * j) % 41 != 0) {
+                        let value = if i == j {
+                            scale * (n as f64)
+                        } else {
+                            scale * (((i * 7 + j * 13) % 17) as f64 - 8.0) / 9.0
+                        };
+                        triplets.push((i, j, value));
+                        if i != j {
+                            triplets.push((j, i, value));
+                        }
+                    }
+                }
+            }
+            CscMatrix::from_triplets(n, n, triplets)
+        };
+        let (C, K) = (dense(3e-4), dense(2e7));
+        let products = LowerRuns::new(&C, &K);
+        assert!(products.runs.iter().any(|run| run.len > 3 * LANES));
+        let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
+        let CK_x = products.times(&x);
+        for (d, exact) in [C.mul_vec(&x), K.mul_vec(&x)].iter().enumerate() {
+            let scale = exact.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for i in 0..n {
+                assert!(
+                    (CK_x[i][d] - exact[i]).abs() <= 1e-13 * scale,
+                    "row {i}, product {d}: {} against {}",
+                    CK_x[i][d],
+                    exact[i]
+                );
+            }
+        }
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let on_pool = pool.install(|| products.times(&x));
+            assert!(
+                on_pool
+                    .iter()
+                    .zip(&CK_x)
+                    .all(|(a, b)| a[0].to_bits() == b[0].to_bits()
+                        && a[1].to_bits() == b[1].to_bits()),
+                "the bits changed on {threads} threads"
+            );
         }
     }
 
