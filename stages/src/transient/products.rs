@@ -99,8 +99,8 @@ const LANES: usize = 8;
 /// runs of consecutive rows, for the fused products. A reduced model's matrices are dense but
 /// for the blocks between separate bodies, so a column is a few long runs: the product reads
 /// each stored entry once and no index per entry, for its row (a dot product with `x`) and for
-/// its column (`x_j` times the run, added to the rows below), 8 bytes a matrix entry where
-/// both triangles with an index per entry took 20 for `C` and `K`.
+/// its column (`x_j` times the run, added to the rows below). A symmetric pair of entries
+/// costs 16 bytes of `C` and `K`, where both triangles with an index per entry cost 40.
 ///
 /// The columns are split into fixed chunks ([`RUN_CHUNK`]), each adding into its own partial
 /// sums of the rows from its first column on; row `i` adds its chunks' partials in chunk
