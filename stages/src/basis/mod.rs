@@ -26,7 +26,7 @@
 //! - `modes`: the complex modes a user lists (those near the unstable frequencies and their
 //!   harmonics, say), as for `fc`;
 //! - `adaptive`: `fc`, enriched by residual vectors until the transient's residual indicator
-//!   meets `target` ([`adaptive`]).
+//!   meets `target` (`adaptive.rs`).
 //!
 //! N is `n_modes`, or every mode below the cut-off `f_cutoff_hz`, by default `cutoff_factor`
 //! (1.5) times the highest unstable frequency of the stability stage.

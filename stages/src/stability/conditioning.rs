@@ -16,7 +16,7 @@
 //! coalescence, where the bound says which digits are left.
 //!
 //! Left vectors come from solving the transposed problem with the same solver; each right
-//! eigenvalue is paired with the left eigenvalues that match it to within [`MATCH_TOLERANCE`],
+//! eigenvalue is paired with the left eigenvalues that match it to within `MATCH_TOLERANCE`,
 //! and takes the one that gives the smallest κ (in a cluster of nearly equal eigenvalues, the
 //! left vector of a neighbour is nearly `Q′`-orthogonal to `x` and would overstate κ).
 
