@@ -117,39 +117,29 @@ pub fn read_parquet(path: &Path) -> RecordBatch {
     arrow::compute::concat_batches(&batches[0].schema(), &batches).expect("same schema")
 }
 
-pub fn strings(batch: &RecordBatch, column: &str) -> Vec<String> {
-    let array = batch
-        .column_by_name(column)
-        .unwrap_or_else(|| panic!("no column {column}"));
-    let array = array
+/// The column `name` of `batch`, as the array type `A`.
+fn column<'a, A: Array + 'static>(batch: &'a RecordBatch, name: &str) -> &'a A {
+    batch
+        .column_by_name(name)
+        .unwrap_or_else(|| panic!("no column {name}"))
         .as_any()
-        .downcast_ref::<StringArray>()
-        .expect("string column");
+        .downcast_ref::<A>()
+        .unwrap_or_else(|| panic!("column {name} is not a {}", std::any::type_name::<A>()))
+}
+
+pub fn strings(batch: &RecordBatch, name: &str) -> Vec<String> {
+    let array = column::<StringArray>(batch, name);
     (0..array.len())
         .map(|idx| array.value(idx).to_string())
         .collect()
 }
 
-pub fn floats(batch: &RecordBatch, column: &str) -> Vec<f64> {
-    let array = batch
-        .column_by_name(column)
-        .unwrap_or_else(|| panic!("no column {column}"));
-    array
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .expect("f64 column")
-        .values()
-        .to_vec()
+pub fn floats(batch: &RecordBatch, name: &str) -> Vec<f64> {
+    column::<Float64Array>(batch, name).values().to_vec()
 }
 
-pub fn booleans(batch: &RecordBatch, column: &str) -> Vec<bool> {
-    let array = batch
-        .column_by_name(column)
-        .unwrap_or_else(|| panic!("no column {column}"));
-    let array = array
-        .as_any()
-        .downcast_ref::<BooleanArray>()
-        .expect("boolean column");
+pub fn booleans(batch: &RecordBatch, name: &str) -> Vec<bool> {
+    let array = column::<BooleanArray>(batch, name);
     (0..array.len()).map(|idx| array.value(idx)).collect()
 }
 

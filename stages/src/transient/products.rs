@@ -162,11 +162,10 @@ impl LowerRuns {
     /// `[C x, K x]` per row.
     fn times(&self, x: &[f64]) -> Vec<[f64; 2]> {
         let n = self.diagonal.len();
-        let partials: Vec<[Vec<f64>; 2]> = (0..n)
-            .step_by(RUN_CHUNK)
-            .collect::<Vec<_>>()
+        let partials: Vec<[Vec<f64>; 2]> = (0..n.div_ceil(RUN_CHUNK))
             .into_par_iter()
-            .map(|start| {
+            .map(|chunk| {
+                let start = chunk * RUN_CHUNK;
                 let mut partial = [vec![0.0; n - start], vec![0.0; n - start]];
                 for j in start..(start + RUN_CHUNK).min(n) {
                     let mut gathered = [self.diagonal[j][0] * x[j], self.diagonal[j][1] * x[j]];
