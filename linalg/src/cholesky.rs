@@ -32,6 +32,7 @@ use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use crate::Error;
 use crate::csc::CscMatrix;
+use crate::kernels::{axpy, dot};
 use crate::ordering;
 use crate::sweeps::SubtreeSweeps;
 
@@ -316,17 +317,28 @@ impl Cholesky {
 pub struct InterfaceSolve {
     /// Rows (in elimination order) where `Y` is nonzero, ascending.
     pub rows: Vec<usize>,
-    /// Per column of `Y`, its runs: first position in `rows`, then the values.
-    columns: Vec<Vec<(usize, Vec<f64>)>>,
+    /// Column `j`'s runs are `runs[col_runs[j]..col_runs[j + 1]]`.
+    col_runs: Vec<usize>,
+    runs: Vec<Run>,
+    /// The runs' values, one after the other in run order.
+    values: Vec<f64>,
     /// `G A⁻¹ Gᵀ`, symmetric positive semi-definite.
     pub W: Mat<f64>,
+}
+
+/// Positions `first..first + len` of `rows`, their values at `offset..offset + len`.
+struct Run {
+    first: usize,
+    offset: usize,
+    len: usize,
 }
 
 /// Zeros inside a column kept rather than starting a new run.
 const RUN_GAP: usize = 8;
 
-/// The runs of nonzero entries of `column`, joined across gaps of at most [`RUN_GAP`] zeros.
-fn runs_of(column: &[f64]) -> Vec<(usize, Vec<f64>)> {
+/// The runs `(start, end)` of nonzero entries of `column`, joined across gaps of at most
+/// [`RUN_GAP`] zeros.
+fn runs_of(column: &[f64]) -> Vec<(usize, usize)> {
     let mut runs: Vec<(usize, usize)> = Vec::new();
     for (i, value) in column.iter().enumerate() {
         if *value == 0.0 {
@@ -337,9 +349,7 @@ fn runs_of(column: &[f64]) -> Vec<(usize, Vec<f64>)> {
             _ => runs.push((i, i + 1)),
         }
     }
-    runs.into_iter()
-        .map(|(start, end)| (start, column[start..end].to_vec()))
-        .collect()
+    runs
 }
 
 impl InterfaceSolve {
@@ -390,25 +400,42 @@ impl InterfaceSolve {
             1.0,
             Par::Seq,
         );
-        let columns = (0..m)
-            .map(|col| {
-                let column = Y.col(col).try_as_col_major().expect("a dense column");
-                runs_of(column.as_slice())
-            })
-            .collect();
-        InterfaceSolve { rows, columns, W }
+        let (mut col_runs, mut runs, mut values) = (vec![0], Vec::new(), Vec::new());
+        for col in 0..m {
+            let column = Y.col(col).try_as_col_major().expect("a dense column");
+            for (start, end) in runs_of(column.as_slice()) {
+                runs.push(Run {
+                    first: start,
+                    offset: values.len(),
+                    len: end - start,
+                });
+                values.extend_from_slice(&column.as_slice()[start..end]);
+            }
+            col_runs.push(runs.len());
+        }
+        InterfaceSolve {
+            rows,
+            col_runs,
+            runs,
+            values,
+            W,
+        }
+    }
+
+    /// Column `j`'s runs, each with its values.
+    fn column_runs(&self, j: usize) -> impl Iterator<Item = (&Run, &[f64])> {
+        self.runs[self.col_runs[j]..self.col_runs[j + 1]]
+            .iter()
+            .map(|run| (run, &self.values[run.offset..run.offset + run.len]))
     }
 
     /// `Yᵀ y` for `y` in elimination order: `G A⁻¹ b` when `y = L⁻¹ Pᵀ b`.
     pub fn project(&self, y: &[f64], out: &mut [f64]) {
         let gathered: Vec<f64> = self.rows.iter().map(|&row| y[row]).collect();
-        for (slot, runs) in out.iter_mut().zip(&self.columns) {
-            *slot = runs
-                .iter()
-                .map(|(first, values)| {
-                    let y = &gathered[*first..*first + values.len()];
-                    values.iter().zip(y).map(|(a, b)| a * b).sum::<f64>()
-                })
+        for (j, slot) in out.iter_mut().enumerate() {
+            *slot = self
+                .column_runs(j)
+                .map(|(run, values)| dot(values, &gathered[run.first..run.first + run.len]))
                 .sum();
         }
     }
@@ -416,15 +443,12 @@ impl InterfaceSolve {
     /// `y += Y r`.
     pub fn lift(&self, r: &[f64], y: &mut [f64]) {
         let mut product = vec![0.0; self.rows.len()];
-        for (&r_j, runs) in r.iter().zip(&self.columns) {
+        for (j, &r_j) in r.iter().enumerate() {
             if r_j == 0.0 {
                 continue;
             }
-            for (first, values) in runs {
-                let slots = &mut product[*first..*first + values.len()];
-                for (slot, value) in slots.iter_mut().zip(values) {
-                    *slot += value * r_j;
-                }
+            for (run, values) in self.column_runs(j) {
+                axpy(r_j, values, &mut product[run.first..run.first + run.len]);
             }
         }
         for (value, &row) in product.iter().zip(&self.rows) {

@@ -5,6 +5,7 @@ use faer::{Mat, MatRef, Par};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::cholesky::Cholesky;
+use squeal_linalg::kernels::axpy;
 
 use super::{CscMatrix, Model};
 use crate::stage::StageError;
@@ -43,6 +44,9 @@ impl Basis {
 /// Right-hand sides per sequential solve: the solves run in parallel over fixed chunks of
 /// columns, so the result does not depend on the thread count.
 const SOLVE_COLUMNS: usize = 32;
+
+/// Rows of each fixed chunk of a lift (independent of the thread count).
+const LIFT_ROWS: usize = 256;
 
 /// `K_oo` factorised, and `K_oi` by interface DOF.
 pub struct StaticModes {
@@ -186,14 +190,27 @@ impl StaticModes {
     pub fn lift(&self, basis: &Basis, X: MatRef<'_, f64>) -> Mat<f64> {
         let n_i = self.interface.len();
         let mut U = self.static_displacement(X.subrows(0, n_i));
-        for (k, vector) in basis.vectors.iter().enumerate() {
-            for col in 0..X.ncols() {
-                let q = X[(n_i + k, col)];
-                for (slot, value) in U.col_mut(col).iter_mut().zip(vector) {
-                    *slot += q * value;
+        // U += Φ Q over fixed chunks of rows, each reading its slice of every vector once
+        // while its rows of U stay in cache; every entry sums over the vectors in order.
+        U.as_mut()
+            .par_row_chunks_mut(LIFT_ROWS)
+            .enumerate()
+            .for_each(|(chunk, mut U_chunk)| {
+                let rows = chunk * LIFT_ROWS..chunk * LIFT_ROWS + U_chunk.nrows();
+                for (k, vector) in basis.vectors.iter().enumerate() {
+                    for col in 0..X.ncols() {
+                        let q = X[(n_i + k, col)];
+                        if q != 0.0 {
+                            let column = U_chunk
+                                .as_mut()
+                                .col_mut(col)
+                                .try_as_col_major_mut()
+                                .expect("a column of a column-major matrix");
+                            axpy(q, &vector[rows.clone()], column.as_slice_mut());
+                        }
+                    }
                 }
-            }
-        }
+            });
         U
     }
 

@@ -112,7 +112,9 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        2
+        // 3: the adaptive basis's probe is the transient of its version 10. (Its probes'
+        // last bits follow the transient's.)
+        3
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"

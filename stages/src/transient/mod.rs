@@ -169,9 +169,9 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 9: a reduced model's J eliminates its modal coordinates last, and its products
-        // run over the lower triangles (the last bits of reduced runs).
-        9
+        // 10: the contact velocities' dot products run in chains, and a reduced model's
+        // products skip K's vanishing coupling (the last bits of every run).
+        10
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

@@ -49,23 +49,12 @@ impl<const N: usize> Rows<N> {
         let mut col_ptr = vec![0];
         let mut row_idx = Vec::new();
         let mut values: Vec<[f64; N]> = Vec::new();
-        let mut column: Vec<(usize, usize, f64)> = Vec::new();
+        let mut column = Vec::new();
         for col in 0..n {
-            column.clear();
-            for (which, A) in matrices.iter().enumerate() {
-                for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-                    column.push((A.row_idx[entry], which, A.values[entry]));
-                }
-            }
-            column.sort_by_key(|&(row, which, _)| (row, which));
-            let mut last = usize::MAX;
-            for &(row, which, value) in &column {
-                if row != last {
-                    row_idx.push(row as u32);
-                    values.push([0.0; N]);
-                    last = row;
-                }
-                values.last_mut().expect("an entry was pushed")[which] += value;
+            union_column(matrices, col, &mut column);
+            for &(row, value) in &column {
+                row_idx.push(row as u32);
+                values.push(value);
             }
             col_ptr.push(row_idx.len());
         }
@@ -90,6 +79,29 @@ impl<const N: usize> Rows<N> {
     }
 }
 
+/// Column `col` of the union of the matrices' patterns into `column`: `(row, each matrix's
+/// value)`, ascending.
+fn union_column<const N: usize>(
+    matrices: [&CscMatrix; N],
+    col: usize,
+    column: &mut Vec<(usize, [f64; N])>,
+) {
+    let mut entries: Vec<(usize, usize, f64)> = Vec::new();
+    for (which, A) in matrices.iter().enumerate() {
+        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
+            entries.push((A.row_idx[entry], which, A.values[entry]));
+        }
+    }
+    entries.sort_by_key(|&(row, which, _)| (row, which));
+    column.clear();
+    for (row, which, value) in entries {
+        if column.last().is_none_or(|&(last, _)| last != row) {
+            column.push((row, [0.0; N]));
+        }
+        column.last_mut().expect("an entry was pushed").1[which] += value;
+    }
+}
+
 /// Columns of each fixed chunk of [`LowerRuns`]'s product (independent of the thread count).
 const RUN_CHUNK: usize = 256;
 /// Partial sums of a run's dot products: independent chains the vector unit can carry.
@@ -97,23 +109,29 @@ const LANES: usize = 8;
 
 /// `C` and `K` by their lower triangles, each column's entries below the diagonal stored as
 /// runs of consecutive rows, for the fused products. A reduced model's matrices are dense but
-/// for the blocks between separate bodies, so a column is a few long runs: the product reads
-/// each stored entry once and no index per entry, for its row (a dot product with `x`) and for
-/// its column (`x_j` times the run, added to the rows below). A symmetric pair of entries
-/// costs 16 bytes of `C` and `K`, where both triangles with an index per entry cost 40.
+/// for the blocks between separate bodies (and `K`'s between the interface and the vectors,
+/// [`super::reduced`]), so a column is a few long runs: the product reads each stored entry
+/// once and no index per entry, for its row (a dot product with `x`) and for its column (`x_j`
+/// times the run, added to the rows below). A symmetric pair of entries costs 8 bytes of each
+/// matrix that holds it, where both triangles with an index per entry cost 40 for the two.
 ///
 /// The columns are split into fixed chunks ([`RUN_CHUNK`]), each adding into its own partial
 /// sums of the rows from its first column on; row `i` adds its chunks' partials in chunk
 /// order. Every sum's order is fixed by the pattern alone, so the bits do not depend on the
 /// thread count.
 pub(crate) struct LowerRuns {
-    diagonal: Vec<[f64; 2]>,
+    /// `C`'s, then `K`'s.
+    triangles: [Triangle; 2],
+}
+
+/// One symmetric matrix's lower triangle as runs.
+struct Triangle {
+    diagonal: Vec<f64>,
     /// Column `j`'s runs are `runs[col_runs[j]..col_runs[j + 1]]`.
     col_runs: Vec<usize>,
     runs: Vec<Run>,
-    /// The runs' values, `C`'s and `K`'s, one after the other in run order.
-    C: Vec<f64>,
-    K: Vec<f64>,
+    /// The runs' values, one after the other in run order.
+    values: Vec<f64>,
 }
 
 /// Rows `first..first + len` of a column, their values at `offset..offset + len`.
@@ -123,66 +141,76 @@ struct Run {
     len: usize,
 }
 
-impl LowerRuns {
-    fn new(C: &CscMatrix, K: &CscMatrix) -> LowerRuns {
-        let CK = Rows::new([C, K]);
-        let n = CK.col_ptr.len() - 1;
-        let mut lower = LowerRuns {
-            diagonal: vec![[0.0; 2]; n],
+impl Triangle {
+    fn new(A: &CscMatrix) -> Triangle {
+        let rows = Rows::new([A]);
+        let n = rows.col_ptr.len() - 1;
+        let mut triangle = Triangle {
+            diagonal: vec![0.0; n],
             col_runs: vec![0],
             runs: Vec::new(),
-            C: Vec::new(),
-            K: Vec::new(),
+            values: Vec::new(),
         };
         for j in 0..n {
-            for entry in CK.col_ptr[j]..CK.col_ptr[j + 1] {
-                let (row, [c, k]) = (CK.row_idx[entry] as usize, CK.values[entry]);
+            for entry in rows.col_ptr[j]..rows.col_ptr[j + 1] {
+                let (row, [value]) = (rows.row_idx[entry] as usize, rows.values[entry]);
                 if row == j {
-                    lower.diagonal[j] = [c, k];
+                    triangle.diagonal[j] = value;
                 } else if row > j {
                     // A run continues within its column only.
-                    let in_column = lower.col_runs[j] < lower.runs.len();
-                    match lower.runs.last_mut() {
+                    let in_column = triangle.col_runs[j] < triangle.runs.len();
+                    match triangle.runs.last_mut() {
                         Some(run) if in_column && run.first + run.len == row => run.len += 1,
-                        _ => lower.runs.push(Run {
+                        _ => triangle.runs.push(Run {
                             first: row,
-                            offset: lower.C.len(),
+                            offset: triangle.values.len(),
                             len: 1,
                         }),
                     }
-                    lower.C.push(c);
-                    lower.K.push(k);
+                    triangle.values.push(value);
                 }
             }
-            lower.col_runs.push(lower.runs.len());
+            triangle.col_runs.push(triangle.runs.len());
         }
-        lower
+        triangle
+    }
+
+    /// Column `j` of the lower triangle times `x_j` added to `partial` (rows from `start` on),
+    /// and its dot product with `x`, with the diagonal's, added to row `j`.
+    fn column_times(&self, j: usize, x: &[f64], start: usize, partial: &mut [f64]) {
+        let mut gathered = self.diagonal[j] * x[j];
+        for run in &self.runs[self.col_runs[j]..self.col_runs[j + 1]] {
+            let rows = run.first - start..run.first - start + run.len;
+            gathered += run_times(
+                &self.values[run.offset..run.offset + run.len],
+                &x[run.first..run.first + run.len],
+                x[j],
+                &mut partial[rows],
+            );
+        }
+        partial[j - start] += gathered;
+    }
+}
+
+impl LowerRuns {
+    fn new(C: &CscMatrix, K: &CscMatrix) -> LowerRuns {
+        LowerRuns {
+            triangles: [Triangle::new(C), Triangle::new(K)],
+        }
     }
 
     /// `[C x, K x]` per row.
     fn times(&self, x: &[f64]) -> Vec<[f64; 2]> {
-        let n = self.diagonal.len();
+        let n = x.len();
         let partials: Vec<[Vec<f64>; 2]> = (0..n.div_ceil(RUN_CHUNK))
             .into_par_iter()
             .map(|chunk| {
                 let start = chunk * RUN_CHUNK;
                 let mut partial = [vec![0.0; n - start], vec![0.0; n - start]];
                 for j in start..(start + RUN_CHUNK).min(n) {
-                    let mut gathered = [self.diagonal[j][0] * x[j], self.diagonal[j][1] * x[j]];
-                    for run in &self.runs[self.col_runs[j]..self.col_runs[j + 1]] {
-                        let values = run.offset..run.offset + run.len;
-                        let rows = run.first - start..run.first - start + run.len;
-                        let [C_rows, K_rows] = &mut partial;
-                        run_times(
-                            [&self.C[values.clone()], &self.K[values]],
-                            &x[run.first..run.first + run.len],
-                            x[j],
-                            &mut gathered,
-                            [&mut C_rows[rows.clone()], &mut K_rows[rows]],
-                        );
+                    for (triangle, partial) in self.triangles.iter().zip(&mut partial) {
+                        triangle.column_times(j, x, start, partial);
                     }
-                    partial[0][j - start] += gathered[0];
-                    partial[1][j - start] += gathered[1];
                 }
                 partial
             })
@@ -201,36 +229,27 @@ impl LowerRuns {
 }
 
 squeal_linalg::widest_vectors! {
-    /// One run of column `j` of both triangles: its dot products with `x` over its rows added
-    /// to `gathered` (in [`LANES`] chains, summed by a fixed tree), and `x_j` times it added to
-    /// those rows' partial sums.
-    fn run_times(
-        values: [&[f64]; 2],
-        x: &[f64],
-        x_j: f64,
-        gathered: &mut [f64; 2],
-        rows: [&mut [f64]; 2],
-    ) {
-        for ((values, rows), gathered) in values.into_iter().zip(rows).zip(gathered.iter_mut()) {
-            let mut lanes = [0.0; LANES];
-            let whole = values.len() - values.len() % LANES;
-            let chunks = values[..whole]
-                .chunks_exact(LANES)
-                .zip(x[..whole].chunks_exact(LANES))
-                .zip(rows[..whole].chunks_exact_mut(LANES));
-            for ((values, x), rows) in chunks {
-                for lane in 0..LANES {
-                    lanes[lane] += values[lane] * x[lane];
-                    rows[lane] += values[lane] * x_j;
-                }
+    /// One run of a column: `x_j` times it added to its rows' partial sums, and its dot product
+    /// with `x` over those rows (in [`LANES`] chains, summed by a fixed tree).
+    fn run_times(values: &[f64], x: &[f64], x_j: f64, rows: &mut [f64]) -> f64 {
+        let mut lanes = [0.0; LANES];
+        let whole = values.len() - values.len() % LANES;
+        let chunks = values[..whole]
+            .chunks_exact(LANES)
+            .zip(x[..whole].chunks_exact(LANES))
+            .zip(rows[..whole].chunks_exact_mut(LANES));
+        for ((values, x), rows) in chunks {
+            for lane in 0..LANES {
+                lanes[lane] += values[lane] * x[lane];
+                rows[lane] += values[lane] * x_j;
             }
-            for (lane, k) in (whole..values.len()).enumerate() {
-                lanes[lane] += values[k] * x[k];
-                rows[k] += values[k] * x_j;
-            }
-            let [l0, l1, l2, l3, l4, l5, l6, l7] = lanes;
-            *gathered += ((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7));
         }
+        for (lane, k) in (whole..values.len()).enumerate() {
+            lanes[lane] += values[k] * x[k];
+            rows[k] += values[k] * x_j;
+        }
+        let [l0, l1, l2, l3, l4, l5, l6, l7] = lanes;
+        ((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7))
     }
 }
 
@@ -320,13 +339,16 @@ fn by_chunks(out: &mut [[f64; 3]], row: impl Fn(usize, &mut [f64; 3]) + Sync) {
 
 /// `(a, b)` with `C = diag(a) M + diag(b) K` to rounding, if there are such.
 fn rayleigh_rows(M: &CscMatrix, C: &CscMatrix, K: &CscMatrix) -> Option<(Vec<f64>, Vec<f64>)> {
-    let MCK = Rows::new([M, C, K]);
     let n = M.n_cols;
     let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-    for i in 0..n {
-        let entries = &MCK.values[MCK.col_ptr[i]..MCK.col_ptr[i + 1]];
+    let mut column = Vec::new();
+    // Last row first: a reduced model's modal coordinates come last and are not Rayleigh's
+    // (its interface rows are), so its check ends on its first row.
+    for i in (0..n).rev() {
+        union_column([M, C, K], i, &mut column);
+        let entries = column.iter().map(|(_, values)| values);
         let (mut mm, mut mk, mut kk, mut mc, mut kc) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &[m, c, k] in entries {
+        for &[m, c, k] in entries.clone() {
             mm += m * m;
             mk += m * k;
             kk += k * k;
@@ -346,9 +368,9 @@ fn rayleigh_rows(M: &CscMatrix, C: &CscMatrix, K: &CscMatrix) -> Option<(Vec<f64
         };
         // Assembly rounds each entry to the size of the row's largest terms.
         let size = |&[m, c, k]: &[f64; 3]| c.abs() + (a[i] * m).abs() + (b[i] * k).abs();
-        let scale = entries.iter().map(size).fold(0.0, f64::max);
+        let scale = entries.clone().map(size).fold(0.0, f64::max);
         let fits = entries
-            .iter()
+            .clone()
             .all(|&[m, c, k]| (c - a[i] * m - b[i] * k).abs() <= RAYLEIGH_TOLERANCE * scale);
         if !fits {
             return None;
@@ -442,8 +464,9 @@ mod tests {
         }
     }
 
-    /// A reduced model's pattern: dense blocks, two bodies that do not couple, runs longer
-    /// and shorter than the lanes, more columns than a chunk. The fused products agree with
+    /// A reduced model's pattern: dense blocks, two bodies that do not couple, `K` without the
+    /// blocks `C` has between the bodies and the modes, runs longer and shorter than the
+    /// lanes, more columns than a chunk. The fused products agree with
     /// both triangles' products to rounding, and their bits do not depend on the thread count.
     #[test]
     fn products_over_the_lower_runs_agree_and_keep_their_bits_on_any_thread_count() {
@@ -453,13 +476,15 @@ mod tests {
             _ if i < 411 => Some(1),
             _ => None, // modal coordinates: coupled with every body
         };
-        let dense = |scale: f64| {
+        // `K` alone leaves out the blocks between the bodies and the modal coordinates.
+        let dense = |scale: f64, modes_couple: bool| {
             let mut triplets = Vec::new();
             for j in 0..n {
                 for i in j..n {
                     let coupled = match (body(i), body(j)) {
                         (Some(a), Some(b)) => a == b,
-                        _ => true,
+                        (None, None) => true,
+                        _ => modes_couple,
                     };
                     // A gap in each column: runs end and start again within it.
                     if coupled && (i == j || (i + 3 * j) % 41 != 0) {
@@ -477,9 +502,14 @@ mod tests {
             }
             CscMatrix::from_triplets(n, n, triplets)
         };
-        let (C, K) = (dense(3e-4), dense(2e7));
+        let (C, K) = (dense(3e-4, true), dense(2e7, false));
         let products = LowerRuns::new(&C, &K);
-        assert!(products.runs.iter().any(|run| run.len > 3 * LANES));
+        assert!(
+            products
+                .triangles
+                .iter()
+                .all(|triangle| triangle.runs.iter().any(|run| run.len > 3 * LANES))
+        );
         let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
         let CK_x = products.times(&x);
         for (d, exact) in [C.mul_vec(&x), K.mul_vec(&x)].iter().enumerate() {
