@@ -31,3 +31,26 @@ crate::widest_vectors! {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every length around the lanes: the chains and the tail agree with a plain sum, and
+    /// `axpy` with its definition.
+    #[test]
+    fn dot_and_axpy_agree_with_their_definitions_at_every_length() {
+        for n in 0..3 * LANES + 2 {
+            let a: Vec<f64> = (0..n).map(|k| ((k * 7) % 5) as f64 - 1.5).collect();
+            let b: Vec<f64> = (0..n).map(|k| 0.25 * k as f64 + 1.0).collect();
+            let plain: f64 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+            // Sums of multiples of 1/8 below 2^40: exact in any order.
+            assert_eq!(dot(&a, &b), plain, "length {n}");
+            let mut y = b.clone();
+            axpy(-2.0, &a, &mut y);
+            for k in 0..n {
+                assert_eq!(y[k], b[k] - 2.0 * a[k]);
+            }
+        }
+    }
+}
