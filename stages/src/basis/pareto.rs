@@ -20,7 +20,9 @@ use plotters::prelude::*;
 
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
-use crate::stage::{Coords, Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{
+    Coords, Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError, Value,
+};
 use crate::table::{ColumnData, Table};
 
 pub struct Pareto;
@@ -36,7 +38,8 @@ impl Stage for Pareto {
         "pareto"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: labels in exponent form, error ticks at 1, 2 and 5.
+        2
     }
     fn doc(&self) -> &'static str {
         "Run time against error over a sweep of bases: one table with speed-ups and errors, the Pareto fronts, and their figure"
@@ -236,12 +239,31 @@ fn shown_name(name: &str) -> String {
     }
 }
 
+/// A point's label: its coordinates' values, numbers far from 1 in exponent form (a time step
+/// reads `5e-6`, not `0.000005`).
 fn label(coords: &Coords) -> String {
     coords
         .iter()
-        .map(|(_, value)| value.to_string())
+        .map(|(_, value)| match value {
+            Value::Float(x) if *x != 0.0 && !(1e-3..1e6).contains(&x.abs()) => format!("{x:e}"),
+            _ => value.to_string(),
+        })
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// An error axis's tick label, only at mantissas 1, 2 and 5: a log axis over one decade would
+/// otherwise label every unit and the labels overlap.
+fn error_tick_label(value: f64) -> String {
+    let mantissa = value / 10f64.powf(value.log10().floor());
+    let shown = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .any(|m| (mantissa - m).abs() < 1e-6 * m);
+    if shown {
+        format!("{value:.0e}")
+    } else {
+        String::new()
+    }
 }
 
 /// Points no other point beats in both time and error (NaN errors are never on the front).
@@ -328,7 +350,7 @@ impl ParetoFigure<'_> {
             .configure_mesh()
             .x_desc(panel.x_name)
             .x_label_formatter(&|t| plot::tick_label(*t))
-            .y_label_formatter(&|e| format!("{e:.0e}"))
+            .y_label_formatter(&|e| error_tick_label(*e))
             .label_style((plot::FONT, 12))
             .axis_desc_style((plot::FONT, 13))
             .light_line_style(WHITE)
@@ -380,7 +402,7 @@ mod tests {
     use std::sync::Arc;
 
     use super::*;
-    use crate::stage::{Input, Value};
+    use crate::stage::Input;
 
     fn point(kind: &str, n: i64) -> Coords {
         vec![
@@ -456,5 +478,17 @@ mod tests {
         );
         let message = Pareto.run(&params, &missing).unwrap_err().to_string();
         assert!(message.contains("fc 100"), "{message}");
+    }
+
+    /// A time step reads as one, and an error axis over a decade labels 1, 2 and 5 only.
+    #[test]
+    fn labels_and_ticks_read_at_a_glance() {
+        let mut coords = point("fc", 400);
+        coords.push(("tau".to_string(), Value::Float(5e-6)));
+        coords.push(("mu".to_string(), Value::Float(0.38)));
+        assert_eq!(label(&coords), "fc 400 5e-6 0.38");
+        assert_eq!(error_tick_label(2e-3), "2e-3");
+        assert_eq!(error_tick_label(0.01), "1e-2");
+        assert_eq!(error_tick_label(7e-3), "");
     }
 }
