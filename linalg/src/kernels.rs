@@ -3,7 +3,13 @@
 //! processor and thread count.
 
 /// Partial sums of a dot product: independent chains the vector unit can carry.
-const LANES: usize = 8;
+pub const LANES: usize = 8;
+
+/// The chains' partial sums added by a fixed tree.
+#[inline(always)]
+fn sum_lanes([l0, l1, l2, l3, l4, l5, l6, l7]: [f64; LANES]) -> f64 {
+    ((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7))
+}
 
 crate::widest_vectors! {
     /// `Σ a_k b_k` in [`LANES`] chains, summed by a fixed tree.
@@ -18,8 +24,31 @@ crate::widest_vectors! {
         for (lane, k) in (whole..a.len()).enumerate() {
             lanes[lane] += a[k] * b[k];
         }
-        let [l0, l1, l2, l3, l4, l5, l6, l7] = lanes;
-        ((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7))
+        sum_lanes(lanes)
+    }
+}
+
+crate::widest_vectors! {
+    /// `Σ a_k b_k` as [`dot`] computes it, and `y += alpha a`, in one pass over `a`: a
+    /// symmetric matrix's column of its lower triangle serves its row and its column at once.
+    pub fn dot_and_axpy(a: &[f64], b: &[f64], alpha: f64, y: &mut [f64]) -> f64 {
+        let mut lanes = [0.0; LANES];
+        let whole = a.len() - a.len() % LANES;
+        let chunks = a[..whole]
+            .chunks_exact(LANES)
+            .zip(b[..whole].chunks_exact(LANES))
+            .zip(y[..whole].chunks_exact_mut(LANES));
+        for ((a, b), y) in chunks {
+            for lane in 0..LANES {
+                lanes[lane] += a[lane] * b[lane];
+                y[lane] += alpha * a[lane];
+            }
+        }
+        for (lane, k) in (whole..a.len()).enumerate() {
+            lanes[lane] += a[k] * b[k];
+            y[k] += alpha * a[k];
+        }
+        sum_lanes(lanes)
     }
 }
 
@@ -37,7 +66,7 @@ mod tests {
     use super::*;
 
     /// Every length around the lanes: the chains and the tail agree with a plain sum, and
-    /// `axpy` with its definition.
+    /// `axpy` with its definition; the fused kernel with both.
     #[test]
     fn dot_and_axpy_agree_with_their_definitions_at_every_length() {
         for n in 0..3 * LANES + 2 {
@@ -51,6 +80,9 @@ mod tests {
             for k in 0..n {
                 assert_eq!(y[k], b[k] - 2.0 * a[k]);
             }
+            let mut fused = b.clone();
+            assert_eq!(dot_and_axpy(&a, &b, -2.0, &mut fused), plain, "length {n}");
+            assert_eq!(fused, y);
         }
     }
 }

@@ -13,27 +13,20 @@
 
 #![allow(non_snake_case)] // matrices are named as in the equations
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
 use squeal_linalg::eigensolver::{Band, SolveOptions, solve};
 use squeal_linalg::ldlt::{FillOrdering, ShiftedPencil};
+use squeal_stages::Params;
 use squeal_stages::artifact::{CscMatrix, Model};
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::mesh::structured;
-use squeal_stages::{Params, Stage};
 
 /// A disc 0.15–0.32 m in radius, 45 mm thick, clamped at the hub (the inner cylinder).
 fn disc_model(counts: [usize; 3]) -> (Model, f64) {
     let mesh = structured::annulus(0.15, 0.32, 0.0, 0.045, counts, "disc");
-    let params = Params(
-        Assemble
-            .params()
-            .into_iter()
-            .filter_map(|spec| spec.default.map(|value| (spec.name.to_string(), value)))
-            .collect::<BTreeMap<_, _>>(),
-    );
+    let params = Params::defaults(&Assemble, &[]);
     let started = Instant::now();
     let (model, _) = assemble_model(&mesh, &params, &["inner".to_string()])
         .unwrap_or_else(|err| panic!("assembly failed: {err}"));

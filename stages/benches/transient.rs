@@ -193,14 +193,13 @@ fn main() {
 
 /// The `basis` stage's Craig–Bampton basis of `n_modes` fixed-interface modes.
 fn craig_bampton(model: &Model, equilibrium: &Equilibrium, n_modes: usize) -> Basis {
-    let stage = ReductionBasis;
-    let mut params: BTreeMap<String, Value> = stage
-        .params()
-        .into_iter()
-        .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
-        .collect();
-    params.insert("kind".into(), Value::Str("craig_bampton".into()));
-    params.insert("n_modes".into(), Value::Int(n_modes as i64));
+    let params = Params::defaults(
+        &ReductionBasis,
+        &[
+            ("kind", Value::Str("craig_bampton".into())),
+            ("n_modes", Value::Int(n_modes as i64)),
+        ],
+    );
     let input = |artifact: Artifact| Input::One(Arc::new(artifact));
     let inputs = Inputs(BTreeMap::from([
         (
@@ -213,7 +212,7 @@ fn craig_bampton(model: &Model, equilibrium: &Equilibrium, n_modes: usize) -> Ba
         ),
     ]));
     let clock = Instant::now();
-    let mut outputs = stage.run(&Params(params), &inputs).expect("basis");
+    let mut outputs = ReductionBasis.run(&params, &inputs).expect("basis");
     println!("basis built in {:.1} s", clock.elapsed().as_secs_f64());
     match outputs.remove("basis") {
         Some(Artifact::Basis(basis)) => *basis,

@@ -230,6 +230,20 @@ pub type Coords = Vec<(String, Value)>;
 pub struct Params(pub BTreeMap<String, Value>);
 
 impl Params {
+    /// The parameters of `stage` at their defaults, with `overrides` (for callers that run a
+    /// stage directly: tests and benchmarks).
+    pub fn defaults(stage: &dyn Stage, overrides: &[(&str, Value)]) -> Params {
+        let mut values: BTreeMap<String, Value> = stage
+            .params()
+            .into_iter()
+            .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
+            .collect();
+        for (name, value) in overrides {
+            values.insert(name.to_string(), value.clone());
+        }
+        Params(values)
+    }
+
     fn get(&self, name: &str) -> &Value {
         self.0
             .get(name)

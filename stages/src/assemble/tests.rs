@@ -12,23 +12,9 @@ use crate::mesh::structured;
 use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
 use crate::table::{ColumnData, Table};
 
-/// The parameters of `stage` at their defaults, with `overrides`.
-pub(crate) fn params_of(stage: &dyn Stage, overrides: &[(&str, Value)]) -> Params {
-    let mut values = BTreeMap::new();
-    for spec in stage.params() {
-        if let Some(default) = spec.default {
-            values.insert(spec.name.to_string(), default);
-        }
-    }
-    for (name, value) in overrides {
-        values.insert(name.to_string(), value.clone());
-    }
-    Params(values)
-}
-
 /// Runs `assemble` on `mesh` with `clamped` and the default materials.
 pub(crate) fn try_assemble(mesh: &Mesh, clamped: &str) -> Result<(Model, Table), StageError> {
-    let params = params_of(&Assemble, &[("clamped", Value::Str(clamped.into()))]);
+    let params = Params::defaults(&Assemble, &[("clamped", Value::Str(clamped.into()))]);
     let inputs = Inputs(BTreeMap::from([(
         "mesh".to_string(),
         Input::One(Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
@@ -213,7 +199,7 @@ fn unknown_part_and_missing_node_sets_are_errors() {
 #[test]
 fn non_physical_material_is_an_error() {
     let mesh = structured::block([1.0, 1.0, 1.0], [1, 1, 1], "disc");
-    let params = params_of(
+    let params = Params::defaults(
         &Assemble,
         &[
             ("clamped", Value::Str(String::new())),

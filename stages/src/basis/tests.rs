@@ -12,7 +12,6 @@ use faer::linalg::solvers::Solve;
 
 use super::*;
 use crate::artifact::basis::{StaticModes, interface_dofs};
-use crate::assemble::tests::params_of;
 use crate::modes::Modes;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
@@ -27,7 +26,7 @@ fn insert(inputs: &mut Inputs, port: &str, artifact: Artifact) {
 
 /// The real modes of the fixture: the lowest `n_modes` (0: below `f_max_hz`).
 fn real_modes(inputs: &Inputs, n_modes: usize, f_max_hz: f64) -> Artifact {
-    let params = params_of(
+    let params = Params::defaults(
         &Modes,
         &[
             ("n_modes", Value::Int(n_modes as i64)),
@@ -66,7 +65,7 @@ fn a_basis_spanning_every_dof_reproduces_the_full_transient() {
     insert(&mut inputs, "modes", modes);
     let basis = ReductionBasis
         .run(
-            &params_of(
+            &Params::defaults(
                 &ReductionBasis,
                 &[
                     ("kind", Value::Str("real".into())),
@@ -128,7 +127,7 @@ fn a_basis_spanning_every_dof_reproduces_the_full_transient() {
 /// The fixture's FC basis at the default cut-off, with its outputs.
 fn fc_basis(inputs: &Inputs, overrides: &[(&str, Value)]) -> Outputs {
     ReductionBasis
-        .run(&params_of(&ReductionBasis, overrides), inputs)
+        .run(&Params::defaults(&ReductionBasis, overrides), inputs)
         .unwrap()
 }
 
@@ -228,7 +227,7 @@ fn bad_requests_are_refused_with_what_is_missing() {
     let inputs = brake_inputs();
     let refuse = |overrides: &[(&str, Value)], inputs: &Inputs| {
         ReductionBasis
-            .run(&params_of(&ReductionBasis, overrides), inputs)
+            .run(&Params::defaults(&ReductionBasis, overrides), inputs)
             .unwrap_err()
             .to_string()
     };
@@ -248,7 +247,7 @@ fn bad_requests_are_refused_with_what_is_missing() {
     without_stability.0.remove("eigenvalues");
     let message = refuse(&[], &without_stability);
     assert!(message.contains("eigenvalues"), "{message}");
-    let params = params_of(&ReductionBasis, &[("modes", Value::Str("1, x".into()))]);
+    let params = Params::defaults(&ReductionBasis, &[("modes", Value::Str("1, x".into()))]);
     let message = ReductionBasis
         .check_params(&params)
         .unwrap_err()
@@ -284,7 +283,7 @@ fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
     let mut inputs = brake_inputs();
     // Every complex mode below 8 kHz, then only the lightly damped ones.
     let stability = |rate: f64, inputs: &Inputs| {
-        let params = params_of(
+        let params = Params::defaults(
             &Stability,
             &[
                 ("f_max_hz", Value::Float(8000.0)),

@@ -1329,13 +1329,8 @@ mod tests {
             ("hub, pad_backs:xy", "pressure"),
         ] {
             let model = model(&mesh, clamped, &[]);
-            let mut values: BTreeMap<String, Value> = SlidingEquilibrium
-                .params()
-                .into_iter()
-                .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
-                .collect();
-            values.insert("load".into(), Value::Str(load.into()));
-            let params = Params(values);
+            let params =
+                Params::defaults(&SlidingEquilibrium, &[("load", Value::Str(load.into()))]);
             let inputs = Inputs(BTreeMap::from([(
                 "model".to_string(),
                 Input::One(Arc::new(Artifact::Model(Box::new(model)))),
@@ -1357,18 +1352,18 @@ mod tests {
         use std::sync::Arc;
         let mesh = coarse_brake();
         let model = model(&mesh, "hub, pad_backs:xy", &[]);
-        let mut values: BTreeMap<String, Value> = SlidingEquilibrium
-            .params()
-            .into_iter()
-            .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
-            .collect();
-        values.insert("load".into(), Value::Str("pressure".into()));
-        values.insert("pressure".into(), Value::Float(2e6));
+        let params = Params::defaults(
+            &SlidingEquilibrium,
+            &[
+                ("load", Value::Str("pressure".into())),
+                ("pressure", Value::Float(2e6)),
+            ],
+        );
         let inputs = Inputs(BTreeMap::from([(
             "model".to_string(),
             Input::One(Arc::new(Artifact::Model(Box::new(model)))),
         )]));
-        let outputs = SlidingEquilibrium.run(&Params(values), &inputs).unwrap();
+        let outputs = SlidingEquilibrium.run(&params, &inputs).unwrap();
         let summary = outputs["summary"].as_table().unwrap();
         let Some(crate::table::ColumnData::Str(names)) = summary.column("quantity") else {
             panic!("no quantity column")

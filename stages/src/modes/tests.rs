@@ -8,9 +8,9 @@ use std::sync::Arc;
 use super::Modes;
 use crate::artifact::Artifact;
 use crate::artifact::Model;
-use crate::assemble::tests::{assemble, params_of};
+use crate::assemble::tests::assemble;
 use crate::mesh::structured;
-use crate::stage::{Input, Inputs, Stage, StageError, Value};
+use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
 use crate::table::ColumnData;
 
 /// A cantilever of length `length` and square section `side`, clamped at x = 0.
@@ -23,7 +23,7 @@ fn run_stage(
     model: &Model,
     overrides: &[(&str, Value)],
 ) -> Result<crate::stage::Outputs, StageError> {
-    let params = params_of(&Modes, overrides);
+    let params = Params::defaults(&Modes, overrides);
     let inputs = Inputs(BTreeMap::from([(
         "model".to_string(),
         Input::One(Arc::new(Artifact::Model(Box::new(model.clone())))),

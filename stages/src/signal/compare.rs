@@ -651,13 +651,7 @@ mod tests {
     }
 
     fn compare(reference: Table, candidate: Table) -> Table {
-        let params = Params(
-            Compare
-                .params()
-                .into_iter()
-                .map(|spec| (spec.name.to_string(), spec.default.unwrap()))
-                .collect(),
-        );
+        let params = Params::defaults(&Compare, &[]);
         let inputs = Inputs(BTreeMap::from([
             (
                 "reference".to_string(),

@@ -280,7 +280,7 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
     let model = Arc::new(Artifact::Model(Box::new(model)));
-    let params = crate::assemble::tests::params_of;
+    let params = Params::defaults;
     let mut eigenvalue_points = Vec::new();
     let mut shape_points = Vec::new();
     for mu in [0.3, 0.45, 0.6] {

@@ -27,6 +27,7 @@
 
 use rayon::prelude::*;
 use squeal_linalg::CscMatrix;
+use squeal_linalg::kernels::dot_and_axpy;
 
 /// Rows of each fixed chunk of the products (independent of the thread count).
 const PRODUCT_CHUNK: usize = 4096;
@@ -104,8 +105,6 @@ fn union_column<const N: usize>(
 
 /// Columns of each fixed chunk of [`LowerRuns`]'s product (independent of the thread count).
 const RUN_CHUNK: usize = 256;
-/// Partial sums of a run's dot products: independent chains the vector unit can carry.
-const LANES: usize = 8;
 
 /// `C` and `K` by their lower triangles, each column's entries below the diagonal stored as
 /// runs of consecutive rows, for the fused products. A reduced model's matrices are dense but
@@ -181,7 +180,7 @@ impl Triangle {
         let mut gathered = self.diagonal[j] * x[j];
         for run in &self.runs[self.col_runs[j]..self.col_runs[j + 1]] {
             let rows = run.first - start..run.first - start + run.len;
-            gathered += run_times(
+            gathered += dot_and_axpy(
                 &self.values[run.offset..run.offset + run.len],
                 &x[run.first..run.first + run.len],
                 x[j],
@@ -225,31 +224,6 @@ impl LowerRuns {
                 sum
             })
             .collect()
-    }
-}
-
-squeal_linalg::widest_vectors! {
-    /// One run of a column: `x_j` times it added to its rows' partial sums, and its dot product
-    /// with `x` over those rows (in [`LANES`] chains, summed by a fixed tree).
-    fn run_times(values: &[f64], x: &[f64], x_j: f64, rows: &mut [f64]) -> f64 {
-        let mut lanes = [0.0; LANES];
-        let whole = values.len() - values.len() % LANES;
-        let chunks = values[..whole]
-            .chunks_exact(LANES)
-            .zip(x[..whole].chunks_exact(LANES))
-            .zip(rows[..whole].chunks_exact_mut(LANES));
-        for ((values, x), rows) in chunks {
-            for lane in 0..LANES {
-                lanes[lane] += values[lane] * x[lane];
-                rows[lane] += values[lane] * x_j;
-            }
-        }
-        for (lane, k) in (whole..values.len()).enumerate() {
-            lanes[lane] += values[k] * x[k];
-            rows[k] += values[k] * x_j;
-        }
-        let [l0, l1, l2, l3, l4, l5, l6, l7] = lanes;
-        ((l0 + l1) + (l2 + l3)) + ((l4 + l5) + (l6 + l7))
     }
 }
 
@@ -382,6 +356,7 @@ fn rayleigh_rows(M: &CscMatrix, C: &CscMatrix, K: &CscMatrix) -> Option<(Vec<f64
 #[cfg(test)]
 mod tests {
     use super::*;
+    use squeal_linalg::kernels::LANES;
 
     /// A symmetric tridiagonal matrix with diagonal `d` and off-diagonal `e`.
     fn tridiagonal(n: usize, d: impl Fn(usize) -> f64, e: impl Fn(usize) -> f64) -> CscMatrix {

@@ -15,7 +15,7 @@ use crate::stability::Stability;
 use crate::stage::{Input, Value};
 
 pub(crate) fn stage_params(overrides: &[(&str, Value)]) -> Params {
-    crate::assemble::tests::params_of(&Transient, overrides)
+    Params::defaults(&Transient, overrides)
 }
 
 /// A coarse brake through equilibrium and stability, as the transient's inputs.
