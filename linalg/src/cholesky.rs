@@ -17,6 +17,16 @@
 //! the ordering puts the interface unknowns last in their component (after a nested
 //! dissection of the rest), so that these rows are few and `Y` is stored compactly, as its
 //! nonzero rows only.
+//!
+//! Where `Y` fills most rows anyway (a reduced model's dense factor), reading it twice a solve
+//! costs more than reading once the *response* `Z = A⁻¹ Gᵀ = P L⁻ᵀ Y`: then
+//!
+//! ```text
+//! x_free = A⁻¹ b,    G A⁻¹ (b + Gᵀ r) = G x_free + (Yᵀ Y) r,    x = x_free + Z r
+//! ```
+//!
+//! one whole solve, `G` applied to its result (a few entries per row) and one pass over `Z`
+//! ([`InterfaceSolve::solve`] takes whichever reads less).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -29,6 +39,8 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
+
+use rayon::prelude::*;
 
 use crate::Error;
 use crate::csc::CscMatrix;
@@ -324,7 +336,15 @@ pub struct InterfaceSolve {
     values: Vec<f64>,
     /// `G A⁻¹ Gᵀ`, symmetric positive semi-definite.
     pub W: Mat<f64>,
+    /// `G` by its rows, for the free contact quantities `G x_free` with the response.
+    G_rows: Vec<Vec<(usize, f64)>>,
+    /// `Z = A⁻¹ Gᵀ` row by row (rows indexed by unknown), kept when one pass over it reads
+    /// less than two over `Y`.
+    response: Option<Vec<f64>>,
 }
+
+/// Rows of each fixed chunk of `x += Z r` (independent of the thread count).
+const RESPONSE_CHUNK: usize = 64;
 
 /// Positions `first..first + len` of `rows`, their values at `offset..offset + len`.
 struct Run {
@@ -357,11 +377,10 @@ impl InterfaceSolve {
     /// fixed blocks of columns on rayon, each sequential, so the bytes do not depend on the
     /// thread count.
     pub fn new(cholesky: &Cholesky, G_rows: &[Vec<(usize, f64)>]) -> InterfaceSolve {
-        use rayon::prelude::*;
         const BLOCK: usize = 32;
         let n = cholesky.n;
         let positions = cholesky.positions();
-        let blocks: Vec<Mat<f64>> = G_rows
+        let mut blocks: Vec<Mat<f64>> = G_rows
             .par_chunks(BLOCK)
             .map(|block| {
                 let mut B = Mat::<f64>::zeros(n, block.len());
@@ -413,13 +432,75 @@ impl InterfaceSolve {
             }
             col_runs.push(runs.len());
         }
+        let response = (n * m < 2 * values.len()).then(|| {
+            blocks
+                .par_iter_mut()
+                .for_each(|B| cholesky.backward_in_place(B.as_mut(), Par::Seq));
+            let mut Z = vec![0.0; n * m];
+            for (unknown, row) in Z.chunks_exact_mut(m).enumerate() {
+                let position = positions[unknown];
+                let entries = blocks.iter().flat_map(|B| B.row(position).iter());
+                for (slot, &value) in row.iter_mut().zip(entries) {
+                    *slot = value;
+                }
+            }
+            Z
+        });
         InterfaceSolve {
             rows,
             col_runs,
             runs,
             values,
             W,
+            G_rows: G_rows.to_vec(),
+            response,
         }
+    }
+
+    /// Whether [`InterfaceSolve::solve`] corrects by the response `Z` rather than through `Y`.
+    pub fn has_response(&self) -> bool {
+        self.response.is_some()
+    }
+
+    /// `x = A⁻¹ (b + Gᵀ r)` (`b`, `x` indexed by unknown), `r` chosen by `react` from the free
+    /// contact quantities `G A⁻¹ b`, written to `g_free`. `y` is a work vector of `n` values.
+    /// By `Y` or by the response, whichever reads less (module doc); either way every sum's
+    /// order is fixed, so the bits do not depend on the thread count.
+    pub fn solve<'r, E>(
+        &self,
+        cholesky: &Cholesky,
+        b: &[f64],
+        (g_free, y, x): (&mut [f64], &mut [f64], &mut [f64]),
+        react: impl FnOnce(&[f64]) -> Result<&'r [f64], E>,
+    ) -> Result<(), E> {
+        cholesky.permute(b, y);
+        cholesky.forward_vector(y);
+        match &self.response {
+            None => {
+                self.project(y, g_free);
+                let r = react(g_free)?;
+                self.lift(r, y);
+                cholesky.backward_vector(y);
+                cholesky.unpermute(y, x);
+            }
+            Some(Z) => {
+                cholesky.backward_vector(y);
+                cholesky.unpermute(y, x);
+                for (slot, row) in g_free.iter_mut().zip(&self.G_rows) {
+                    *slot = row.iter().map(|&(unknown, value)| value * x[unknown]).sum();
+                }
+                let r = react(g_free)?;
+                let m = r.len();
+                x.par_chunks_mut(RESPONSE_CHUNK)
+                    .zip(Z.par_chunks(RESPONSE_CHUNK * m))
+                    .for_each(|(x, Z)| {
+                        for (slot, row) in x.iter_mut().zip(Z.chunks_exact(m)) {
+                            *slot += dot(row, r);
+                        }
+                    });
+            }
+        }
+        Ok(())
     }
 
     /// Column `j`'s runs, each with its values.
@@ -430,7 +511,7 @@ impl InterfaceSolve {
     }
 
     /// `Yᵀ y` for `y` in elimination order: `G A⁻¹ b` when `y = L⁻¹ Pᵀ b`.
-    pub fn project(&self, y: &[f64], out: &mut [f64]) {
+    fn project(&self, y: &[f64], out: &mut [f64]) {
         let gathered: Vec<f64> = self.rows.iter().map(|&row| y[row]).collect();
         for (j, slot) in out.iter_mut().enumerate() {
             *slot = self
@@ -441,7 +522,7 @@ impl InterfaceSolve {
     }
 
     /// `y += Y r`.
-    pub fn lift(&self, r: &[f64], y: &mut [f64]) {
+    fn lift(&self, r: &[f64], y: &mut [f64]) {
         let mut product = vec![0.0; self.rows.len()];
         for (j, &r_j) in r.iter().enumerate() {
             if r_j == 0.0 {
@@ -596,71 +677,97 @@ mod tests {
         assert!(residual < 1e-12, "residual {residual:e}");
     }
 
+    /// `InterfaceSolve::solve` against a direct solve of `A x = b + Gᵀ r`, `A = K + 3 M`:
+    /// the free quantities it hands the reaction are `G A⁻¹ b`, the Delassus operator is
+    /// `G A⁻¹ Gᵀ`, the solution `A⁻¹ (b + Gᵀ r)`; the response is kept or not as `response_kept` says.
+    fn check_split_solve(
+        (K, M): (&CscMatrix, &CscMatrix),
+        interface: &[usize],
+        G_rows: &[Vec<(usize, f64)>],
+        response_kept: bool,
+    ) {
+        let n = K.n_cols;
+        let terms = [(1.0, K), (3.0, M)];
+        let cholesky = Cholesky::new(&terms, &[], interface, Par::Seq).unwrap();
+        let interface_solve = InterfaceSolve::new(&cholesky, G_rows);
+        assert_eq!(interface_solve.has_response(), response_kept);
+        let mut rng = SplitMix64::new(3);
+        let b: Vec<f64> = (0..n).map(|_| rng.next_signed().abs() - 0.5).collect();
+        let r: Vec<f64> = (0..G_rows.len())
+            .map(|i| [0.3, -1.2, 2.0][i % 3] * (1.0 + i as f64))
+            .collect();
+        let direct = |reaction: &[f64]| -> Vec<f64> {
+            let mut rhs = Mat::from_fn(n, 1, |i, _| b[i]);
+            for (row, entries) in G_rows.iter().enumerate() {
+                for &(unknown, coefficient) in entries {
+                    rhs[(unknown, 0)] += coefficient * reaction[row];
+                }
+            }
+            cholesky.solve_in_place(rhs.as_mut(), Par::Seq);
+            rhs.col(0).iter().copied().collect()
+        };
+        let G_times = |x: &[f64]| -> Vec<f64> {
+            G_rows
+                .iter()
+                .map(|entries| entries.iter().map(|&(u, c)| c * x[u]).sum())
+                .collect()
+        };
+        let (x_direct, g_free_direct) = (direct(&r), G_times(&direct(&vec![0.0; r.len()])));
+        let (mut g_free, mut y, mut x) = (vec![0.0; r.len()], vec![0.0; n], vec![0.0; n]);
+        interface_solve
+            .solve(&cholesky, &b, (&mut g_free, &mut y, &mut x), |free| {
+                for (split, direct) in free.iter().zip(&g_free_direct) {
+                    assert!((split - direct).abs() < 1e-13, "{split} vs {direct}");
+                }
+                Ok::<_, ()>(&r[..])
+            })
+            .unwrap();
+        for (split, direct) in x.iter().zip(&x_direct) {
+            assert!((split - direct).abs() < 1e-13, "{split} vs {direct}");
+        }
+        let W_r = &interface_solve.W * Mat::from_fn(r.len(), 1, |i, _| r[i]);
+        for (row, g) in G_times(&x_direct).iter().enumerate() {
+            let g_split = g_free[row] + W_r[(row, 0)];
+            assert!((g_split - g).abs() < 1e-13, "{g_split} vs {g}");
+        }
+    }
+
+    /// A few interface unknowns eliminated last: `Y` lives on a few rows, read twice.
     #[test]
-    fn split_solve_with_interface_correction_equals_a_direct_solve() {
+    fn split_solve_through_a_short_y_equals_a_direct_solve() {
         let n = 60;
         let (K, M) = matrices(n);
-        let terms = [(1.0, &K), (3.0, &M)];
-        let interface = [5usize, 17, 40, 41];
-        let cholesky = Cholesky::new(&terms, &[], &interface, Par::Seq).unwrap();
-        let G_rows: Vec<Vec<(usize, f64)>> = vec![
+        let G_rows = vec![
             vec![(5, 1.0), (17, -1.0)],
             vec![(40, 0.6), (41, 0.8)],
             vec![(17, 1.0)],
         ];
-        let interface_solve = InterfaceSolve::new(&cholesky, &G_rows);
-        // The interface is eliminated last: Y lives on a few rows only.
-        assert!(interface_solve.rows.len() <= interface.len());
-        let mut rng = SplitMix64::new(3);
-        let b: Vec<f64> = (0..n).map(|_| rng.next_signed().abs() - 0.5).collect();
-        let r = Mat::from_fn(3, 1, |i, _| [0.3, -1.2, 2.0][i]);
-        // Direct: x = A⁻¹ (b + Gᵀ r), g = G x.
-        let mut rhs = b.clone();
-        for (row, entries) in G_rows.iter().enumerate() {
-            for &(unknown, coefficient) in entries {
-                rhs[unknown] += coefficient * r[(row, 0)];
-            }
-        }
-        let mut direct = Mat::from_fn(n, 1, |i, _| rhs[i]);
-        cholesky.solve_in_place(direct.as_mut(), Par::Seq);
-        let A_x = |x: &[f64]| -> Vec<f64> {
-            let (Kx, Mx) = (K.mul_vec(x), M.mul_vec(x));
-            Kx.iter().zip(&Mx).map(|(k, m)| k + 3.0 * m).collect()
-        };
-        let x_direct: Vec<f64> = direct.col(0).iter().copied().collect();
-        let residual = A_x(&x_direct)
-            .iter()
-            .zip(&rhs)
-            .map(|(ax, b)| (ax - b).abs())
-            .fold(0.0, f64::max);
-        assert!(residual < 1e-13, "direct solve residual {residual:e}");
-        // Split: y = L⁻¹ Pᵀ b, g_free = Yᵀ y, g = g_free + W r, x = P L⁻ᵀ (y + Y r).
-        let mut y = vec![0.0; n];
-        cholesky.permute(&b, &mut y);
-        let mut y_mat = Mat::from_fn(n, 1, |i, _| y[i]);
-        cholesky.forward_in_place(y_mat.as_mut(), Par::Seq);
-        let mut y: Vec<f64> = y_mat.col(0).iter().copied().collect();
-        let mut g = vec![0.0; 3];
-        interface_solve.project(&y, &mut g);
-        let Wr = &interface_solve.W * &r;
-        let r_values: Vec<f64> = r.col(0).iter().copied().collect();
-        interface_solve.lift(&r_values, &mut y);
-        let mut y_mat = Mat::from_fn(n, 1, |i, _| y[i]);
-        cholesky.backward_in_place(y_mat.as_mut(), Par::Seq);
-        let mut x = vec![0.0; n];
-        let y: Vec<f64> = y_mat.col(0).iter().copied().collect();
-        cholesky.unpermute(&y, &mut x);
-        for (split, direct) in x.iter().zip(&x_direct) {
-            assert!((split - direct).abs() < 1e-13, "{split} vs {direct}");
-        }
-        for (row, entries) in G_rows.iter().enumerate() {
-            let g_direct: f64 = entries.iter().map(|&(u, c)| c * x_direct[u]).sum();
-            let g_split = g[row] + Wr[(row, 0)];
-            assert!(
-                (g_split - g_direct).abs() < 1e-13,
-                "{g_split} vs {g_direct}"
-            );
-        }
+        let interface = [5usize, 17, 40, 41];
+        let cholesky = Cholesky::new(&[(1.0, &K), (3.0, &M)], &[], &interface, Par::Seq).unwrap();
+        assert!(InterfaceSolve::new(&cholesky, &G_rows).rows.len() <= interface.len());
+        check_split_solve((&K, &M), &interface, &G_rows, false);
+    }
+
+    /// Most unknowns on the interface of a dense matrix (a reduced model's case): `Y` fills
+    /// its rows, and the response is read once instead.
+    #[test]
+    fn split_solve_through_the_response_equals_a_direct_solve() {
+        let n = 30;
+        let mut rng = SplitMix64::new(11);
+        let B = Mat::from_fn(n, n, |_, _| rng.next_signed());
+        let dense = &B * B.transpose();
+        let K = CscMatrix::from_triplets(
+            n,
+            n,
+            (0..n)
+                .flat_map(|i| (0..n).map(move |j| (i, j)))
+                .map(|(i, j)| (i, j, dense[(i, j)] + if i == j { 1.0 } else { 0.0 }))
+                .collect(),
+        );
+        let M = CscMatrix::from_triplets(n, n, (0..n).map(|i| (i, i, 1.0)).collect());
+        let G_rows: Vec<Vec<(usize, f64)>> =
+            (0..18).map(|k| vec![(k, 1.0), (k + 12, -0.5)]).collect();
+        check_split_solve((&K, &M), &[], &G_rows, true);
     }
 
     #[test]

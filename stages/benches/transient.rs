@@ -152,7 +152,7 @@ fn main() {
         timings.factor, run.factor_len, timings.delassus, run.interface_rows
     );
     println!(
-        "per step {step_ms:.3} ms: sweeps {:.3} ms, contact {:.3} ms, the rest {:.3} ms",
+        "per step {step_ms:.3} ms: solve {:.3} ms, contact {:.3} ms, the rest {:.3} ms",
         per_step(timings.sweeps),
         per_step(timings.contact),
         per_step(timings.steps - timings.sweeps - timings.contact),

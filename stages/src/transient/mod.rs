@@ -169,9 +169,9 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 10: the contact velocities' dot products run in chains, and a reduced model's
-        // products skip K's vanishing coupling (the last bits of every run).
-        10
+        // 11: a reduced model's step corrects by the response J⁻¹ Hᵀ, read once, instead of
+        // through Y twice (the last bits of its runs).
+        11
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

@@ -129,11 +129,13 @@ pub struct Run {
 pub struct Timings {
     /// Cholesky of J (ordering, symbolic and numeric).
     pub factor: f64,
-    /// `Y = L⁻¹ Pᵀ Hᵀ` and `W = Yᵀ Y`.
+    /// `Y = L⁻¹ Pᵀ Hᵀ`, `W = Yᵀ Y` and the response `J⁻¹ Hᵀ` if kept.
     pub delassus: f64,
-    /// The steps: their forward and backward sweeps, their contact solves, all of them.
+    /// The steps' solves but their contact problems: the sweeps and the interface products.
     pub sweeps: f64,
+    /// The steps' contact problems.
     pub contact: f64,
+    /// The steps, all of them.
     pub steps: f64,
 }
 
@@ -329,11 +331,6 @@ impl<'s> Operators<'s> {
             let [Mv, Cv, Kv] = state.MCK_v[i];
             *slot = a * Mv + b * Cv + c * Kv - state.K_u[i] - self.equilibrium_force[i];
         }
-        self.cholesky.permute(&work.rhs, &mut work.y);
-        let clock = std::time::Instant::now();
-        self.cholesky.forward_vector(&mut work.y);
-        timings.sweeps += clock.elapsed().as_secs_f64();
-        self.interface_solve.project(&work.y, &mut work.w_free);
         // The equivalent gap B̃ = g + τ(1−θ) w_n (Signorini on the end-of-step velocity).
         for p in 0..n_pairs {
             let gap = self.contact_state.gap[p] + state.delta[3 * p];
@@ -341,37 +338,42 @@ impl<'s> Operators<'s> {
             work.w_n_min[p] = -equivalent_gap / tau;
         }
         let clock = std::time::Instant::now();
-        let report = if n_pairs == 0 {
-            contact::Report {
-                iterations: 0,
-                residual: 0.0,
-            }
-        } else {
-            contact_solver
-                .solve(
-                    &self.contact_problem(&work.w_free, &work.w_n_min),
-                    self.settings.tolerance,
-                    self.settings.max_iterations,
-                    &mut state.r,
-                    &mut work.w_new,
-                )
-                .map_err(|failure| Failure::Contact {
-                    step,
-                    t,
-                    history: failure.history,
-                    iterations: failure.iterations,
-                })?
+        let mut contact_time = 0.0;
+        let mut report = contact::Report {
+            iterations: 0,
+            residual: 0.0,
         };
-        timings.contact += clock.elapsed().as_secs_f64();
+        let (r, w_new, w_n_min) = (&mut state.r, &mut work.w_new, &work.w_n_min);
+        self.interface_solve.solve(
+            &self.cholesky,
+            &work.rhs,
+            (&mut work.w_free, &mut work.y, &mut work.v_new),
+            |w_free| {
+                if n_pairs > 0 {
+                    let clock = std::time::Instant::now();
+                    report = contact_solver
+                        .solve(
+                            &self.contact_problem(w_free, w_n_min),
+                            self.settings.tolerance,
+                            self.settings.max_iterations,
+                            r,
+                            w_new,
+                        )
+                        .map_err(|failure| Failure::Contact {
+                            step,
+                            t,
+                            history: failure.history,
+                            iterations: failure.iterations,
+                        })?;
+                    contact_time = clock.elapsed().as_secs_f64();
+                }
+                Ok(&r[..])
+            },
+        )?;
+        timings.contact += contact_time;
+        timings.sweeps += clock.elapsed().as_secs_f64() - contact_time;
         state.worst_contact_residual = state.worst_contact_residual.max(report.residual);
         state.most_contact_iterations = state.most_contact_iterations.max(report.iterations);
-        if n_pairs > 0 {
-            self.interface_solve.lift(&state.r, &mut work.y);
-        }
-        let clock = std::time::Instant::now();
-        self.cholesky.backward_vector(&mut work.y);
-        timings.sweeps += clock.elapsed().as_secs_f64();
-        self.cholesky.unpermute(&work.y, &mut work.v_new);
         if work.v_new.iter().any(|value| !value.is_finite()) {
             return Err(Failure::NotFinite { step, t });
         }
