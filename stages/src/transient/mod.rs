@@ -169,9 +169,9 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 11: a reduced model's step corrects by the response J⁻¹ Hᵀ, read once, instead of
-        // through Y twice (the last bits of its runs).
-        11
+        // 12: Gauss–Seidel's sweeps are accelerated by Anderson mixing (11: a reduced model's
+        // step corrects by the response J⁻¹ Hᵀ); the last bits of every run.
+        12
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
