@@ -44,8 +44,8 @@
 //! with `w = w_free + W r`. The friction direction turns with the binormal slip, and its
 //! derivative must be kept (dropping it makes the iteration oscillate on `r_b`):
 //! `∂F_T = Δr_T − μ d Δr_n + (μ r_n/‖s‖)(I − ŝŝᵀ) Δw_T`. The Jacobian `A` (three unknowns per
-//! closed pair) is factorised (LU) at the solution it was built on, and later steps run the
-//! chord iteration
+//! closed pair) is factorised (LU, in single precision: the residual and the acceptance stay
+//! in double) at the solution it was built on, and later steps run the chord iteration
 //!
 //! ```text
 //! r ← r − A⁻¹ F(r),   w = w_free + W r
@@ -496,7 +496,10 @@ struct Factorisation {
     states: Vec<PairState>,
     /// First unknown of each pair (three per closed pair, none for an open one).
     offsets: Vec<usize>,
-    lu: PartialPivLu<f64>,
+    /// In single precision: the chord needs only an approximate Jacobian (it already is one,
+    /// from an earlier step), its residual is evaluated and the step accepted in double
+    /// precision, and a solve, bound by reading the factors, takes half the time.
+    lu: PartialPivLu<f32>,
 }
 
 impl Factorisation {
@@ -568,28 +571,34 @@ impl Factorisation {
         Some(Factorisation {
             states: states.clone(),
             offsets,
-            lu: A.partial_piv_lu(),
+            lu: Mat::<f32>::from_fn(A.nrows(), A.ncols(), |i, j| A[(i, j)] as f32).partial_piv_lu(),
         })
     }
 
-    /// The residual `F` of the set's laws at `r`, `w` (velocity rows scaled by ρ: forces).
-    fn laws(&self, problem: &Problem, step: &Step, r: &[f64], w: &[f64], F: &mut Mat<f64>) {
+    /// The residual `F` of the set's laws at `r`, `w` (velocity rows scaled by ρ: forces),
+    /// evaluated in double precision and rounded for the single-precision solve.
+    fn laws(&self, problem: &Problem, step: &Step, r: &[f64], w: &[f64], F: &mut Mat<f32>) {
         for (p, state) in self.states.iter().enumerate() {
             let (k, i) = (3 * p, self.offsets[p]);
             let normal = step.rho_n[p] * (w[k] - problem.w_n_min[p]);
-            match state {
-                PairState::Open => {}
-                PairState::Stick => {
-                    F[(i, 0)] = normal;
-                    F[(i + 1, 0)] = step.rho_T[p] * (w[k + 1] - problem.sliding_speed[p]);
-                    F[(i + 2, 0)] = step.rho_T[p] * w[k + 2];
-                }
+            let values = match state {
+                PairState::Open => continue,
+                PairState::Stick => [
+                    normal,
+                    step.rho_T[p] * (w[k + 1] - problem.sliding_speed[p]),
+                    step.rho_T[p] * w[k + 2],
+                ],
                 PairState::Slide => {
                     let d = slip(w, p, problem.sliding_speed[p]).1;
-                    F[(i, 0)] = normal;
-                    F[(i + 1, 0)] = r[k + 1] - problem.mu * r[k] * d[0];
-                    F[(i + 2, 0)] = r[k + 2] - problem.mu * r[k] * d[1];
+                    [
+                        normal,
+                        r[k + 1] - problem.mu * r[k] * d[0],
+                        r[k + 2] - problem.mu * r[k] * d[1],
+                    ]
                 }
+            };
+            for (e, value) in values.into_iter().enumerate() {
+                F[(i + e, 0)] = value as f32;
             }
         }
     }
@@ -604,7 +613,7 @@ impl Factorisation {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Option<Report> {
-        let mut F = Mat::<f64>::zeros(self.offsets[self.states.len()], 1);
+        let mut F = Mat::<f32>::zeros(self.offsets[self.states.len()], 1);
         let mut last_residual = f64::INFINITY;
         for iteration in 1..=CHORD_ITERATIONS {
             self.laws(problem, step, r, w, &mut F);
@@ -613,7 +622,7 @@ impl Factorisation {
                 let (k, i) = (3 * p, self.offsets[p]);
                 match state {
                     PairState::Open => r[k..k + 3].fill(0.0),
-                    _ => (0..3).for_each(|d| r[k + d] -= correction[(i + d, 0)]),
+                    _ => (0..3).for_each(|d| r[k + d] -= correction[(i + d, 0)] as f64),
                 }
             }
             velocities(problem, r, w);
