@@ -1,11 +1,11 @@
 //! A reduction basis and the reduced matrices of a model on it, with the interface's static
 //! modes `Ψ_o = −K_oo⁻¹ K_oi` that map between full and reduced coordinates.
 
-use faer::{Mat, MatRef, Par};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::cholesky::Cholesky;
-use squeal_linalg::kernels::axpy;
 
 use super::{CscMatrix, Model};
 use crate::stage::StageError;
@@ -190,26 +190,19 @@ impl StaticModes {
     pub fn lift(&self, basis: &Basis, X: MatRef<'_, f64>) -> Mat<f64> {
         let n_i = self.interface.len();
         let mut U = self.static_displacement(X.subrows(0, n_i));
-        // U += Φ Q over fixed chunks of rows, each reading its slice of every vector once
-        // while its rows of U stay in cache; every entry sums over the vectors in order.
+        // U += Φ Q over fixed chunks of rows, each gathering its slice of every vector once
+        // into a block of Φ for one product (sequential within the chunk, so the bits do not
+        // depend on the thread count).
+        let Q = X.subrows(n_i, basis.vectors.len());
         U.as_mut()
             .par_row_chunks_mut(LIFT_ROWS)
             .enumerate()
-            .for_each(|(chunk, mut U_chunk)| {
-                let rows = chunk * LIFT_ROWS..chunk * LIFT_ROWS + U_chunk.nrows();
-                for (k, vector) in basis.vectors.iter().enumerate() {
-                    for col in 0..X.ncols() {
-                        let q = X[(n_i + k, col)];
-                        if q != 0.0 {
-                            let column = U_chunk
-                                .as_mut()
-                                .col_mut(col)
-                                .try_as_col_major_mut()
-                                .expect("a column of a column-major matrix");
-                            axpy(q, &vector[rows.clone()], column.as_slice_mut());
-                        }
-                    }
-                }
+            .for_each(|(chunk, U_chunk)| {
+                let first = chunk * LIFT_ROWS;
+                let Phi = Mat::from_fn(U_chunk.nrows(), basis.vectors.len(), |i, k| {
+                    basis.vectors[k][first + i]
+                });
+                matmul(U_chunk, Accum::Add, Phi.as_ref(), Q, 1.0, Par::Seq);
             });
         U
     }

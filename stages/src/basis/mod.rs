@@ -112,9 +112,9 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 3: the adaptive basis's probe is the transient of its version 10. (Its probes'
+        // 4: the adaptive basis's probe is the transient of its version 12. (Its probes'
         // last bits follow the transient's.)
-        3
+        4
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"

@@ -169,8 +169,10 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 12: Gauss–Seidel's sweeps are accelerated by Anderson mixing (11: a reduced model's
-        // step corrects by the response J⁻¹ Hᵀ); the last bits of every run.
+        // 12: Gauss–Seidel's sweeps are accelerated by Anderson mixing, the chord's Jacobian is
+        // factorised in single precision, a reduced run's snapshots are lifted by products of
+        // blocks (11: a reduced model's step corrects by the response J⁻¹ Hᵀ); the last bits
+        // of every run.
         12
     }
     fn doc(&self) -> &'static str {

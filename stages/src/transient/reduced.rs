@@ -30,7 +30,7 @@
 
 use faer::{Mat, Par};
 
-use super::scheme::{self, ContactState, Run, Snapshot, StepSample, Structure};
+use super::scheme::{self, ContactState, Run, StepSample, Structure};
 use crate::artifact::basis::StaticModes;
 use crate::artifact::{Basis, CscMatrix, Model};
 use crate::stage::StageError;
@@ -182,15 +182,16 @@ impl<'a> ReducedModel<'a> {
 
     /// Every snapshot's `u` and `v` lifted to the full DOFs.
     pub fn lift_snapshots(&self, basis: &Basis, run: &mut Run) {
-        let n_r = basis.n_reduced();
-        let columns = |field: fn(&Snapshot) -> &Vec<f64>| {
-            Mat::from_fn(n_r, run.snapshots.len(), |i, k| field(&run.snapshots[k])[i])
-        };
-        let U = self.static_modes.lift(basis, columns(|s| &s.u).as_ref());
-        let V = self.static_modes.lift(basis, columns(|s| &s.v).as_ref());
+        // The displacements and the velocities side by side: one pass over the vectors.
+        let (n_r, p) = (basis.n_reduced(), run.snapshots.len());
+        let X = Mat::from_fn(n_r, 2 * p, |i, k| {
+            let snapshot = &run.snapshots[k % p];
+            if k < p { snapshot.u[i] } else { snapshot.v[i] }
+        });
+        let UV = self.static_modes.lift(basis, X.as_ref());
         for (k, snapshot) in run.snapshots.iter_mut().enumerate() {
-            snapshot.u = U.col(k).iter().copied().collect();
-            snapshot.v = V.col(k).iter().copied().collect();
+            snapshot.u = UV.col(k).iter().copied().collect();
+            snapshot.v = UV.col(p + k).iter().copied().collect();
         }
     }
 }
