@@ -54,7 +54,8 @@ enum Command {
         /// Output directory [default: out/STEM, STEM the study file name without extension].
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Stages run at once [default: all cores].
+        /// Threads, shared by the stages that run at once and their parallel parts [default:
+        /// all cores].
         #[arg(long, short)]
         jobs: Option<usize>,
         /// Where the stages run: on this machine, or as jobs of a Slurm cluster (the cache,
