@@ -8,18 +8,22 @@
 //! subtracted afterwards in task order; then it sweeps the top alone. The backward sweep runs
 //! the top first, then the subtrees, each reading the top's values.
 //!
+//! Within a supernode (a dense block of columns and the rows below them, column-major) each
+//! column is read once, contiguously from its diagonal down: an `axpy` into the supernode's
+//! rows in the forward sweep, a `dot` with them in the backward one, on the widest vector unit
+//! ([`crate::kernels`]). faer's triangular solve and product on one vector read the default
+//! brake's factor at two thirds of that rate.
+//!
 //! A sweep is bound by reading the factor from memory, once per sweep: two cores read it at
 //! nearly twice the rate of one. The partition depends on the tree alone, never on the
 //! thread count, and so does every sum: the result is bit-identical on any number of threads
 //! (it differs from a sequential sweep in the last bits, by the order of the top's sums).
 
-use faer::linalg::matmul::matmul;
-use faer::linalg::triangular_solve::{
-    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
-};
+use faer::MatRef;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
-use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
+
+use crate::kernels::{axpy, dot};
 
 /// Subtrees swept as separate tasks, at most. Fixed, so that the partition and the sums do not
 /// depend on the thread count; enough to balance a few cores.
@@ -58,19 +62,19 @@ pub struct SubtreeSweeps {
 /// rows of that block.
 struct Block<'a> {
     start: usize,
+    /// The diagonal block over the block below it, column-major.
+    columns: MatRef<'a, f64>,
     diagonal: MatRef<'a, f64>,
-    below: MatRef<'a, f64>,
     rows: &'a [usize],
 }
 
 fn block<'a>(L: SupernodalLltRef<'a, usize, f64>, s: usize) -> Block<'a> {
     let supernode = L.supernode(s);
     let values = supernode.val();
-    let (diagonal, below) = values.split_at_row(values.ncols());
     Block {
         start: supernode.start(),
-        diagonal,
-        below,
+        columns: values,
+        diagonal: values.split_at_row(values.ncols()).0,
         rows: supernode.pattern(),
     }
 }
@@ -281,29 +285,49 @@ impl SubtreeSweeps {
     }
 }
 
-/// `x_s = L_ss⁻¹ x_s` on the supernode's leading entries of `x`, and `product = L_below x_s`.
-fn solve_diagonal(b: &Block<'_>, x: &mut [f64], product: &mut Vec<f64>) {
-    let size = b.diagonal.ncols();
-    let mut x_s = MatMut::from_column_major_slice_mut(&mut x[..size], size, 1);
-    solve_lower_triangular_in_place(b.diagonal, x_s.as_mut(), Par::Seq);
-    product.clear();
-    product.resize(b.rows.len(), 0.0);
-    let target = MatMut::from_column_major_slice_mut(product, b.rows.len(), 1);
-    matmul(target, Accum::Replace, b.below, x_s.as_ref(), 1.0, Par::Seq);
+/// Column `j` of a supernode, from its diagonal entry down (contiguous: column-major).
+fn column_from_diagonal<'a>(b: &Block<'a>, j: usize) -> &'a [f64] {
+    let column = b
+        .columns
+        .col(j)
+        .try_as_col_major()
+        .expect("a supernode is stored column-major")
+        .as_slice();
+    &column[j..]
 }
 
-/// `x_s = L_ss⁻ᵀ (x_s − L_belowᵀ below)` on the supernode's leading entries of `x`.
+/// `x_s = L_ss⁻¹ x_s` on the supernode's leading entries of `x`, and `product = L_below x_s`:
+/// column after column, each read once from its diagonal down (`axpy` on the widest vector
+/// unit) into `[x_s; −product]`.
+fn solve_diagonal(b: &Block<'_>, x: &mut [f64], product: &mut Vec<f64>) {
+    let size = b.diagonal.ncols();
+    product.clear();
+    product.extend_from_slice(&x[..size]);
+    product.resize(size + b.rows.len(), 0.0);
+    for j in 0..size {
+        let column = column_from_diagonal(b, j);
+        let x_j = product[j] / column[0];
+        product[j] = x_j;
+        axpy(-x_j, &column[1..], &mut product[j + 1..]);
+    }
+    x[..size].copy_from_slice(&product[..size]);
+    product.drain(..size);
+    for value in product.iter_mut() {
+        *value = -*value;
+    }
+}
+
+/// `x_s = L_ss⁻ᵀ (x_s − L_belowᵀ below)` on the supernode's leading entries of `x`: from the
+/// last column back, each read once from its diagonal down (`dot` on the widest vector unit)
+/// against `[x_s; below]`.
 fn solve_diagonal_transposed(b: &Block<'_>, x: &mut [f64], below: &[f64]) {
     let size = b.diagonal.ncols();
-    let mut x_s = MatMut::from_column_major_slice_mut(&mut x[..size], size, 1);
-    let below = MatRef::from_column_major_slice(below, below.len(), 1);
-    matmul(
-        x_s.as_mut(),
-        Accum::Add,
-        b.below.transpose(),
-        below,
-        -1.0,
-        Par::Seq,
-    );
-    solve_upper_triangular_in_place(b.diagonal.transpose(), x_s.as_mut(), Par::Seq);
+    let mut z = Vec::with_capacity(size + below.len());
+    z.extend_from_slice(&x[..size]);
+    z.extend_from_slice(below);
+    for j in (0..size).rev() {
+        let column = column_from_diagonal(b, j);
+        z[j] = (z[j] - dot(&column[1..], &z[j + 1..])) / column[0];
+    }
+    x[..size].copy_from_slice(&z[..size]);
 }

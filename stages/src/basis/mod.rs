@@ -112,9 +112,9 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 4: the adaptive basis's probe is the transient of its version 12. (Its probes'
+        // 5: the adaptive basis's probe is the transient of its version 13. (Its probes'
         // last bits follow the transient's.)
-        4
+        5
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"

@@ -169,11 +169,11 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 12: Gauss–Seidel's sweeps are accelerated by Anderson mixing, the chord's Jacobian is
-        // factorised in single precision, a reduced run's snapshots are lifted by products of
-        // blocks (11: a reduced model's step corrects by the response J⁻¹ Hᵀ); the last bits
-        // of every run.
-        12
+        // 13: the sweeps read each column of a supernode once, by the vector kernels (12:
+        // Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single precision, the
+        // snapshots lifted by products of blocks; 11: a reduced step corrects by the response
+        // J⁻¹ Hᵀ); the last bits of every run.
+        13
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
