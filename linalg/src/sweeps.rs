@@ -64,7 +64,6 @@ struct Block<'a> {
     start: usize,
     /// The diagonal block over the block below it, column-major.
     columns: MatRef<'a, f64>,
-    diagonal: MatRef<'a, f64>,
     rows: &'a [usize],
 }
 
@@ -74,7 +73,6 @@ fn block<'a>(L: SupernodalLltRef<'a, usize, f64>, s: usize) -> Block<'a> {
     Block {
         start: supernode.start(),
         columns: values,
-        diagonal: values.split_at_row(values.ncols()).0,
         rows: supernode.pattern(),
     }
 }
@@ -99,7 +97,7 @@ impl SubtreeSweeps {
         // subtrees.
         for s in 0..n_supernodes {
             let b = block(L, s);
-            weight[s] += b.diagonal.ncols() * (b.diagonal.ncols() + b.rows.len());
+            weight[s] += b.columns.ncols() * b.columns.nrows();
             match b.rows.first() {
                 Some(&row) => {
                     let parent = supernode_of_column[row];
@@ -242,12 +240,13 @@ impl SubtreeSweeps {
 
     /// `x = L⁻ᵀ y` in place (`x` in elimination order).
     pub fn backward(&self, L: SupernodalLltRef<'_, usize, f64>, x: &mut [f64]) {
-        let mut below = Vec::new();
+        let mut z = Vec::new();
         for &s in self.top.iter().rev() {
             let b = block(L, s);
-            below.clear();
-            below.extend(b.rows.iter().map(|&row| x[row]));
-            solve_diagonal_transposed(&b, &mut x[b.start..], &below);
+            z.clear();
+            z.resize(b.columns.ncols(), 0.0);
+            z.extend(b.rows.iter().map(|&row| x[row]));
+            solve_diagonal_transposed(&b, &mut x[b.start..], &mut z);
         }
         if self.tasks.is_empty() {
             return;
@@ -260,11 +259,12 @@ impl SubtreeSweeps {
             .map(|(task_id, task)| {
                 let mut local: Vec<f64> =
                     task.columns.iter().map(|&column| shared[column]).collect();
-                let mut below = Vec::new();
+                let mut z = Vec::new();
                 for &s in task.supernodes.iter().rev() {
                     let b = block(L, s);
-                    below.clear();
-                    below.extend(b.rows.iter().map(|&row| {
+                    z.clear();
+                    z.resize(b.columns.ncols(), 0.0);
+                    z.extend(b.rows.iter().map(|&row| {
                         if self.owner[row] == task_id as u32 {
                             local[self.slot[row] as usize]
                         } else {
@@ -272,7 +272,7 @@ impl SubtreeSweeps {
                         }
                     }));
                     let offset = self.slot[b.start] as usize;
-                    solve_diagonal_transposed(&b, &mut local[offset..], &below);
+                    solve_diagonal_transposed(&b, &mut local[offset..], &mut z);
                 }
                 local
             })
@@ -300,7 +300,7 @@ fn column_from_diagonal<'a>(b: &Block<'a>, j: usize) -> &'a [f64] {
 /// column after column, each read once from its diagonal down (`axpy` on the widest vector
 /// unit) into `[x_s; −product]`.
 fn solve_diagonal(b: &Block<'_>, x: &mut [f64], product: &mut Vec<f64>) {
-    let size = b.diagonal.ncols();
+    let size = b.columns.ncols();
     product.clear();
     product.extend_from_slice(&x[..size]);
     product.resize(size + b.rows.len(), 0.0);
@@ -317,14 +317,12 @@ fn solve_diagonal(b: &Block<'_>, x: &mut [f64], product: &mut Vec<f64>) {
     }
 }
 
-/// `x_s = L_ss⁻ᵀ (x_s − L_belowᵀ below)` on the supernode's leading entries of `x`: from the
-/// last column back, each read once from its diagonal down (`dot` on the widest vector unit)
-/// against `[x_s; below]`.
-fn solve_diagonal_transposed(b: &Block<'_>, x: &mut [f64], below: &[f64]) {
-    let size = b.diagonal.ncols();
-    let mut z = Vec::with_capacity(size + below.len());
-    z.extend_from_slice(&x[..size]);
-    z.extend_from_slice(below);
+/// `x_s = L_ss⁻ᵀ (x_s − L_belowᵀ below)` on the supernode's leading entries of `x`, `z` holding
+/// room for `x_s` and then `below`: from the last column back, each read once from its diagonal
+/// down (`dot` on the widest vector unit) against `[x_s; below]`.
+fn solve_diagonal_transposed(b: &Block<'_>, x: &mut [f64], z: &mut [f64]) {
+    let size = b.columns.ncols();
+    z[..size].copy_from_slice(&x[..size]);
     for j in (0..size).rev() {
         let column = column_from_diagonal(b, j);
         z[j] = (z[j] - dot(&column[1..], &z[j + 1..])) / column[0];

@@ -1,9 +1,9 @@
 //! The nonlinear transient of the default brake (`mesh.brake` defaults, μ = 0.38, ω = 4 rad/s,
 //! interference 0.1 mm), started by a normal velocity kick of the pads' contact nodes: the
-//! factorisation of J and the Delassus set-up, the cost of a step split into the sparse sweeps,
-//! the contact solve and the rest, against one plain solve with J's factor (repeated, and after
-//! a cache flush, the state a step's solve meets), then the whole run with its wall time and
-//! peak memory.
+//! factorisation of J and the Delassus set-up, the cost of a step split into its solve (the
+//! sparse sweeps and the interface products), the contact solve and the rest, against one plain
+//! solve with J's factor (repeated, and after a cache flush, the state a step's solve meets),
+//! then the whole run with its wall time and peak memory.
 //! Run with `cargo bench -p squeal-stages --bench transient`. `SQUEAL_BENCH_STEPS` (20,000),
 //! `SQUEAL_BENCH_TAU` (1e-6 s), `SQUEAL_BENCH_KICK` (1e-3 m/s) and `SQUEAL_BENCH_SOLVER`
 //! (`active_set`, `gauss_seidel` or `fixed_point`) override the run. `SQUEAL_BENCH_BASIS=N`
@@ -153,9 +153,9 @@ fn main() {
     );
     println!(
         "per step {step_ms:.3} ms: solve {:.3} ms, contact {:.3} ms, the rest {:.3} ms",
-        per_step(timings.sweeps),
+        per_step(timings.solve),
         per_step(timings.contact),
-        per_step(timings.steps - timings.sweeps - timings.contact),
+        per_step(timings.steps - timings.solve - timings.contact),
     );
     println!(
         "one plain solve {:.3} ms repeated, {:.3} ms after a cache flush (faer's sequential sweeps: {:.3}, {:.3} ms); step / solve = {:.2} (repeated), {:.2} (flushed)",

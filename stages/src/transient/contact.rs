@@ -64,6 +64,7 @@
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
+use squeal_linalg::kernels::{axpy, dot};
 
 /// Chord iterations tried before a step falls back to Gauss–Seidel.
 const CHORD_ITERATIONS: usize = 6;
@@ -265,25 +266,20 @@ const ANDERSON_DEPTH: usize = 5;
 /// while the pairs keep their states). `w` is affine in `r`, so `x⁺`'s velocities are the
 /// same combination of the sweeps' (`w(g_k) − ΔW γ`): no pass over `W`.
 struct Anderson {
-    depth: usize,
     /// The sweep's input `x` (kept by [`Anderson::start`]).
     input: Vec<f64>,
     /// The last sweep's `f`, `g` and `w(g)`, once there is one.
     last: Option<[Vec<f64>; 3]>,
-    /// The differences `ΔF`, `ΔG`, `ΔW`, oldest first.
+    /// The differences `ΔF`, `ΔG`, `ΔW` of the last [`ANDERSON_DEPTH`] sweeps, oldest first.
     differences: std::collections::VecDeque<[Vec<f64>; 3]>,
-    /// `ΔFᵀ ΔF`, row-major, of the kept differences.
-    gram: Vec<f64>,
 }
 
 impl Anderson {
-    fn new(depth: usize, n: usize) -> Anderson {
+    fn new(n: usize) -> Anderson {
         Anderson {
-            depth,
             input: vec![0.0; n],
             last: None,
-            differences: std::collections::VecDeque::with_capacity(depth),
-            gram: Vec::with_capacity(depth * depth),
+            differences: std::collections::VecDeque::with_capacity(ANDERSON_DEPTH),
         }
     }
 
@@ -295,53 +291,34 @@ impl Anderson {
     /// Takes the sweep's output `(r, w) = (g_k, w(g_k))` and replaces it with the next input.
     fn mix(&mut self, r: &mut [f64], w: &mut [f64]) {
         let f: Vec<f64> = r.iter().zip(&self.input).map(|(g, x)| g - x).collect();
-        let current = [f, r.to_vec(), w.to_vec()];
-        let Some(last) = self.last.replace(current) else {
+        let Some(last) = self.last.replace([f, r.to_vec(), w.to_vec()]) else {
             return;
         };
         let current = self.last.as_ref().expect("just kept");
-        let difference: [Vec<f64>; 3] = std::array::from_fn(|which| {
+        if self.differences.len() == ANDERSON_DEPTH {
+            self.differences.pop_front();
+        }
+        self.differences.push_back(std::array::from_fn(|which| {
             current[which]
                 .iter()
                 .zip(&last[which])
                 .map(|(new, old)| new - old)
                 .collect()
-        });
-        let m_before = self.differences.len();
-        if m_before == self.depth {
-            self.differences.pop_front();
-        }
-        self.differences.push_back(difference);
+        }));
+        // The normal equations of min ‖f_k − ΔF γ‖.
         let m = self.differences.len();
-        // The Gram matrix of ΔF: drop the oldest row and column if one left, add the newest.
-        let kept = m - 1;
-        let skip = m_before - kept;
-        let mut gram = vec![0.0; m * m];
-        for i in 0..kept {
-            for j in 0..kept {
-                gram[i * m + j] = self.gram[(i + skip) * m_before + j + skip];
-            }
-        }
-        let newest = &self.differences[kept][0];
-        for (i, older) in self.differences.iter().enumerate() {
-            let value = squeal_linalg::kernels::dot(&older[0], newest);
-            gram[i * m + kept] = value;
-            gram[kept * m + i] = value;
-        }
-        self.gram.clone_from(&gram);
-        let mut rhs: Vec<f64> = self
-            .differences
-            .iter()
-            .map(|difference| squeal_linalg::kernels::dot(&difference[0], &current[0]))
+        let dF = |i: usize| &self.differences[i][0];
+        let mut gram: Vec<f64> = (0..m * m)
+            .map(|k| dot(dF((k / m).min(k % m)), dF((k / m).max(k % m))))
             .collect();
+        let mut rhs: Vec<f64> = (0..m).map(|i| dot(dF(i), &current[0])).collect();
         let Some(gamma) = solve_small(&mut gram, &mut rhs, m) else {
             self.differences.clear();
-            self.gram.clear();
             return;
         };
         for (g, difference) in gamma.iter().zip(&self.differences) {
-            squeal_linalg::kernels::axpy(-g, &difference[1], r);
-            squeal_linalg::kernels::axpy(-g, &difference[2], w);
+            axpy(-g, &difference[1], r);
+            axpy(-g, &difference[2], w);
         }
     }
 }
@@ -402,7 +379,7 @@ fn iterate(
 ) -> Result<Report, NotConverged> {
     let mut history = Vec::new();
     let mut next = vec![0.0; r.len()];
-    let mut anderson = Anderson::new(ANDERSON_DEPTH, r.len());
+    let mut anderson = Anderson::new(r.len());
     for iteration in 1..=max_iterations {
         if gauss_seidel {
             anderson.start(r);
@@ -1065,7 +1042,7 @@ mod tests {
                 .collect()
         };
         let iterations = |accelerate: bool| {
-            let mut anderson = Anderson::new(ANDERSON_DEPTH, n);
+            let mut anderson = Anderson::new(n);
             let mut r = vec![0.0; n];
             for iteration in 1..=1000 {
                 anderson.start(&r);

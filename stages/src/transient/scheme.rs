@@ -132,7 +132,7 @@ pub struct Timings {
     /// `Y = L⁻¹ Pᵀ Hᵀ`, `W = Yᵀ Y` and the response `J⁻¹ Hᵀ` if kept.
     pub delassus: f64,
     /// The steps' solves but their contact problems: the sweeps and the interface products.
-    pub sweeps: f64,
+    pub solve: f64,
     /// The steps' contact problems.
     pub contact: f64,
     /// The steps, all of them.
@@ -371,7 +371,7 @@ impl<'s> Operators<'s> {
             },
         )?;
         timings.contact += contact_time;
-        timings.sweeps += clock.elapsed().as_secs_f64() - contact_time;
+        timings.solve += clock.elapsed().as_secs_f64() - contact_time;
         state.worst_contact_residual = state.worst_contact_residual.max(report.residual);
         state.most_contact_iterations = state.most_contact_iterations.max(report.iterations);
         if work.v_new.iter().any(|value| !value.is_finite()) {
