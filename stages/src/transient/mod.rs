@@ -669,7 +669,7 @@ fn integrate(
             );
         }
     };
-    scheme::integrate(
+    let run = scheme::integrate(
         structure,
         contact_state,
         settings,
@@ -700,7 +700,31 @@ fn integrate(
                 "transient: the velocity is not finite at step {step} (t = {t:.6e} s)"
             )),
         }
-    })
+    })?;
+    log_where_the_time_went(&run);
+    Ok(run)
+}
+
+/// Where a run's time went, at `squeal run -v`: what a user weighing run time against error
+/// (a basis, a time step) needs to see what limits a run. Never in an output: it is not
+/// reproducible.
+fn log_where_the_time_went(run: &Run) {
+    let timings = &run.timings;
+    let per_step = |seconds: f64| 1e3 * seconds / timings.steps_run.max(1) as f64;
+    tracing::info!(
+        "transient: {} unknowns, J factorised in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {:.2} ms a step: solves {:.2} ms, contact {:.2} ms ({} factorisations of the active set), the rest {:.2} ms",
+        run.unknowns,
+        timings.factor,
+        run.factor_len,
+        timings.delassus,
+        timings.steps_run,
+        timings.steps,
+        per_step(timings.steps),
+        per_step(timings.solve),
+        per_step(timings.contact),
+        run.contact_factorisations,
+        per_step(timings.steps - timings.solve - timings.contact),
+    );
 }
 
 fn outputs(

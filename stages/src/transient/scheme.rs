@@ -137,6 +137,8 @@ pub struct Timings {
     pub contact: f64,
     /// The steps, all of them.
     pub steps: f64,
+    /// Steps run in this process: fewer than the run's after a resume from a checkpoint.
+    pub steps_run: usize,
 }
 
 /// Why a run stopped.
@@ -585,6 +587,7 @@ pub fn integrate(
         &operators.contact_problem(&work.w_free, &work.w_n_min),
     );
     let steps_clock = std::time::Instant::now();
+    timings.steps_run = settings.n_steps.saturating_sub(state.step);
     while state.step < settings.n_steps {
         operators.advance(&mut state, &mut contact_solver, &mut work, &mut timings)?;
         if state.step < settings.n_steps && checkpoints.due() {
