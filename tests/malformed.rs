@@ -99,6 +99,15 @@ fn parameter_types_units_and_ranges() {
         "wrong_type_bool_for_float.yaml",
         "7:24: stages.slow.params.seconds: expected float >= 0, found true",
     );
+    // YAML 1.2: `true` and `false` are the booleans, `no` is a string.
+    check_file(
+        "bool_written_no.yaml",
+        "4:33: stages.stability.params.friction_damping: expected bool, found \"no\"",
+    );
+    check_file(
+        "wrong_type_mapping_for_float.yaml",
+        "4:22: stages.source.params.value: expected a number, string, bool or list",
+    );
     check_file(
         "wrong_unit.yaml",
         "7:24: stages.slow.params.seconds: unit `Hz` does not match the parameter's unit (`s`)",
@@ -251,7 +260,11 @@ fn bad_set_values() {
     );
     check(
         &run("source.value=[1, 2]"),
-        "--set source.value=[1, 2]: --set: the value is not a YAML scalar",
+        "--set source.value=[1, 2]: stages.source.params.value: expected float, found [1, 2]",
+    );
+    check(
+        &run("source.value={a: 1}"),
+        "--set source.value={a: 1}: --set: the value is not a YAML scalar or list",
     );
     check(
         &["plan", "missing_kind.yaml", "--target", "nowhere"],

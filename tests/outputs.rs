@@ -339,3 +339,84 @@ stages:
     }
     assert!(!stdout.contains("9999"), "{stdout}");
 }
+
+#[test]
+fn a_swept_path_resolves_against_the_study_folder_and_names_one_folder() {
+    let workspace = Workspace::new();
+    std::fs::create_dir_all(workspace.path().join("study/data")).unwrap();
+    for (name, scale) in [("a", 1.0), ("b", 2.0)] {
+        let rows: String = (0..4)
+            .map(|i| format!("{i},{}\n", scale * i as f64))
+            .collect();
+        workspace.write(&format!("study/data/{name}.csv"), &format!("t,x\n{rows}"));
+    }
+    workspace.write(
+        "study/signals.yaml",
+        "\
+stages:
+  read:
+    kind: signal.read
+    matrix: { path: [data/a.csv, data/b.csv] }
+",
+    );
+    // Run from the workspace, not the study's folder: the paths are the study's.
+    workspace.run_ok(&["run", "study/signals.yaml", "--out", "out"]);
+    for (name, scale) in [("a", 1.0), ("b", 2.0)] {
+        let signal = read_parquet(
+            &workspace
+                .path()
+                .join(format!("out/read/path=data%2F{name}.csv/signal.parquet")),
+        );
+        assert_eq!(
+            floats(&signal, "x"),
+            [0.0, 1.0, 2.0, 3.0].map(|x| scale * x)
+        );
+    }
+}
+
+#[test]
+fn a_list_parameter_takes_a_yaml_list_or_its_comma_separated_string() {
+    let workspace = Workspace::new();
+    workspace.write("signal.csv", "t,x,y,z\n0,1,2,3\n1,4,5,6\n");
+    let study = |columns: &str| {
+        format!(
+            "\
+stages:
+  read:
+    kind: signal.read
+    params: {{ path: signal.csv, {columns} }}
+"
+        )
+    };
+    for (file, columns) in [
+        ("list.yaml", "columns: [z, x]"),
+        ("text.yaml", "columns: \"z, x\""),
+    ] {
+        workspace.write(file, &study(columns));
+        let out = format!("out_{file}");
+        workspace.run_ok(&["run", file, "--out", &out]);
+        let signal = read_parquet(&workspace.path().join(out).join("read/signal.parquet"));
+        let names: Vec<&str> = signal
+            .schema_ref()
+            .fields()
+            .iter()
+            .map(|field| field.name().as_str())
+            .collect();
+        assert_eq!(names, ["t", "z", "x"], "{file}");
+    }
+    let plan = workspace.squeal(&["plan", "list.yaml", "--set", "read.columns=[y]"]);
+    assert!(plan.status.success());
+    let sweep = "\
+stages:
+  read:
+    kind: signal.read
+    params: { path: signal.csv }
+    matrix: { columns: [[x, y], [z]] }
+";
+    workspace.write("sweep.yaml", sweep);
+    let plan = workspace.squeal(&["plan", "sweep.yaml"]);
+    let stdout = String::from_utf8_lossy(&plan.stdout);
+    for name in ["read[columns=x, y]", "read[columns=z]"] {
+        assert!(stdout.contains(name), "{name}: {stdout}");
+    }
+}

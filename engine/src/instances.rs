@@ -62,11 +62,20 @@ impl Instances {
             .collect()
     }
 
-    /// The swept path segments of an instance (`mu=0.38`), for hive-style output folders.
+    /// The swept path segments of an instance (`mu=0.38`), for hive-style output folders. A
+    /// value's `/`, `\\` and `%` are percent-encoded (`path=meshes%2Ffine.msh`), so that each
+    /// coordinate is one folder; pyarrow's and duckdb's hive partitioning decode them.
     pub fn coord_segments(&self, instance: &Instance) -> Vec<String> {
         self.labelled(&instance.coords)
             .iter()
-            .map(|(label, value)| format!("{label}={value}"))
+            .map(|(label, value)| {
+                let value = value
+                    .to_string()
+                    .replace('%', "%25")
+                    .replace('/', "%2F")
+                    .replace('\\', "%5C");
+                format!("{label}={value}")
+            })
             .collect()
     }
 
@@ -112,7 +121,8 @@ impl Instances {
                 let mut params = decl.params.clone();
                 for (axis, value) in &coords {
                     if axes[*axis].stage == stage_idx {
-                        params.insert(axes[*axis].param.clone(), value.clone());
+                        let param = &axes[*axis].param;
+                        params.insert(param.clone(), study.swept_value(stage_idx, param, value));
                     }
                 }
                 let mut one_from = one_from.into_iter();

@@ -205,11 +205,24 @@ impl Context<'_> {
                 stage.version()
             ));
         }
+        // An empty string would read as nothing at all.
+        let shown = |text: &str| {
+            if text.is_empty() {
+                "\"\"".to_string()
+            } else {
+                text.to_string()
+            }
+        };
         for (name, value) in &instance.params {
+            let value = value.to_string();
             match previous.params.get(name) {
-                Some(old) if *old == value.to_string() => {}
-                Some(old) => reasons.push(format!("parameter `{name}` changed {old} → {value}")),
-                None => reasons.push(format!("parameter `{name}` is new ({value})")),
+                Some(old) if *old == value => {}
+                Some(old) => reasons.push(format!(
+                    "parameter `{name}` changed {} → {}",
+                    shown(old),
+                    shown(&value)
+                )),
+                None => reasons.push(format!("parameter `{name}` is new ({})", shown(&value))),
             }
         }
         for (port, artifacts) in inputs {

@@ -76,7 +76,8 @@ impl<T> Located<T> {
     }
 }
 
-/// A scalar as written in YAML (or on the command line), before it meets its declaration.
+/// A value as written in YAML (or on the command line), before it meets its declaration: a
+/// scalar, or a list of them for a list parameter.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(untagged)]
 pub enum RawValue {
@@ -84,6 +85,7 @@ pub enum RawValue {
     Int(i64),
     Float(f64),
     Str(String),
+    List(Vec<RawValue>),
 }
 
 impl fmt::Display for RawValue {
@@ -93,6 +95,10 @@ impl fmt::Display for RawValue {
             RawValue::Int(value) => write!(f, "{value}"),
             RawValue::Float(value) => write!(f, "{value}"),
             RawValue::Str(value) => write!(f, "\"{value}\""),
+            RawValue::List(items) => {
+                let items: Vec<String> = items.iter().map(ToString::to_string).collect();
+                write!(f, "[{}]", items.join(", "))
+            }
         }
     }
 }
@@ -215,9 +221,10 @@ pub fn file_location(file: &str, location: &serde_saphyr::Location) -> Location 
     }
 }
 
-/// Parses a study. `file` is the name used in error messages.
+/// Parses a study. `file` is the name used in error messages. Booleans are YAML 1.2's, `true`
+/// and `false` only: `[x, y]` is two names, not a name and `true`, and `no` is not `false`.
 pub fn parse(file: &str, text: &str) -> Result<RawStudy, SpecError> {
-    let options = serde_saphyr::options! { with_snippet: false };
+    let options = serde_saphyr::options! { with_snippet: false, strict_booleans: true };
     let mut path = String::new();
     let result = serde_saphyr::with_deserializer_from_str_with_options(text, options, |de| {
         serde_path_to_error::deserialize(de).map_err(|err| {
@@ -242,9 +249,10 @@ pub fn parse(file: &str, text: &str) -> Result<RawStudy, SpecError> {
     })
 }
 
-/// Parses one `--set` value as a YAML scalar.
-pub fn parse_scalar(text: &str) -> Option<RawValue> {
-    serde_saphyr::from_str(text).ok()
+/// Parses one `--set` value as YAML: a scalar, or a list (`[35, 36]`).
+pub fn parse_value(text: &str) -> Option<RawValue> {
+    let options = serde_saphyr::options! { strict_booleans: true };
+    serde_saphyr::from_str_with_options(text, options).ok()
 }
 
 /// The path as a user wrote it: without the `.value` that `Spanned` fields add, and without
@@ -292,7 +300,7 @@ fn plain_message(message: &str) -> String {
         return "expected a list of values or {start, stop, num}".into();
     }
     if first.contains("untagged enum RawValue") {
-        return "expected a scalar (number, string or bool)".into();
+        return "expected a number, string, bool or list".into();
     }
     first
         .replace("expected mapping start", "expected a mapping")
@@ -344,10 +352,19 @@ mod tests {
     }
 
     #[test]
-    fn scalars_parse_like_yaml() {
-        assert_eq!(parse_scalar("0.38"), Some(RawValue::Float(0.38)));
-        assert_eq!(parse_scalar("12"), Some(RawValue::Int(12)));
-        assert_eq!(parse_scalar("true"), Some(RawValue::Bool(true)));
-        assert_eq!(parse_scalar("40 mm"), Some(RawValue::Str("40 mm".into())));
+    fn values_parse_like_yaml() {
+        assert_eq!(parse_value("0.38"), Some(RawValue::Float(0.38)));
+        assert_eq!(parse_value("12"), Some(RawValue::Int(12)));
+        assert_eq!(parse_value("true"), Some(RawValue::Bool(true)));
+        assert_eq!(parse_value("y"), Some(RawValue::Str("y".into())));
+        assert_eq!(parse_value("no"), Some(RawValue::Str("no".into())));
+        assert_eq!(parse_value("40 mm"), Some(RawValue::Str("40 mm".into())));
+        assert_eq!(
+            parse_value("[35, hub]"),
+            Some(RawValue::List(vec![
+                RawValue::Int(35),
+                RawValue::Str("hub".into())
+            ]))
+        );
     }
 }

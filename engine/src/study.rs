@@ -2,7 +2,7 @@
 //! resolved to a typed output, no cycle. Nothing runs before this succeeds.
 
 use std::collections::{BTreeMap, HashMap};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use petgraph::graph::{DiGraph, NodeIndex};
@@ -66,8 +66,8 @@ impl std::str::FromStr for Override {
         if stage.is_empty() || param.is_empty() {
             return Err(error("expected stage.param=value"));
         }
-        let value =
-            spec::parse_scalar(text).ok_or_else(|| error("the value is not a YAML scalar"))?;
+        let value = spec::parse_value(text)
+            .ok_or_else(|| error("the value is not a YAML scalar or list"))?;
         Ok(Override {
             stage: stage.into(),
             param: param.into(),
@@ -111,6 +111,8 @@ pub struct Study {
     pub targets: Vec<usize>,
     /// What every Slurm job asks for unless the command line or a stage says otherwise.
     pub slurm: JobDefaults,
+    /// The study's folder, against which relative paths in the study resolve.
+    pub folder: PathBuf,
 }
 
 impl Study {
@@ -217,6 +219,7 @@ impl Study {
         };
         Ok(Study {
             slurm,
+            folder: base_dir.to_path_buf(),
             file: file.into(),
             name: raw.study.unwrap_or_else(|| default_name.into()),
             description: raw.description,
@@ -229,6 +232,25 @@ impl Study {
     pub fn index_of(&self, name: &str) -> Option<usize> {
         self.stages.iter().position(|stage| stage.name == name)
     }
+
+    /// A swept value as the stage receives it: a path resolved against the study's folder, like
+    /// a path in `params` (the instance keeps the value as written, for its name and folder).
+    pub fn swept_value(&self, stage: usize, param: &str, value: &Value) -> Value {
+        let is_path = self.stages[stage]
+            .stage
+            .params()
+            .iter()
+            .any(|spec| spec.name == param && spec.ty == ParamType::Path);
+        match value {
+            Value::Str(path) if is_path => Value::Str(resolved(&self.folder, path)),
+            _ => value.clone(),
+        }
+    }
+}
+
+/// `path` against `base` (an absolute `path` stays as it is).
+fn resolved(base: &Path, path: &str) -> String {
+    base.join(path).display().to_string()
 }
 
 /// What checking one stage needs to know of the whole study.
@@ -247,7 +269,7 @@ impl Validator<'_> {
             Location::File { .. } => self.base_dir.to_path_buf(),
             Location::CommandLine(_) => std::env::current_dir().unwrap_or_default(),
         };
-        base.join(path).display().to_string()
+        resolved(&base, path)
     }
 
     fn stage(

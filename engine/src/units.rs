@@ -30,7 +30,13 @@ pub fn convert(spec: &ParamSpec, raw: &RawValue) -> Result<Value, String> {
         (ParamType::Float { .. }, RawValue::Int(value)) => Value::Float(*value as f64),
         (ParamType::Float { .. }, RawValue::Float(value)) => Value::Float(*value),
         (ParamType::Float { .. }, RawValue::Str(text)) => Value::Float(with_unit(spec, text)?),
-        (ParamType::Str | ParamType::Path, RawValue::Str(text)) => Value::Str(text.clone()),
+        (ParamType::Str | ParamType::List | ParamType::Path, RawValue::Str(text)) => {
+            Value::Str(text.clone())
+        }
+        (ParamType::List, RawValue::List(items)) => Value::Str(comma_separated(items)?),
+        (ParamType::List, scalar @ (RawValue::Int(_) | RawValue::Float(_) | RawValue::Bool(_))) => {
+            Value::Str(scalar.to_string())
+        }
         (ParamType::Choice(choices), RawValue::Str(text)) if choices.contains(&text.as_str()) => {
             Value::Str(text.clone())
         }
@@ -38,6 +44,22 @@ pub fn convert(spec: &ParamSpec, raw: &RawValue) -> Result<Value, String> {
     };
     check_bounds(spec, &value)?;
     Ok(value)
+}
+
+/// A list's items as the one string a list parameter holds: `[35, hub]` → `"35, hub"`.
+fn comma_separated(items: &[RawValue]) -> Result<String, String> {
+    let items = items
+        .iter()
+        .map(|item| match item {
+            RawValue::Str(text) if text.contains(',') => Err(format!(
+                "item {item} holds a comma, which would split it in two"
+            )),
+            RawValue::Str(text) => Ok(text.clone()),
+            RawValue::List(_) => Err(format!("expected a list of scalars, found the list {item}")),
+            scalar => Ok(scalar.to_string()),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(items.join(", "))
 }
 
 fn check_bounds(spec: &ParamSpec, value: &Value) -> Result<(), String> {
@@ -187,6 +209,42 @@ mod tests {
             &method,
             RawValue::Str("qz".into()),
             Err("expected one of krylov | projection"),
+        );
+    }
+
+    #[test]
+    fn a_list_is_kept_as_its_comma_separated_string() {
+        let modes = ParamSpec::list("modes", "", "mode numbers");
+        let text = |value: &str| Ok(Value::Str(value.into()));
+        let list = |items: Vec<RawValue>| RawValue::List(items);
+        check(
+            &modes,
+            list(vec![RawValue::Int(35), RawValue::Int(36)]),
+            text("35, 36"),
+        );
+        check(&modes, RawValue::Str("35, 36".into()), text("35, 36"));
+        check(&modes, list(vec![]), text(""));
+        check(
+            &modes,
+            list(vec![RawValue::Str("hub".into()), RawValue::Float(0.5)]),
+            text("hub, 0.5"),
+        );
+        check(
+            &modes,
+            list(vec![RawValue::Str("a, b".into())]),
+            Err("holds a comma"),
+        );
+        check(
+            &modes,
+            list(vec![list(vec![RawValue::Int(1)])]),
+            Err("expected a list of scalars, found the list [1]"),
+        );
+        check(&modes, RawValue::Int(35), text("35"));
+        let count = ParamSpec::int("n", 4, "count");
+        check(
+            &count,
+            list(vec![RawValue::Int(1)]),
+            Err("expected int, found [1]"),
         );
     }
 }

@@ -83,7 +83,9 @@ mod tests {
             ParamType::Bool => Value::Bool(false),
             ParamType::Int { min } => Value::Int((*min).max(1)),
             ParamType::Float { min } => Value::Float(min.max(1.0)),
-            ParamType::Str | ParamType::Path => Value::Str("placeholder".to_string()),
+            ParamType::Str | ParamType::List | ParamType::Path => {
+                Value::Str("placeholder".to_string())
+            }
             ParamType::Choice(names) => Value::Str(names[0].to_string()),
         }
     }

@@ -42,6 +42,9 @@ pub enum ParamType {
         min: f64,
     },
     Str,
+    /// A list, kept as one string with its items comma-separated; written as a YAML list
+    /// (`[35, 36]`) or as that string (`"35, 36"`).
+    List,
     /// A file path. The engine makes a relative path absolute: relative to the study's folder
     /// when written in the study, to the working directory when given on the command line.
     Path,
@@ -58,6 +61,7 @@ impl fmt::Display for ParamType {
             ParamType::Float { min } if min.is_finite() => write!(f, "float >= {min}"),
             ParamType::Float { .. } => f.write_str("float"),
             ParamType::Str => f.write_str("string"),
+            ParamType::List => f.write_str("list"),
             ParamType::Path => f.write_str("path"),
             ParamType::Choice(names) => write!(f, "one of {}", names.join(" | ")),
         }
@@ -110,6 +114,14 @@ impl ParamSpec {
             default,
             unit: "",
             doc,
+        }
+    }
+
+    /// A list (see [`ParamType::List`]); its default is written comma-separated.
+    pub fn list(name: &'static str, default: &str, doc: &'static str) -> Self {
+        ParamSpec {
+            ty: ParamType::List,
+            ..ParamSpec::string(name, default, doc)
         }
     }
 

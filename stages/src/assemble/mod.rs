@@ -57,7 +57,7 @@ impl Stage for Assemble {
             "pad",
             [3e8, 0.3, 5102.0, 54.375, 72.5e-8],
         ));
-        params.push(ParamSpec::string("clamped", "hub,pad_backs", "comma-separated node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body"));
+        params.push(ParamSpec::list("clamped", "hub,pad_backs", "node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body"));
         params
     }
 

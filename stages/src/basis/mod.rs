@@ -150,10 +150,10 @@ impl Stage for ReductionBasis {
                 "cut-off over the highest unstable frequency, when f_cutoff_hz is 0",
             )
             .at_least(0.0),
-            ParamSpec::string(
+            ParamSpec::list(
                 "modes",
                 "",
-                "kind modes: complex mode numbers of the stability tables, comma separated",
+                "kind modes: complex mode numbers of the stability tables",
             ),
             ParamSpec::float(
                 "rank_tolerance",

@@ -45,10 +45,10 @@ impl Stage for Pareto {
         "Run time against error over a sweep of bases: one table with speed-ups and errors, the Pareto fronts, and their figure"
     }
     fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::string(
+        vec![ParamSpec::list(
             "errors",
             "freq_error, level_error_db, time_advance, rms, mac_min",
-            "error columns plotted against run time, comma separated",
+            "error columns plotted against run time",
         )]
     }
     fn inputs(&self) -> Vec<PortSpec> {

@@ -3,12 +3,11 @@
 //! **Not pure.** This is the one stage of the crate that reads a file: its result depends on
 //! bytes the engine does not hash, so it declares [`Stage::pure`] `false` and the engine never
 //! caches it (it reruns every time; its *output* digest still lets unchanged data stop the
-//! cascade downstream). A relative `path` is resolved against the working directory of the
-//! process.
+//! cascade downstream). The engine resolves a relative `path` against the study's folder.
 //!
 //! The file holds a time column (seconds, strictly increasing) and signal columns. The output
 //! table names the time column `t` whatever its name in the file, and keeps the signal columns
-//! (all of them, or those listed in `columns`) in file order, as f64.
+//! as f64: all of them in file order, or those listed in `columns` in the listed order.
 //!
 //! - **Parquet**: any integer or floating-point column type; nulls are errors. Pandas' index
 //!   columns (`__index_level_N__`) are skipped unless listed.
@@ -67,10 +66,10 @@ impl Stage for Read {
                 TIME_COLUMN,
                 "the time column (s, strictly increasing); named `t` in the output",
             ),
-            ParamSpec::string(
+            ParamSpec::list(
                 "columns",
                 "",
-                "signal columns to keep, comma-separated (empty: every other column)",
+                "signal columns to keep (empty: every other column)",
             ),
             ParamSpec::choice(
                 "format",

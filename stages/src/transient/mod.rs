@@ -241,10 +241,10 @@ impl Stage for Transient {
                 "steps between rows of history, points and energy",
             )
             .at_least(1.0),
-            ParamSpec::string(
+            ParamSpec::list(
                 "record_pairs",
                 "",
-                "contact pairs recorded in points, comma separated (empty: four spread over the pairs)",
+                "contact pairs recorded in points (empty: four spread over the pairs)",
             ),
             ParamSpec::float(
                 "snapshot_window",

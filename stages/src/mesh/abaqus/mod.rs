@@ -114,10 +114,10 @@ impl Stage for AbaqusImport {
                 unit: "",
                 doc: "the .inp file (relative to the study's folder)",
             },
-            ParamSpec::string(
+            ParamSpec::list(
                 "parts",
                 "disc, pad",
-                "comma-separated element sets (or instances) that are the parts; every element in exactly one",
+                "element sets (or instances) that are the parts; every element in exactly one",
             ),
         ]
         .into_iter()
