@@ -24,6 +24,8 @@ use crate::stage::StageError;
 pub struct Basis {
     /// Which family the vectors come from (`fc`, `real`, `craig_bampton`, `modes`).
     pub kind: String,
+    /// [`Model::fingerprint`] of the model the reduced matrices come from.
+    pub model: [u8; 32],
     /// The interface DOFs, ascending: the first coordinates of `x`.
     pub interface: Vec<u32>,
     /// `Φ` over the free DOFs, one vector per column of `T` after the interface's.
@@ -38,6 +40,29 @@ impl Basis {
     /// Coordinates of the reduced model: interface DOFs plus vectors.
     pub fn n_reduced(&self) -> usize {
         self.interface.len() + self.vectors.len()
+    }
+
+    /// An error unless the basis was built on `model` (its reduced matrices are that model's).
+    pub fn check_built_on(&self, model: &Model) -> Result<(), StageError> {
+        if self.model == model.fingerprint() {
+            return Ok(());
+        }
+        let what = if self
+            .vectors
+            .first()
+            .is_some_and(|vector| vector.len() != model.n_dofs())
+        {
+            format!(
+                "it spans {} DOFs, the model has {}",
+                self.vectors[0].len(),
+                model.n_dofs()
+            )
+        } else {
+            "its reduced matrices come from other mass, damping or stiffness matrices".to_string()
+        };
+        Err(StageError::new(format!(
+            "the basis was built on another model: {what}; wire the basis stage's `model` input to this stage's model"
+        )))
     }
 }
 

@@ -54,6 +54,31 @@ impl Model {
         self.K.n_rows
     }
 
+    /// A digest of `M`, `C`, `K` (patterns and values): what a reduction basis's reduced
+    /// matrices were projected from, so that a basis meets only the model it was built on.
+    pub fn fingerprint(&self) -> [u8; 32] {
+        let mut hasher = blake3::Hasher::new();
+        for A in [&self.M, &self.C, &self.K] {
+            let words = [A.n_rows, A.n_cols]
+                .into_iter()
+                .chain(A.col_ptr.iter().copied())
+                .chain(A.row_idx.iter().copied())
+                .map(|count| count as u64)
+                .chain(A.values.iter().map(|value| value.to_bits()));
+            // Through a buffer: blake3 is fast on long updates, slow on 8-byte ones.
+            let mut buffer = Vec::with_capacity(1 << 16);
+            for word in words {
+                buffer.extend_from_slice(&word.to_le_bytes());
+                if buffer.len() == buffer.capacity() {
+                    hasher.update(&buffer);
+                    buffer.clear();
+                }
+            }
+            hasher.update(&buffer);
+        }
+        *hasher.finalize().as_bytes()
+    }
+
     /// A wide table of fields over the free DOFs: columns `node`, `dir`, `dof` (−1 where clamped),
     /// then one f64 column per field; one row per node and direction, zeros on clamped DOFs.
     pub fn nodal_table(&self, fields: Vec<(String, Vec<f64>)>) -> Table {

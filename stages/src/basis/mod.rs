@@ -112,9 +112,9 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 5: the adaptive basis's probe is the transient of its version 13. (Its probes'
-        // last bits follow the transient's.)
-        5
+        // 6: the basis holds its model's fingerprint. 5: the adaptive basis's probe is the
+        // transient of its version 13. (Its probes' last bits follow the transient's.)
+        6
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"
@@ -810,6 +810,8 @@ struct Reduction {
     matrices: [Mat<f64>; 3],
     /// The largest `max |B − Bᵀ| / max |B|` over the diagonal blocks `B` computed, per matrix.
     asymmetry: [f64; 3],
+    /// [`Model::fingerprint`] of the model the matrices are projected from.
+    model: [u8; 32],
 }
 
 impl Reduction {
@@ -820,6 +822,7 @@ impl Reduction {
             T: Mat::zeros(model.n_dofs(), 0),
             matrices: std::array::from_fn(|_| Mat::zeros(0, 0)),
             asymmetry: [0.0; 3],
+            model: model.fingerprint(),
         };
         let S = static_modes.static_displacement(Mat::<f64>::identity(n_i, n_i).as_ref());
         reduction.extend(model, S.as_ref());
@@ -869,6 +872,7 @@ impl Reduction {
         };
         Basis {
             kind: kind.to_string(),
+            model: self.model,
             interface: interface.iter().map(|&dof| dof as u32).collect(),
             vectors: (n_i..self.T.ncols())
                 .map(|k| self.T.col(k).iter().copied().collect())

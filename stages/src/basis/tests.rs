@@ -279,6 +279,31 @@ fn bad_requests_are_refused_with_what_is_missing() {
 }
 
 #[test]
+fn a_transient_refuses_a_basis_built_on_another_model() {
+    let inputs = brake_inputs();
+    let basis = fc_basis(&inputs, &[("n_modes", Value::Int(4))])["basis"].clone();
+    let model = inputs.get::<Model>("model").unwrap();
+    let params = stage_params(&[("duration", Value::Float(1e-5))]);
+    let run_on = |model: Model| {
+        let mut inputs = inputs.clone();
+        insert(&mut inputs, "model", Artifact::Model(Box::new(model)));
+        insert(&mut inputs, "basis", basis.clone());
+        Transient.run(&params, &inputs).map(drop)
+    };
+    assert!(run_on(model.clone()).is_ok(), "the basis's own model");
+    // The same mesh and DOFs, a stiffer material: the basis's reduced matrices are the old
+    // model's, so the run is refused, not run on them.
+    let mut stiffer = model.clone();
+    stiffer.K.values.iter_mut().for_each(|value| *value *= 1.01);
+    let message = run_on(stiffer).unwrap_err().to_string();
+    assert!(
+        message
+            .contains("the basis was built on another model: its reduced matrices come from other"),
+        "{message}"
+    );
+}
+
+#[test]
 fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
     let mut inputs = brake_inputs();
     // Every complex mode below 8 kHz, then only the lightly damped ones.

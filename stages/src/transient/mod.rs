@@ -374,6 +374,11 @@ impl Stage for Transient {
             }
         };
         let basis = inputs.get_optional::<Basis>("basis")?;
+        if let Some(basis) = basis {
+            basis
+                .check_built_on(model)
+                .map_err(|err| StageError::new(format!("transient: {}", err.message)))?;
+        }
         let samples = if basis.is_some() {
             params.indicator_samples as usize
         } else {
