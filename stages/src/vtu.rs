@@ -163,13 +163,7 @@ fn nodal_vectors(model: &Model, field: &[f64]) -> Vec<f64> {
 /// and the normal gap (m).
 pub fn equilibrium_vtu(model: &Model, equilibrium: &Equilibrium) -> Result<String, StageError> {
     model.check_dof_map()?;
-    if equilibrium.u.len() != model.n_dofs()
-        || equilibrium.r_n.len() != model.mesh.contact_pairs.len()
-    {
-        return Err(StageError::new(
-            "the equilibrium does not belong to this model",
-        ));
-    }
+    equilibrium.check_belongs_to(model)?;
     let n_nodes = model.mesh.n_nodes();
     let (mut pressure, mut gap) = (vec![0.0; n_nodes], vec![0.0; n_nodes]);
     for ((pair, r_n), pair_gap) in model

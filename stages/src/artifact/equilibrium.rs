@@ -3,6 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::Model;
+use crate::stage::StageError;
+
 /// The local frame and sliding speed of every contact pair.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ContactFrames {
@@ -28,4 +31,31 @@ pub struct Equilibrium {
     pub frames: ContactFrames,
     pub mu: f64,
     pub omega: f64,
+}
+
+impl Equilibrium {
+    /// An error unless the equilibrium has `model`'s DOFs and contact pairs (one wired from
+    /// another model's stage would be read as this one's).
+    pub fn check_belongs_to(&self, model: &Model) -> Result<(), StageError> {
+        let n_pairs = model.mesh.contact_pairs.len();
+        let frames = &self.frames;
+        let pair_lengths = [
+            self.r_n.len(),
+            self.gap.len(),
+            self.closed.len(),
+            frames.n.len(),
+            frames.t.len(),
+            frames.b.len(),
+            frames.sliding_speed.len(),
+        ];
+        if self.u.len() != model.n_dofs() || pair_lengths.iter().any(|&len| len != n_pairs) {
+            return Err(StageError::new(format!(
+                "the equilibrium does not belong to this model: it has {} DOFs and {} contact pairs, the model {} and {n_pairs}; wire the equilibrium stage's `model` input to this stage's model",
+                self.u.len(),
+                self.r_n.len(),
+                model.n_dofs()
+            )));
+        }
+        Ok(())
+    }
 }

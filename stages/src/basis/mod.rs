@@ -272,13 +272,9 @@ impl Stage for ReductionBasis {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         model.check_dof_map()?;
-        if equilibrium.u.len() != model.n_dofs() {
-            return Err(StageError::new(format!(
-                "basis: the equilibrium has {} DOFs, the model {}",
-                equilibrium.u.len(),
-                model.n_dofs()
-            )));
-        }
+        equilibrium
+            .check_belongs_to(model)
+            .map_err(|err| StageError::new(format!("basis: {}", err.message)))?;
         let interface = interface_dofs(model);
         if interface.is_empty() {
             return Err(StageError::new(

@@ -2,7 +2,8 @@
 //! weigh against the run time.
 //!
 //! Both runs are `transient` tables: `history` (t, u_n, u_t, v_n, v_t, kinetic, open, stick,
-//! slide) and, optionally, `snapshots` with the `mass` on their rows. Reported, in one row:
+//! slide) and, optionally, `snapshots` with the `mass` on their rows, over the same time span
+//! (their time steps may differ; their ends by a sample). Reported, in one row:
 //!
 //! - **Spectral peaks** of `column` (the kinetic energy by default, the seed's figure 4) over
 //!   each run's final window: the reference's `n_peaks` highest peaks, each matched to the
@@ -68,7 +69,9 @@ impl Stage for Compare {
         "compare"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: runs over different time spans are refused (their comparisons cached by 1 were
+        // meaningless); the outputs of the others are the same bytes.
+        2
     }
     fn doc(&self) -> &'static str {
         "A transient run beside a reference: spectral peak frequencies and levels, time advance of the growth, RMS of the contact averages, contact states, MAC of the principal shapes"
@@ -164,6 +167,7 @@ impl Stage for Compare {
         let params: CompareParams = params.typed()?;
         let reference = Run::read(inputs.table("reference")?, "reference")?;
         let candidate = Run::read(inputs.table("candidate")?, "candidate")?;
+        same_time_span(&reference, &candidate)?;
         let duration = reference.t[reference.t.len() - 1] - reference.t[0];
         let window_s = if params.window_s > 0.0 {
             params.window_s
@@ -248,6 +252,24 @@ impl Stage for Compare {
             ("spectra".to_string(), Artifact::Figure(figure)),
         ]))
     }
+}
+
+/// Runs over different spans would be compared over different final windows and envelopes:
+/// refused. Their ends may differ by a sample (a step count rounded from the duration).
+fn same_time_span(reference: &Run, candidate: &Run) -> Result<(), StageError> {
+    let span = |run: &Run| (run.t[0], run.t[run.t.len() - 1]);
+    let spacing = |run: &Run| run.t[1] - run.t[0];
+    let (reference_span, candidate_span) = (span(reference), span(candidate));
+    let slack = spacing(reference).max(spacing(candidate));
+    if (reference_span.0 - candidate_span.0).abs() > slack
+        || (reference_span.1 - candidate_span.1).abs() > slack
+    {
+        return Err(StageError::new(format!(
+            "the reference runs from {:.6e} to {:.6e} s, the candidate from {:.6e} to {:.6e} s: compare runs over the same time span (give both transients the same duration)",
+            reference_span.0, reference_span.1, candidate_span.0, candidate_span.1
+        )));
+    }
+    Ok(())
 }
 
 /// `max`, NaN if either is.
@@ -693,6 +715,37 @@ mod tests {
         // (a 0.008 s window: 125 Hz bins).
         let peak = value(&errors, "peak_1_hz");
         assert!((peak - 2468.0).abs() < 0.1 * 125.0, "{peak} Hz");
+    }
+
+    #[test]
+    fn runs_over_different_time_spans_are_refused() {
+        let reference = history(0.0, 1234.0, 1.0);
+        let mut inputs = Inputs(BTreeMap::from([(
+            "reference".to_string(),
+            Input::One(Arc::new(Artifact::Table(reference.clone()))),
+        )]));
+        let t = f64_column(&reference, "t").unwrap();
+        let keep = t.len() / 2;
+        let mut shorter = Table::new();
+        for column in reference.columns() {
+            let ColumnData::F64(values) = &column.data else {
+                panic!("f64 history")
+            };
+            shorter = shorter.with(column.name.clone(), values[..keep].to_vec());
+        }
+        inputs.0.insert(
+            "candidate".to_string(),
+            Input::One(Arc::new(Artifact::Table(shorter))),
+        );
+        let message = Compare
+            .run(&Params::defaults(&Compare, &[]), &inputs)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("the candidate from 0.000000e0 to 1.999000e-2 s")
+                && message.contains("same time span"),
+            "{message}"
+        );
     }
 
     #[test]

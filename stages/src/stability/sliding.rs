@@ -221,14 +221,7 @@ impl SlidingSystem {
         friction_damping: bool,
     ) -> Result<SlidingSystem, StageError> {
         let n = model.n_dofs();
-        let pairs = &model.mesh.contact_pairs;
-        if equilibrium.closed.len() != pairs.len() || equilibrium.r_n.len() != pairs.len() {
-            return Err(StageError::new(format!(
-                "the equilibrium has {} pairs, the model {}: they do not come from the same mesh",
-                equilibrium.closed.len(),
-                pairs.len()
-            )));
-        }
+        equilibrium.check_belongs_to(model)?;
         let mu = equilibrium.mu;
         let frames: &ContactFrames = &equilibrium.frames;
         let columns = contact::h_columns(model, frames);

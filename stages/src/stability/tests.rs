@@ -361,6 +361,24 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
 }
 
 #[test]
+fn an_equilibrium_of_another_model_is_refused() {
+    let mesh = small_brake();
+    let (clamped, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let (free_pads, _) = test_model(&mesh, "hub", &[]);
+    let equilibrium = equilibrium_of(&clamped, 0.38);
+    let err = solve(&free_pads, &equilibrium, &Settings::default())
+        .err()
+        .unwrap();
+    let expected = format!(
+        "the equilibrium does not belong to this model: it has {} DOFs and {} contact pairs, the model {} and",
+        clamped.n_dofs(),
+        mesh.contact_pairs.len(),
+        free_pads.n_dofs()
+    );
+    assert!(err.message.contains(&expected), "{err}");
+}
+
+#[test]
 fn an_equilibrium_without_contact_is_an_error() {
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);

@@ -452,20 +452,9 @@ pub fn structure_of<'a>(
     model: &'a Model,
     equilibrium: &Equilibrium,
 ) -> Result<(Structure<'a>, ContactState), StageError> {
+    equilibrium.check_belongs_to(model)?;
     let n_pairs = model.mesh.contact_pairs.len();
     let frames = &equilibrium.frames;
-    if equilibrium.u.len() != model.n_dofs()
-        || equilibrium.r_n.len() != n_pairs
-        || equilibrium.gap.len() != n_pairs
-        || frames.n.len() != n_pairs
-    {
-        return Err(StageError::new(format!(
-            "the equilibrium does not belong to this model: {} DOFs and {} pairs, the model has {} and {n_pairs}",
-            equilibrium.u.len(),
-            equilibrium.r_n.len(),
-            model.n_dofs()
-        )));
-    }
     let mut r_e = Vec::with_capacity(3 * n_pairs);
     for (p, &r_n) in equilibrium.r_n.iter().enumerate() {
         let closed = equilibrium.closed[p];
@@ -549,7 +538,7 @@ fn chosen_mode(
             let dof = dof as usize;
             if dof >= n_dofs {
                 return Err(StageError::new(format!(
-                    "the shapes table names DOF {dof}, the model has {n_dofs}"
+                    "the shapes table names DOF {dof}, past the model's {n_dofs} DOFs: it comes from another model's stability stage"
                 )));
             }
             shape[dof] = c64::new(real[row], imaginary[row]);
