@@ -59,7 +59,7 @@ impl ComplexModes {
         }
         if parts.is_empty() {
             return Err(StageError::new(
-                "modes: no `mode_NNNN_re` / `mode_NNNN_im` columns",
+                "modes: no `mode_NNNN_re` / `mode_NNNN_im` columns: no mode to take (did the stability stage find none in its band?)",
             ));
         }
         let mode_column = match frequencies.column("mode") {

@@ -269,6 +269,12 @@ impl Stage for ReductionBasis {
         context: &RunContext,
     ) -> Result<Outputs, StageError> {
         let params: BasisParams = params.typed()?;
+        if !(params.rank_tolerance > 0.0 && params.rank_tolerance < 1.0) {
+            return Err(StageError::new(format!(
+                "basis: rank_tolerance = {}: a fraction of a vector's norm, between 0 and 1 (exclusive)",
+                params.rank_tolerance
+            )));
+        }
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         model.check_dof_map()?;

@@ -243,6 +243,13 @@ fn bad_requests_are_refused_with_what_is_missing() {
     assert!(message.contains("mode 99999"), "{message}");
     let message = refuse(&[("n_modes", Value::Int(100_000))], &inputs);
     assert!(message.contains("n_modes = 100000"), "{message}");
+    for tolerance in [0.0, 1.0] {
+        let message = refuse(&[("rank_tolerance", Value::Float(tolerance))], &inputs);
+        assert!(
+            message.contains(&format!("rank_tolerance = {tolerance}: a fraction")),
+            "{message}"
+        );
+    }
     let mut without_stability = inputs.clone();
     without_stability.0.remove("eigenvalues");
     let message = refuse(&[], &without_stability);
