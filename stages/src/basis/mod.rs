@@ -287,6 +287,20 @@ impl Stage for ReductionBasis {
                 "basis: the model has no contact pair, so no interface to keep",
             ));
         }
+        // The phases' shares of an fc build on the default brake; an adaptive basis reports
+        // its rounds instead.
+        let phase = |fraction: f64, message: String| {
+            let fraction = if params.kind == "adaptive" {
+                0.0
+            } else {
+                fraction
+            };
+            context.progress.report(fraction, &message);
+        };
+        phase(
+            0.0,
+            format!("static modes of the {} interface DOFs", interface.len()),
+        );
         let static_modes = StaticModes::new(model, &interface)?;
         let sources = Sources {
             eigenvalues: inputs.get_optional("eigenvalues")?,
@@ -296,11 +310,23 @@ impl Stage for ReductionBasis {
         let cutoff_hz = cutoff(&params, &sources)?;
         let (mut candidates, mut completion) =
             candidates_of(&params, model, equilibrium, &sources, &interface, cutoff_hz)?;
+        phase(
+            0.05,
+            format!(
+                "M-orthonormalising {} candidates",
+                candidates.len() + completion.len()
+            ),
+        );
         let mut span = MSpan::with_capacity(model.n_dofs(), candidates.len() + completion.len());
         candidates.add_to(&mut span, &static_modes, &model.M, params.rank_tolerance);
         let kept_completion =
             completion.add_to(&mut span, &static_modes, &model.M, COMPLETION_FRACTION);
+        phase(
+            0.4,
+            format!("M, C, K on the {} static modes", interface.len()),
+        );
         let mut reduction = Reduction::new(model, &static_modes);
+        phase(0.75, format!("M, C, K on the {} vectors", span.len()));
         reduction.extend(model, span.vectors());
         let mut lists = vec![candidates, completion];
         let rounds = if params.kind == "adaptive" {
@@ -328,6 +354,7 @@ impl Stage for ReductionBasis {
         } else {
             Vec::new()
         };
+        phase(0.95, "checking the vectors' orthonormality".to_string());
         let orthonormality = orthonormality_error(&model.M, span.vectors());
         let basis = reduction.basis(&params.kind, &interface);
         let n_candidates: usize = lists.iter().map(Candidates::len).sum();
