@@ -10,61 +10,35 @@ use crate::Error;
 /// Rows per parallel task in a product: large enough to amortise scheduling.
 const ROWS_PER_TASK: usize = 2048;
 
-/// Columns of `X` per pass over `A`. One pass keeps its rows of `X` (8 bytes a column) in
-/// cache while `A` streams: a row of `A X` reads the rows of `X` of its ~80 neighbours, and
-/// the rows of a whole basis (thousands of columns) would come from memory each time.
-const COLUMNS_PER_PASS: usize = 64;
-
 /// `Y = A X` for a symmetric `A` stored with both triangles. Row `j` of `A X` is column `j` of
 /// `A` dotted with `X` (symmetry), so each output entry is one sequential sum: parallel and
-/// deterministic. `X` is copied row-major, [`COLUMNS_PER_PASS`] columns at a time, so that one
-/// pass over `A` serves those columns; the passes change no sum's order.
+/// deterministic. `X` is first copied row-major so that one pass over `A` serves every column.
 pub fn symmetric_mul(A: &CscMatrix, X: MatRef<'_, f64>) -> Mat<f64> {
     let (n, p) = (A.n_rows, X.ncols());
-    let mut Y = Mat::<f64>::zeros(n, p);
-    let width = COLUMNS_PER_PASS.min(p);
-    let (mut X_rows, mut Y_rows) = (vec![0.0; n * width], vec![0.0; n * width]);
-    for first in (0..p).step_by(COLUMNS_PER_PASS) {
-        let b = COLUMNS_PER_PASS.min(p - first);
-        let (X_rows, Y_rows) = (&mut X_rows[..n * b], &mut Y_rows[..n * b]);
-        for k in 0..b {
-            for (i, value) in X.col(first + k).iter().enumerate() {
-                X_rows[i * b + k] = *value;
-            }
-        }
-        Y_rows
-            .par_chunks_mut(ROWS_PER_TASK * b)
-            .enumerate()
-            .for_each(|(chunk, Y_chunk)| {
-                let first_row = chunk * ROWS_PER_TASK;
-                for (offset, y) in Y_chunk.chunks_exact_mut(b).enumerate() {
-                    let entries = A.col_ptr[first_row + offset]..A.col_ptr[first_row + offset + 1];
-                    let (values, rows) = (&A.values[entries.clone()], &A.row_idx[entries]);
-                    if let [y] = y {
-                        // One column (a vector at a time, as Gram–Schmidt asks): the same sum
-                        // without a loop of one per entry.
-                        *y = values
-                            .iter()
-                            .zip(rows)
-                            .fold(0.0, |sum, (value, &row)| sum + value * X_rows[row]);
-                        continue;
-                    }
-                    y.fill(0.0);
-                    for (&value, &row) in values.iter().zip(rows) {
-                        let x = &X_rows[row * b..][..b];
-                        for (y_k, x_k) in y.iter_mut().zip(x) {
-                            *y_k += value * x_k;
-                        }
-                    }
-                }
-            });
-        for k in 0..b {
-            for (i, slot) in Y.col_mut(first + k).iter_mut().enumerate() {
-                *slot = Y_rows[i * b + k];
-            }
+    let mut X_rows = vec![0.0; n * p];
+    for k in 0..p {
+        for (i, value) in X.col(k).iter().enumerate() {
+            X_rows[i * p + k] = *value;
         }
     }
-    Y
+    let mut Y_rows = vec![0.0; n * p];
+    Y_rows
+        .par_chunks_mut(ROWS_PER_TASK * p.max(1))
+        .enumerate()
+        .for_each(|(chunk, Y_chunk)| {
+            let first_row = chunk * ROWS_PER_TASK;
+            for (offset, y) in Y_chunk.chunks_exact_mut(p.max(1)).enumerate() {
+                let j = first_row + offset;
+                for entry in A.col_ptr[j]..A.col_ptr[j + 1] {
+                    let value = A.values[entry];
+                    let x = &X_rows[A.row_idx[entry] * p..][..p];
+                    for (y_k, x_k) in y.iter_mut().zip(x) {
+                        *y_k += value * x_k;
+                    }
+                }
+            }
+        });
+    Mat::from_fn(n, p, |i, k| Y_rows[i * p + k])
 }
 
 /// The diagonal of `A`.
@@ -256,9 +230,9 @@ mod tests {
     }
 
     #[test]
-    fn the_product_in_passes_sums_each_entry_as_one_sequential_sum() {
+    fn each_entry_of_the_product_is_one_sequential_sum() {
         let mut random = SplitMix64::new(7);
-        let (n, p) = (3 * ROWS_PER_TASK / 2, 2 * COLUMNS_PER_PASS + 13);
+        let (n, p) = (3 * ROWS_PER_TASK / 2, 141);
         let A = band(n, 5, &mut random);
         let X = Mat::from_fn(n, p, |_, _| random.next_signed());
         let Y = symmetric_mul(&A, X.as_ref());
