@@ -377,6 +377,7 @@ fn run(
     registry: &Registry,
 ) -> Result<ExitCode> {
     let (study, targets) = load_study(args, registry)?;
+    let out_dir = out_dir_of(out, &args.study)?;
     let instances = Instances::expand(&study, &targets);
     let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
     let record_path = RunRecord::path_for(&args.study, &state_dir(&args.study).join("record"));
@@ -387,7 +388,6 @@ fn run(
         cache: &cache,
         record: &record,
     };
-    let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
     let options = RunOptions::local(jobs, out_dir.clone(), true);
     let report = squeal_engine::run::run(&context, &options, Some(&record_path))
         .with_context(|| format!("writing outputs to {}", out_dir.display()))?;
@@ -464,6 +464,7 @@ fn run_slurm(
         return Err(usage("--poll", "give a positive number of seconds").into());
     }
     let (study, targets) = load_study(args, registry)?;
+    let out_dir = out_dir_of(out, &args.study)?;
     let instances = Instances::expand(&study, &targets);
     let absolute = |path: &Path| std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     let study_path = absolute(&args.study);
@@ -503,7 +504,6 @@ fn run_slurm(
         .file_stem()
         .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
     let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
     let options = slurm::SlurmOptions {
         defaults: requests::JobDefaults {
             partition: slurm.partition.clone(),
@@ -598,6 +598,23 @@ fn worker(
         eprintln!("error: {name} {}: {}", status.status, status.message);
         Ok(ExitCode::FAILURE)
     }
+}
+
+/// Where a run writes: `--out`, or `out/STEM`. A file in the way is a usage error before
+/// anything runs, not an error after the whole study has.
+fn out_dir_of(out: Option<PathBuf>, study: &Path) -> Result<PathBuf, UsageError> {
+    let out_dir = out.unwrap_or_else(|| default_out_dir(study));
+    if out_dir.exists() && !out_dir.is_dir() {
+        return Err(UsageError(SpecError {
+            location: squeal_engine::spec::Location::CommandLine(format!(
+                "--out {}",
+                out_dir.display()
+            )),
+            path: "--out".into(),
+            message: "a file is in the way: the outputs go to a folder".into(),
+        }));
+    }
+    Ok(out_dir)
 }
 
 /// `out/STEM`, STEM the study file name without its extension.

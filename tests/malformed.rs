@@ -266,6 +266,18 @@ fn bad_set_values() {
         &run("source.value={a: 1}"),
         "--set source.value={a: 1}: --set: the value is not a YAML scalar or list",
     );
+    // A file where the outputs would go: refused before anything runs.
+    check(
+        &[
+            "run",
+            "out_of_range.yaml",
+            "--set",
+            "source.rows=2",
+            "--out",
+            "cycle_self.yaml",
+        ],
+        "--out cycle_self.yaml: --out: a file is in the way: the outputs go to a folder",
+    );
     check(
         &["plan", "missing_kind.yaml", "--target", "nowhere"],
         "missing_kind.yaml:3:5: stages.source: missing field `kind`",
