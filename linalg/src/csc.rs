@@ -15,6 +15,24 @@ const ROWS_PER_TASK: usize = 2048;
 /// deterministic. `X` is first copied row-major so that one pass over `A` serves every column.
 pub fn symmetric_mul(A: &CscMatrix, X: MatRef<'_, f64>) -> Mat<f64> {
     let (n, p) = (A.n_rows, X.ncols());
+    if p == 1 {
+        // One vector: the same sums, without the row-major copies.
+        let x: Vec<f64> = X.col(0).iter().copied().collect();
+        let mut y = vec![0.0; n];
+        y.par_chunks_mut(ROWS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, y_chunk)| {
+                for (offset, y_j) in y_chunk.iter_mut().enumerate() {
+                    let entries = A.col_ptr[chunk * ROWS_PER_TASK + offset]
+                        ..A.col_ptr[chunk * ROWS_PER_TASK + offset + 1];
+                    *y_j = A.row_idx[entries.clone()]
+                        .iter()
+                        .zip(&A.values[entries])
+                        .fold(0.0, |sum, (&row, &value)| sum + value * x[row]);
+                }
+            });
+        return Mat::from_fn(n, 1, |i, _| y[i]);
+    }
     let mut X_rows = vec![0.0; n * p];
     for k in 0..p {
         for (i, value) in X.col(k).iter().enumerate() {
@@ -207,6 +225,67 @@ impl CscMatrix {
                 .map(move |entry| (self.row_idx[entry], col, self.values[entry]))
         })
     }
+
+    /// `A[indices, indices]` of a square `A`, `indices` ascending: its entries in stored order.
+    pub fn principal_submatrix(&self, indices: &[usize]) -> CscMatrix {
+        let mut position = vec![usize::MAX; self.n_rows];
+        for (k, &index) in indices.iter().enumerate() {
+            position[index] = k;
+        }
+        let mut col_ptr = Vec::with_capacity(indices.len() + 1);
+        col_ptr.push(0);
+        let (mut row_idx, mut values) = (Vec::new(), Vec::new());
+        for &col in indices {
+            for entry in self.col_ptr[col]..self.col_ptr[col + 1] {
+                let row = position[self.row_idx[entry]];
+                if row != usize::MAX {
+                    row_idx.push(row);
+                    values.push(self.values[entry]);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        CscMatrix {
+            n_rows: indices.len(),
+            n_cols: indices.len(),
+            col_ptr,
+            row_idx,
+            values,
+        }
+    }
+}
+
+/// The diagonal blocks into which a symmetric permutation puts square matrices of one size
+/// together: the connected components of their patterns' union, each one's indices ascending,
+/// the components by their smallest index. No matrix couples two components.
+pub fn components(matrices: &[&CscMatrix]) -> Vec<Vec<usize>> {
+    let n = matrices.first().map_or(0, |A| A.n_cols);
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut index: usize) -> usize {
+        while parent[index] != index {
+            parent[index] = parent[parent[index]];
+            index = parent[index];
+        }
+        index
+    }
+    for A in matrices {
+        for (row, col, _) in A.triplets() {
+            let (a, b) = (root(&mut parent, row), root(&mut parent, col));
+            // The smaller index is the root, so a component's root is its smallest index.
+            parent[a.max(b)] = a.min(b);
+        }
+    }
+    let mut component_of_root = vec![usize::MAX; n];
+    let mut components: Vec<Vec<usize>> = Vec::new();
+    for index in 0..n {
+        let top = root(&mut parent, index);
+        if component_of_root[top] == usize::MAX {
+            component_of_root[top] = components.len();
+            components.push(Vec::new());
+        }
+        components[component_of_root[top]].push(index);
+    }
+    components
 }
 
 #[cfg(test)]
@@ -227,6 +306,32 @@ mod tests {
             }
         }
         CscMatrix::from_triplets(n, n, triplets)
+    }
+
+    #[test]
+    fn components_are_the_blocks_no_matrix_couples() {
+        // Two matrices on 7 indices: 0-3 and 3-5 in one, 1-6 in the other; 2 and 4 alone.
+        let pairs = |edges: &[(usize, usize)]| {
+            let mut triplets: Vec<_> = (0..7).map(|i| (i, i, 1.0)).collect();
+            for &(i, j) in edges {
+                triplets.extend([(i, j, -0.5), (j, i, -0.5)]);
+            }
+            CscMatrix::from_triplets(7, 7, triplets)
+        };
+        let (A, B) = (pairs(&[(0, 3), (3, 5)]), pairs(&[(6, 1)]));
+        assert_eq!(
+            components(&[&A, &B]),
+            vec![vec![0, 3, 5], vec![1, 6], vec![2], vec![4]]
+        );
+        assert_eq!(components(&[&A]).len(), 5);
+        let block = A.principal_submatrix(&[0, 3, 5]);
+        let dense = A.to_dense();
+        for (i, &row) in [0, 3, 5].iter().enumerate() {
+            for (j, &col) in [0, 3, 5].iter().enumerate() {
+                assert_eq!(block.to_dense()[(i, j)], dense[(row, col)]);
+            }
+        }
+        assert_eq!(block.values.len(), 7);
     }
 
     #[test]

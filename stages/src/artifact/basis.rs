@@ -98,19 +98,7 @@ impl StaticModes {
             other_index[dof] = Some(index);
         }
         let K = &model.K;
-        let mut triplets = Vec::new();
-        for &col in &others {
-            for entry in K.col_ptr[col]..K.col_ptr[col + 1] {
-                if let Some(row) = other_index[K.row_idx[entry]] {
-                    triplets.push((
-                        row,
-                        other_index[col].expect("an other DOF"),
-                        K.values[entry],
-                    ));
-                }
-            }
-        }
-        let K_oo = CscMatrix::from_triplets(others.len(), others.len(), triplets);
+        let K_oo = K.principal_submatrix(&others);
         let dof_of_node: Vec<[Option<u32>; 3]> = model
             .dof_of_node
             .iter()

@@ -16,6 +16,10 @@
 //! on the interface, and every candidate `v = S v_i + (v − S v_i)` lies exactly in the span of
 //! `T` (merely zeroing a mode's interface entries would leave `Ψ_o v_i` out). They are
 //! `M`-orthonormal. The reduced matrices `Tᵀ M T`, `Tᵀ C T`, `Tᵀ K T` are dense and symmetric.
+//! Two blocks of `Tᵀ K T` follow from the static modes' definition, `K S = [K_ii + K_io Ψ_o; 0]`,
+//! and are set from it rather than summed to round-off: `Sᵀ K S = K_ii + K_io Ψ_o` (Guyan's
+//! condensed stiffness: `K S`'s interface rows) and `Sᵀ K Φ = 0` (`Φ` vanishes on the
+//! interface).
 //!
 //! The candidates, by `kind`:
 //! - `fc` (the paper's FC_N): the real and imaginary parts of the first N complex modes of the
@@ -67,7 +71,7 @@ use std::f64::consts::PI;
 
 use faer::{Mat, MatRef};
 use serde::Deserialize;
-use squeal_linalg::csc::symmetric_mul;
+use squeal_linalg::csc::{components, symmetric_mul};
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::gram_schmidt::MSpan;
 use squeal_linalg::tall::transpose_times;
@@ -83,6 +87,9 @@ use crate::table::{ColumnData, Table};
 /// A real mode completes `fc` when at least this fraction of its `M`-norm lies outside the
 /// span of the complex modes (and vectors) before it.
 pub const COMPLETION_FRACTION: f64 = 0.5;
+
+/// The index of `K` in [`Reduction::matrices`] (`M`, `C`, `K`).
+const STIFFNESS: usize = 2;
 
 /// Candidate vectors per block of `M`-norm products.
 const NORM_BLOCK: usize = 64;
@@ -112,9 +119,11 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 6: the basis holds its model's fingerprint. 5: the adaptive basis's probe is the
-        // transient of its version 13. (Its probes' last bits follow the transient's.)
-        6
+        // 7: `Tᵀ A T` body by body, `K`'s static blocks from `K S` (the same matrices to
+        // round-off). 6: the basis holds its model's fingerprint. 5: the adaptive basis's
+        // probe is the transient of its version 13. (Its probes' last bits follow the
+        // transient's.)
+        7
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"
@@ -311,7 +320,7 @@ impl Stage for ReductionBasis {
         let (mut candidates, mut completion) =
             candidates_of(&params, model, equilibrium, &sources, &interface, cutoff_hz)?;
         phase(
-            0.05,
+            0.03,
             format!(
                 "M-orthonormalising {} candidates",
                 candidates.len() + completion.len()
@@ -322,11 +331,11 @@ impl Stage for ReductionBasis {
         let kept_completion =
             completion.add_to(&mut span, &static_modes, &model.M, COMPLETION_FRACTION);
         phase(
-            0.4,
+            0.5,
             format!("M, C, K on the {} static modes", interface.len()),
         );
         let mut reduction = Reduction::new(model, &static_modes);
-        phase(0.75, format!("M, C, K on the {} vectors", span.len()));
+        phase(0.7, format!("M, C, K on the {} vectors", span.len()));
         reduction.extend(model, span.vectors());
         let mut lists = vec![candidates, completion];
         let rounds = if params.kind == "adaptive" {
@@ -354,8 +363,7 @@ impl Stage for ReductionBasis {
         } else {
             Vec::new()
         };
-        phase(0.95, "checking the vectors' orthonormality".to_string());
-        let orthonormality = orthonormality_error(&model.M, span.vectors());
+        let orthonormality = orthonormality_error(&reduction);
         let basis = reduction.basis(&params.kind, &interface);
         let n_candidates: usize = lists.iter().map(Candidates::len).sum();
         let mut summary: Vec<(&str, f64)> = vec![
@@ -818,9 +826,16 @@ impl Candidates {
     }
 }
 
-/// `max |Qᵀ M Q − I|`, from fresh products.
-fn orthonormality_error(M: &CscMatrix, Q: faer::MatRef<'_, f64>) -> f64 {
-    let gram = transpose_times(Q, symmetric_mul(M, Q).as_ref());
+/// `max |Vᵀ M V − I|` over the vectors `V`, from the reduced mass (fresh products, not the
+/// span's carried ones).
+fn orthonormality_error(reduction: &Reduction) -> f64 {
+    let n_i = reduction.n_interface;
+    let gram = reduction.matrices[0].as_ref().submatrix(
+        n_i,
+        n_i,
+        reduction.V.ncols(),
+        reduction.V.ncols(),
+    );
     let mut worst = 0.0_f64;
     for j in 0..gram.ncols() {
         for i in 0..gram.nrows() {
@@ -831,10 +846,51 @@ fn orthonormality_error(M: &CscMatrix, Q: faer::MatRef<'_, f64>) -> f64 {
     worst
 }
 
-/// The reduced matrices `Tᵀ A T` of `A = M, C, K`, grown a block of columns of `T` at a time
-/// (an adaptive basis appends vectors to a span whose earlier vectors stay as they are).
+/// `max |B − Bᵀ| / max |B|` of a square `B` (zero for a zero `B`).
+fn asymmetry_of(B: MatRef<'_, f64>) -> f64 {
+    let (mut largest, mut asymmetry) = (0.0_f64, 0.0_f64);
+    for j in 0..B.ncols() {
+        for i in 0..B.nrows() {
+            largest = largest.max(B[(i, j)].abs());
+            asymmetry = asymmetry.max((B[(i, j)] - B[(j, i)]).abs());
+        }
+    }
+    if largest > 0.0 {
+        asymmetry / largest
+    } else {
+        0.0
+    }
+}
+
+/// Rows `rows` of `A X` for a symmetric `A`: row `j` is column `j` of `A` dotted with `X`.
+fn product_rows(A: &CscMatrix, rows: &[usize], X: MatRef<'_, f64>) -> Mat<f64> {
+    Mat::from_fn(rows.len(), X.ncols(), |r, k| {
+        let entries = A.col_ptr[rows[r]]..A.col_ptr[rows[r] + 1];
+        A.row_idx[entries.clone()]
+            .iter()
+            .zip(&A.values[entries])
+            .fold(0.0, |sum, (&row, &value)| sum + value * X[(row, k)])
+    })
+}
+
+/// `X[rows, :]`.
+fn rows_of(X: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
+    Mat::from_fn(rows.len(), X.ncols(), |r, k| X[(rows[r], k)])
+}
+
+/// The reduced matrices `Tᵀ A T` of `A = M, C, K`, `T = [S, V]`, grown a block of vectors at a
+/// time (an adaptive basis appends vectors to a span whose earlier vectors stay as they are).
+///
+/// No matrix couples two bodies (the connected components of the matrices' patterns; the
+/// contact pairs are not in them), so neither do the static modes: the static mode of an
+/// interface DOF lies on its body, and `Sᵀ A S` is block-diagonal by body. Each body's block,
+/// and its rows of `Sᵀ A V`, are products over its DOFs alone: the disc's interface DOFs do
+/// not sweep the pads' rows, nor the pads' the disc's.
 struct Reduction {
-    T: Mat<f64>,
+    n_interface: usize,
+    bodies: Vec<BodyModes>,
+    /// The vectors `V`, after the static modes.
+    V: Mat<f64>,
     /// `Tᵀ M T`, `Tᵀ C T`, `Tᵀ K T`, symmetrised.
     matrices: [Mat<f64>; 3],
     /// The largest `max |B − Bᵀ| / max |B|` over the diagonal blocks `B` computed, per matrix.
@@ -843,57 +899,132 @@ struct Reduction {
     model: [u8; 32],
 }
 
+/// The static modes of the interface DOFs on one body.
+struct BodyModes {
+    /// The body's DOFs, ascending.
+    dofs: Vec<usize>,
+    /// The positions on the interface of the body's interface DOFs.
+    columns: Vec<usize>,
+    /// `S[dofs, columns]`: the static modes on their body (zero elsewhere).
+    S: Mat<f64>,
+}
+
 impl Reduction {
     /// `T` = the static modes of the interface.
     fn new(model: &Model, static_modes: &StaticModes) -> Reduction {
-        let n_i = static_modes.interface().len();
+        let interface = static_modes.interface();
+        let n_i = interface.len();
+        let matrices = [&model.M, &model.C, &model.K];
+        let mut position = vec![usize::MAX; model.n_dofs()];
+        for (k, &dof) in interface.iter().enumerate() {
+            position[dof] = k;
+        }
+        let bodies: Vec<BodyModes> = components(&matrices)
+            .into_iter()
+            .filter_map(|dofs| {
+                let columns: Vec<usize> = dofs
+                    .iter()
+                    .map(|&dof| position[dof])
+                    .filter(|&k| k != usize::MAX)
+                    .collect();
+                if columns.is_empty() {
+                    return None;
+                }
+                let mut X_i = Mat::<f64>::zeros(n_i, columns.len());
+                for (j, &k) in columns.iter().enumerate() {
+                    X_i[(k, j)] = 1.0;
+                }
+                let S = rows_of(
+                    static_modes.static_displacement(X_i.as_ref()).as_ref(),
+                    &dofs,
+                );
+                Some(BodyModes { dofs, columns, S })
+            })
+            .collect();
         let mut reduction = Reduction {
-            T: Mat::zeros(model.n_dofs(), 0),
-            matrices: std::array::from_fn(|_| Mat::zeros(0, 0)),
+            n_interface: n_i,
+            bodies,
+            V: Mat::zeros(model.n_dofs(), 0),
+            matrices: std::array::from_fn(|_| Mat::zeros(n_i, n_i)),
             asymmetry: [0.0; 3],
             model: model.fingerprint(),
         };
-        let S = static_modes.static_displacement(Mat::<f64>::identity(n_i, n_i).as_ref());
-        reduction.extend(model, S.as_ref());
+        for (which, A) in matrices.into_iter().enumerate() {
+            for body in &reduction.bodies {
+                let A_body = A.principal_submatrix(&body.dofs);
+                let B = if which == STIFFNESS {
+                    // `K S` vanishes off the interface, where `S` is the identity.
+                    let on_interface: Vec<usize> = (0..body.dofs.len())
+                        .filter(|&r| position[body.dofs[r]] != usize::MAX)
+                        .collect();
+                    product_rows(&A_body, &on_interface, body.S.as_ref())
+                } else {
+                    transpose_times(
+                        body.S.as_ref(),
+                        symmetric_mul(&A_body, body.S.as_ref()).as_ref(),
+                    )
+                };
+                let R = &mut reduction.matrices[which];
+                for (j, &column) in body.columns.iter().enumerate() {
+                    for (i, &row) in body.columns.iter().enumerate() {
+                        R[(row, column)] = 0.5 * (B[(i, j)] + B[(j, i)]);
+                    }
+                }
+                reduction.asymmetry[which] =
+                    reduction.asymmetry[which].max(asymmetry_of(B.as_ref()));
+            }
+        }
         reduction
     }
 
-    /// `T ← [T, V]`: the new rows and columns of each reduced matrix, `[T, V]ᵀ A V`.
-    fn extend(&mut self, model: &Model, V: MatRef<'_, f64>) {
-        let (n_old, p) = (self.T.ncols(), V.ncols());
-        let mut T = Mat::<f64>::zeros(self.T.nrows(), n_old + p);
-        T.as_mut().subcols_mut(0, n_old).copy_from(&self.T);
-        T.as_mut().subcols_mut(n_old, p).copy_from(V);
+    /// `V ← [V, W]`: the new rows and columns of each reduced matrix, `[S, V, W]ᵀ A W`.
+    fn extend(&mut self, model: &Model, W: MatRef<'_, f64>) {
+        let (n_i, n_v, p) = (self.n_interface, self.V.ncols(), W.ncols());
+        let mut V = Mat::<f64>::zeros(self.V.nrows(), n_v + p);
+        V.as_mut().subcols_mut(0, n_v).copy_from(&self.V);
+        V.as_mut().subcols_mut(n_v, p).copy_from(W);
+        let n_old = n_i + n_v;
         for (which, A) in [&model.M, &model.C, &model.K].into_iter().enumerate() {
-            let B = transpose_times(T.as_ref(), symmetric_mul(A, V).as_ref());
+            let AW = symmetric_mul(A, W);
             let mut R = Mat::<f64>::zeros(n_old + p, n_old + p);
             R.as_mut()
                 .submatrix_mut(0, 0, n_old, n_old)
                 .copy_from(&self.matrices[which]);
-            let (mut largest, mut asymmetry) = (0.0_f64, 0.0_f64);
+            // `Sᵀ K W = (K S)ᵀ W = 0`: `K S` vanishes off the interface, `W` on it.
+            let bodies = if which == STIFFNESS {
+                &[][..]
+            } else {
+                &self.bodies[..]
+            };
+            for body in bodies {
+                let AW_body = rows_of(AW.as_ref(), &body.dofs);
+                let B = transpose_times(body.S.as_ref(), AW_body.as_ref());
+                for j in 0..p {
+                    for (i, &row) in body.columns.iter().enumerate() {
+                        R[(row, n_old + j)] = B[(i, j)];
+                        R[(n_old + j, row)] = B[(i, j)];
+                    }
+                }
+            }
+            let B = transpose_times(V.as_ref(), AW.as_ref());
             for j in 0..p {
-                for i in 0..n_old {
-                    R[(i, n_old + j)] = B[(i, j)];
-                    R[(n_old + j, i)] = B[(i, j)];
+                for i in 0..n_v {
+                    R[(n_i + i, n_old + j)] = B[(i, j)];
+                    R[(n_old + j, n_i + i)] = B[(i, j)];
                 }
                 for i in 0..p {
-                    let (b, b_transposed) = (B[(n_old + i, j)], B[(n_old + j, i)]);
-                    largest = largest.max(b.abs());
-                    asymmetry = asymmetry.max((b - b_transposed).abs());
-                    R[(n_old + i, n_old + j)] = 0.5 * (b + b_transposed);
+                    R[(n_old + i, n_old + j)] = 0.5 * (B[(n_v + i, j)] + B[(n_v + j, i)]);
                 }
             }
-            if largest > 0.0 {
-                self.asymmetry[which] = self.asymmetry[which].max(asymmetry / largest);
-            }
+            self.asymmetry[which] =
+                self.asymmetry[which].max(asymmetry_of(B.as_ref().subrows(n_v, p)));
             self.matrices[which] = R;
         }
-        self.T = T;
+        self.V = V;
     }
 
-    /// The basis of `vectors` (`T`'s columns after the interface's), with these matrices.
+    /// The basis of the vectors `V`, with these matrices.
     fn basis(&self, kind: &str, interface: &[usize]) -> Basis {
-        let n_i = interface.len();
         let column_major = |A: &Mat<f64>| -> Vec<f64> {
             (0..A.ncols())
                 .flat_map(|j| A.col(j).iter().copied().collect::<Vec<_>>())
@@ -903,8 +1034,8 @@ impl Reduction {
             kind: kind.to_string(),
             model: self.model,
             interface: interface.iter().map(|&dof| dof as u32).collect(),
-            vectors: (n_i..self.T.ncols())
-                .map(|k| self.T.col(k).iter().copied().collect())
+            vectors: (0..self.V.ncols())
+                .map(|k| self.V.col(k).iter().copied().collect())
                 .collect(),
             mass: column_major(&self.matrices[0]),
             damping: column_major(&self.matrices[1]),

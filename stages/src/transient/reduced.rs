@@ -3,8 +3,8 @@
 //! coordinates of `x`, so `H` keeps its entries, renumbered; the departure from the
 //! equilibrium starts at `x⁰ = [u⁰_i; Φᵀ M (u⁰ − S u⁰_i)]`, and the snapshots are lifted back
 //! to every DOF, `u = T x`. The blocks of `Tᵀ K T` between the interface and the vectors are
-//! zero in exact arithmetic (`φᵀ K S = 0` for `φ` vanishing on the interface) and are set to
-//! zero, so that a step's products skip them.
+//! zero (`φᵀ K S = 0` for `φ` vanishing on the interface, and the basis stage sets them so),
+//! and a step's products skip them with the matrices' other exact zeros.
 //!
 //! # The residual indicator
 //!
@@ -73,32 +73,6 @@ fn compressed(n: usize, values: &[f64]) -> CscMatrix {
     }
 }
 
-/// How far below `(|K_aa K_bb|)^½` every entry of `K` between the interface and the vectors
-/// must lie to be taken for the zero it is in exact arithmetic (it is near 1e-16 on the
-/// default brake).
-const VANISHING_COUPLING: f64 = 1e-10;
-
-/// `Tᵀ K T` with its blocks between the interface and the vectors set to zero when they are
-/// zero to rounding, as they are for every basis of the stage: a vector `φ` vanishes on the
-/// interface and `K S` off it (`K_oi + K_oo Ψ_o = 0`), so `φᵀ K S = 0`. A step's products then
-/// skip those `n_i N` entries of `K` (not of `C`, whose mass part couples them).
-fn without_vanishing_coupling(n_i: usize, n_r: usize, K: &[f64]) -> Vec<f64> {
-    let diagonal = |a: usize| K[a * n_r + a].abs();
-    let coupling = || (0..n_i).flat_map(|i| (n_i..n_r).map(move |q| (i, q)));
-    let vanishes = coupling().all(|(i, q)| {
-        let bound = VANISHING_COUPLING * (diagonal(i) * diagonal(q)).sqrt();
-        K[q * n_r + i].abs() <= bound && K[i * n_r + q].abs() <= bound
-    });
-    let mut K = K.to_vec();
-    if vanishes {
-        for (i, q) in coupling() {
-            K[q * n_r + i] = 0.0;
-            K[i * n_r + q] = 0.0;
-        }
-    }
-    K
-}
-
 impl<'a> ReducedModel<'a> {
     /// `full`: the full model's structure (its `H`); `static_modes`: the model's, on the
     /// basis's interface.
@@ -161,10 +135,7 @@ impl<'a> ReducedModel<'a> {
             static_modes,
             M: compressed(n_r, &basis.mass),
             C: compressed(n_r, &basis.damping),
-            K: compressed(
-                n_r,
-                &without_vanishing_coupling(basis.interface.len(), n_r, &basis.stiffness),
-            ),
+            K: compressed(n_r, &basis.stiffness),
             H_rows,
         })
     }
@@ -309,34 +280,5 @@ impl FullStep {
             residuals,
             corrections: correction,
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The coupling of two interface DOFs and two vectors, column-major.
-    fn stiffness(coupling: f64) -> Vec<f64> {
-        let (n_r, mut K) = (4, vec![0.0; 16]);
-        for (a, diagonal) in [3e9, 2e9, 5e10, 7e10].into_iter().enumerate() {
-            K[a * n_r + a] = diagonal;
-        }
-        K[n_r] = -1e9; // the interface block couples within itself
-        K[1] = -1e9;
-        K[2 * n_r + 1] = coupling;
-        K[n_r + 2] = coupling;
-        K
-    }
-
-    #[test]
-    fn the_stiffness_coupling_is_dropped_only_where_it_vanishes_to_rounding() {
-        let rounding = without_vanishing_coupling(2, 4, &stiffness(1e-6));
-        let mut expected = stiffness(0.0);
-        assert_eq!(rounding, expected);
-        // 1e-3 of (K_aa K_bb)^½: a real coupling, kept as it is.
-        let real = 1e-3 * (2e9_f64 * 5e10).sqrt();
-        expected = stiffness(real);
-        assert_eq!(without_vanishing_coupling(2, 4, &expected), expected);
     }
 }
