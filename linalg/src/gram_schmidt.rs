@@ -351,22 +351,24 @@ impl MSpan {
 
     /// Adds the candidates (columns, in order), each projected `M`-orthogonally out of the
     /// span so far (classical Gram–Schmidt, twice) and kept, normalised, when the `M`-norm left
-    /// is at least `tolerance × reference_norms[j]`. Returns that norm over the reference for
-    /// every candidate, kept or not.
+    /// is at least `tolerance × reference_norms[j]`. `M_candidates`: `M` times the candidates.
+    /// Returns that norm over the reference for every candidate, kept or not.
     pub fn extend(
         &mut self,
         M: &CscMatrix,
         candidates: MatRef<'_, f64>,
+        M_candidates: MatRef<'_, f64>,
         reference_norms: &[f64],
         tolerance: f64,
     ) -> Vec<f64> {
         assert_eq!(candidates.ncols(), reference_norms.len());
+        assert_eq!(candidates.shape(), M_candidates.shape());
         let mut remaining = Vec::with_capacity(candidates.ncols());
         let mut first = 0;
         while first < candidates.ncols() {
             let width = SPAN_BLOCK.min(candidates.ncols() - first);
             let mut X = candidates.subcols(first, width).to_owned();
-            let mut MX = symmetric_mul(M, X.as_ref());
+            let mut MX = M_candidates.subcols(first, width).to_owned();
             for _ in 0..2 {
                 if self.len > 0 {
                     let coefficients = transpose_times(self.M_vectors(), X.as_ref());
@@ -478,7 +480,7 @@ mod tests {
             .map(|j| dot(candidates.col(j), M_candidates.col(j)).sqrt())
             .collect();
         let mut span = MSpan::with_capacity(n, 8);
-        let remaining = span.extend(&M, candidates.as_ref(), &norms, 1e-6);
+        let remaining = span.extend(&M, candidates.as_ref(), M_candidates.as_ref(), &norms, 1e-6);
         assert_eq!(span.len(), 60, "50 independent + 10 noisy: {remaining:?}");
         assert!(remaining[50..70].iter().all(|&r| r < 1e-12));
         assert!(remaining[70..].iter().all(|&r| r > 1e-5 && r < 1e-2));
@@ -492,7 +494,7 @@ mod tests {
         assert!(error < 1e-12, "candidates outside the span: {error:.1e}");
         // A tolerance above the noise keeps the 50 only.
         let mut strict = MSpan::with_capacity(n, 80);
-        strict.extend(&M, candidates.as_ref(), &norms, 1e-2);
+        strict.extend(&M, candidates.as_ref(), M_candidates.as_ref(), &norms, 1e-2);
         assert_eq!(strict.len(), 50);
     }
 

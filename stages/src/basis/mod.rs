@@ -748,6 +748,7 @@ impl Candidates {
         let interface = static_modes.interface();
         let count = self.len();
         let mut norms_squared = Vec::with_capacity(count);
+        let mut blocks = Vec::new();
         for first in (0..count).step_by(NORM_BLOCK) {
             let block = &mut self.vectors[first..(first + NORM_BLOCK).min(count)];
             let X_i = Mat::from_fn(interface.len(), block.len(), |j, k| block[k][interface[j]]);
@@ -767,6 +768,7 @@ impl Candidates {
                     .map(|(a, b)| a * b)
                     .sum::<f64>()
             }));
+            blocks.push((first, X, MX));
         }
         let mut group_norms = vec![0.0; self.len()];
         for (k, &group) in self.group.iter().enumerate() {
@@ -778,10 +780,9 @@ impl Candidates {
             .map(|&group| group_norms[group].sqrt().max(f64::MIN_POSITIVE))
             .collect();
         let before = span.len();
-        for first in (0..self.len()).step_by(NORM_BLOCK) {
-            let last = (first + NORM_BLOCK).min(self.len());
-            let X = Mat::from_fn(n, last - first, |i, k| self.vectors[first + k][i]);
-            let remaining = span.extend(M, X.as_ref(), &reference[first..last], tolerance);
+        for (first, X, MX) in blocks {
+            let reference = &reference[first..first + X.ncols()];
+            let remaining = span.extend(M, X.as_ref(), MX.as_ref(), reference, tolerance);
             self.kept
                 .extend(remaining.iter().map(|&ratio| ratio >= tolerance));
             self.remaining.extend(remaining);
