@@ -297,8 +297,9 @@ impl Stage for ReductionBasis {
             ));
         }
         // The phases' shares of an fc build on the default brake; an adaptive basis reports
-        // its rounds instead.
+        // its rounds instead. `squeal run -v` logs them, timed.
         let phase = |fraction: f64, message: String| {
+            tracing::info!("basis: {message}");
             let fraction = if params.kind == "adaptive" {
                 0.0
             } else {
