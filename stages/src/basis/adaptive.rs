@@ -98,10 +98,9 @@ pub(super) fn enrich(
     };
     let full_step = FullStep::new(&structure, theta, probe.tau)?;
     let start = most_unstable_start(eigenvalues, shapes, model.n_dofs(), probe.amplitude)?;
-    let interface = probe.static_modes.interface();
     let mut rounds = Vec::new();
     for round in 1..=enrichment.max_rounds {
-        let basis = reduction.basis("adaptive", interface);
+        let basis = reduction.basis("adaptive");
         let (_, indicator) = run_reduced(
             model,
             (&structure, &contact_state),

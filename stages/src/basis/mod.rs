@@ -365,7 +365,7 @@ impl Stage for ReductionBasis {
             Vec::new()
         };
         let orthonormality = orthonormality_error(&reduction);
-        let basis = reduction.basis(&params.kind, &interface);
+        let basis = reduction.basis(&params.kind);
         let n_candidates: usize = lists.iter().map(Candidates::len).sum();
         let mut summary: Vec<(&str, f64)> = vec![
             ("n_dofs", model.n_dofs() as f64),
@@ -831,7 +831,7 @@ impl Candidates {
 /// `max |Vᵀ M V − I|` over the vectors `V`, from the reduced mass (fresh products, not the
 /// span's carried ones).
 fn orthonormality_error(reduction: &Reduction) -> f64 {
-    let n_i = reduction.n_interface;
+    let n_i = reduction.interface.len();
     let gram = reduction.matrices[0].as_ref().submatrix(
         n_i,
         n_i,
@@ -889,7 +889,8 @@ fn rows_of(X: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
 /// and its rows of `Sᵀ A V`, are products over its DOFs alone: the disc's interface DOFs do
 /// not sweep the pads' rows, nor the pads' the disc's.
 struct Reduction {
-    n_interface: usize,
+    /// The interface DOFs.
+    interface: Vec<usize>,
     bodies: Vec<BodyModes>,
     /// The vectors `V`, after the static modes.
     V: Mat<f64>,
@@ -944,7 +945,7 @@ impl Reduction {
             })
             .collect();
         let mut reduction = Reduction {
-            n_interface: n_i,
+            interface: interface.to_vec(),
             bodies,
             V: Mat::zeros(model.n_dofs(), 0),
             matrices: std::array::from_fn(|_| Mat::zeros(n_i, n_i)),
@@ -981,19 +982,24 @@ impl Reduction {
 
     /// `V ← [V, W]`: the new rows and columns of each reduced matrix, `[S, V, W]ᵀ A W`.
     fn extend(&mut self, model: &Model, W: MatRef<'_, f64>) {
-        let (n_i, n_v, p) = (self.n_interface, self.V.ncols(), W.ncols());
+        let (n_i, n_v, p) = (self.interface.len(), self.V.ncols(), W.ncols());
         let mut V = Mat::<f64>::zeros(self.V.nrows(), n_v + p);
         V.as_mut().subcols_mut(0, n_v).copy_from(&self.V);
         V.as_mut().subcols_mut(n_v, p).copy_from(W);
         let n_old = n_i + n_v;
+        let vanishes_on_interface = self
+            .interface
+            .iter()
+            .all(|&dof| W.row(dof).iter().all(|&w| w == 0.0));
         for (which, A) in [&model.M, &model.C, &model.K].into_iter().enumerate() {
             let AW = symmetric_mul(A, W);
             let mut R = Mat::<f64>::zeros(n_old + p, n_old + p);
             R.as_mut()
                 .submatrix_mut(0, 0, n_old, n_old)
                 .copy_from(&self.matrices[which]);
-            // `Sᵀ K W = (K S)ᵀ W = 0`: `K S` vanishes off the interface, `W` on it.
-            let bodies = if which == STIFFNESS {
+            // `Sᵀ K W = (K S)ᵀ W = 0`: `K S` vanishes off the interface, and `W` on it, as
+            // every vector less its static part does.
+            let bodies = if which == STIFFNESS && vanishes_on_interface {
                 &[][..]
             } else {
                 &self.bodies[..]
@@ -1026,7 +1032,7 @@ impl Reduction {
     }
 
     /// The basis of the vectors `V`, with these matrices.
-    fn basis(&self, kind: &str, interface: &[usize]) -> Basis {
+    fn basis(&self, kind: &str) -> Basis {
         let column_major = |A: &Mat<f64>| -> Vec<f64> {
             (0..A.ncols())
                 .flat_map(|j| A.col(j).iter().copied().collect::<Vec<_>>())
@@ -1035,7 +1041,7 @@ impl Reduction {
         Basis {
             kind: kind.to_string(),
             model: self.model,
-            interface: interface.iter().map(|&dof| dof as u32).collect(),
+            interface: self.interface.iter().map(|&dof| dof as u32).collect(),
             vectors: (0..self.V.ncols())
                 .map(|k| self.V.col(k).iter().copied().collect())
                 .collect(),

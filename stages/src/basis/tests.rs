@@ -1,5 +1,6 @@
 //! Verification of the bases: a basis spanning every DOF reproduces the full transient; the
-//! reduced matrices are symmetric and the vectors `M`-orthonormal, with the rank reported; a
+//! reduced matrices are the dense projection `Tᵀ A T`, symmetric, and the vectors
+//! `M`-orthonormal, with the rank reported; a
 //! reduced run grows at the rate of the unstable mode it starts from; the completion by real
 //! modes restores complex modes the stability stage did not seek; the residual indicator
 //! vanishes on a full basis and tracks the true error of the others, and the adaptive basis
@@ -185,6 +186,43 @@ fn reduced_matrices_are_symmetric_and_the_vectors_M_orthonormal_with_the_rank_re
     // definite.
     let K_r = faer::Mat::from_fn(n_r, n_r, |i, j| basis.stiffness[j * n_r + i]);
     assert!(K_r.as_ref().llt(faer::Side::Lower).is_ok());
+}
+
+/// `Reduction` against the dense `Tᵀ A T`, `T = [S, V, W]`, for vectors `V` that vanish on the
+/// interface (the stage's, whose `K` block against the static modes is set to zero) and `W`
+/// that do not (whose block is summed).
+#[test]
+fn the_reduction_grown_by_blocks_is_the_dense_projection() {
+    let inputs = brake_inputs();
+    let model: &Model = inputs.get("model").unwrap();
+    let static_modes = StaticModes::new(model, &interface_dofs(model)).unwrap();
+    let n = model.n_dofs();
+    let mut random = squeal_linalg::rng::SplitMix64::new(11);
+    let W = Mat::from_fn(n, 3, |_, _| random.next_signed());
+    let W_i = Mat::from_fn(static_modes.interface().len(), 3, |j, k| {
+        W[(static_modes.interface()[j], k)]
+    });
+    let V = &W - static_modes.static_displacement(W_i.as_ref());
+    let mut reduction = Reduction::new(model, &static_modes);
+    reduction.extend(model, V.as_ref());
+    reduction.extend(model, W.as_ref());
+    let n_i = static_modes.interface().len();
+    let S = static_modes.static_displacement(Mat::<f64>::identity(n_i, n_i).as_ref());
+    let mut T = Mat::<f64>::zeros(n, n_i + 6);
+    T.as_mut().subcols_mut(0, n_i).copy_from(&S);
+    T.as_mut().subcols_mut(n_i, 3).copy_from(&V);
+    T.as_mut().subcols_mut(n_i + 3, 3).copy_from(&W);
+    for (which, A) in [&model.M, &model.C, &model.K].into_iter().enumerate() {
+        let reference = transpose_times(T.as_ref(), symmetric_mul(A, T.as_ref()).as_ref());
+        let error = (&reduction.matrices[which] - &reference).norm_max() / reference.norm_max();
+        assert!(error < 1e-12, "matrix {which}: {error:.1e} from Tᵀ A T");
+    }
+    // `K` between the static modes and `W` is not zero: it was summed, not dropped.
+    let coupling = reduction.matrices[STIFFNESS]
+        .as_ref()
+        .submatrix(0, n_i + 3, n_i, 3)
+        .norm_max();
+    assert!(coupling > 1e-3 * reduction.matrices[STIFFNESS].norm_max());
 }
 
 #[test]
