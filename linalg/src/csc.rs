@@ -23,12 +23,7 @@ pub fn symmetric_mul(A: &CscMatrix, X: MatRef<'_, f64>) -> Mat<f64> {
             .enumerate()
             .for_each(|(chunk, y_chunk)| {
                 for (offset, y_j) in y_chunk.iter_mut().enumerate() {
-                    let entries = A.col_ptr[chunk * ROWS_PER_TASK + offset]
-                        ..A.col_ptr[chunk * ROWS_PER_TASK + offset + 1];
-                    *y_j = A.row_idx[entries.clone()]
-                        .iter()
-                        .zip(&A.values[entries])
-                        .fold(0.0, |sum, (&row, &value)| sum + value * x[row]);
+                    *y_j = column_dot(A, chunk * ROWS_PER_TASK + offset, |row| x[row]);
                 }
             });
         return Mat::from_fn(n, 1, |i, _| y[i]);
@@ -57,6 +52,23 @@ pub fn symmetric_mul(A: &CscMatrix, X: MatRef<'_, f64>) -> Mat<f64> {
             }
         });
     Mat::from_fn(n, p, |i, k| Y_rows[i * p + k])
+}
+
+/// Rows `rows` of `A X` for a symmetric `A`: each entry the sum [`symmetric_mul`] forms.
+pub fn symmetric_mul_rows(A: &CscMatrix, rows: &[usize], X: MatRef<'_, f64>) -> Mat<f64> {
+    Mat::from_fn(rows.len(), X.ncols(), |r, k| {
+        column_dot(A, rows[r], |row| X[(row, k)])
+    })
+}
+
+/// Column `j` of `A`, in stored order, dotted with `x` (given entry by entry): row `j` of
+/// `A x` for a symmetric `A`.
+fn column_dot(A: &CscMatrix, j: usize, x: impl Fn(usize) -> f64) -> f64 {
+    let entries = A.col_ptr[j]..A.col_ptr[j + 1];
+    A.row_idx[entries.clone()]
+        .iter()
+        .zip(&A.values[entries])
+        .fold(0.0, |sum, (&row, &value)| sum + value * x(row))
 }
 
 /// The diagonal of `A`.
@@ -366,6 +378,11 @@ mod tests {
                 expected[(j, 5)].to_bits(),
                 "({j}) alone"
             );
+        }
+        let rows = symmetric_mul_rows(&A, &[3, n - 1], X.as_ref());
+        for k in 0..p {
+            assert_eq!(rows[(0, k)].to_bits(), expected[(3, k)].to_bits());
+            assert_eq!(rows[(1, k)].to_bits(), expected[(n - 1, k)].to_bits());
         }
         assert_eq!(symmetric_mul(&A, X.subcols(0, 0)).ncols(), 0);
     }

@@ -71,7 +71,7 @@ use std::f64::consts::PI;
 
 use faer::{Mat, MatRef};
 use serde::Deserialize;
-use squeal_linalg::csc::{components, symmetric_mul};
+use squeal_linalg::csc::{components, symmetric_mul, symmetric_mul_rows};
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::gram_schmidt::MSpan;
 use squeal_linalg::tall::transpose_times;
@@ -864,17 +864,6 @@ fn asymmetry_of(B: MatRef<'_, f64>) -> f64 {
     }
 }
 
-/// Rows `rows` of `A X` for a symmetric `A`: row `j` is column `j` of `A` dotted with `X`.
-fn product_rows(A: &CscMatrix, rows: &[usize], X: MatRef<'_, f64>) -> Mat<f64> {
-    Mat::from_fn(rows.len(), X.ncols(), |r, k| {
-        let entries = A.col_ptr[rows[r]]..A.col_ptr[rows[r] + 1];
-        A.row_idx[entries.clone()]
-            .iter()
-            .zip(&A.values[entries])
-            .fold(0.0, |sum, (&row, &value)| sum + value * X[(row, k)])
-    })
-}
-
 /// `X[rows, :]`.
 fn rows_of(X: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
     Mat::from_fn(rows.len(), X.ncols(), |r, k| X[(rows[r], k)])
@@ -960,7 +949,7 @@ impl Reduction {
                     let on_interface: Vec<usize> = (0..body.dofs.len())
                         .filter(|&r| position[body.dofs[r]] != usize::MAX)
                         .collect();
-                    product_rows(&A_body, &on_interface, body.S.as_ref())
+                    symmetric_mul_rows(&A_body, &on_interface, body.S.as_ref())
                 } else {
                     transpose_times(
                         body.S.as_ref(),
