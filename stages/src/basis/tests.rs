@@ -4,7 +4,7 @@
 //! reduced run grows at the rate of the unstable mode it starts from; the completion by real
 //! modes restores complex modes the stability stage did not seek; the residual indicator
 //! vanishes on a full basis and tracks the true error of the others, and the adaptive basis
-//! meets its target; clear errors.
+//! meets its target; clear errors; outputs independent of the thread count.
 
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -558,4 +558,36 @@ fn the_residual_indicator_tracks_the_true_error_and_the_adaptive_basis_meets_its
         results[3].1 < results[2].1,
         "adaptive beats the default FC: {results:?}"
     );
+}
+
+#[test]
+fn basis_outputs_do_not_depend_on_the_thread_count() {
+    let mut inputs = brake_inputs();
+    let modes = real_modes(&inputs, 12, 0.0);
+    insert(&mut inputs, "modes", modes);
+    for overrides in [
+        vec![],
+        vec![
+            ("kind", Value::Str("real".into())),
+            ("n_modes", Value::Int(8)),
+        ],
+        vec![
+            ("kind", Value::Str("craig_bampton".into())),
+            ("n_modes", Value::Int(8)),
+        ],
+        vec![
+            ("kind", Value::Str("adaptive".into())),
+            ("n_modes", Value::Int(2)),
+            ("target", Value::Float(0.05)),
+            ("probe_duration", Value::Float(1e-4)),
+        ],
+    ] {
+        let params = Params::defaults(&ReductionBasis, &overrides);
+        crate::stage::assert_outputs_independent_of_threads(
+            &ReductionBasis,
+            &params,
+            &inputs,
+            &format!("basis {overrides:?}"),
+        );
+    }
 }

@@ -445,6 +445,25 @@ mod tests {
     }
 
     #[test]
+    fn outputs_do_not_depend_on_the_thread_count() {
+        // Scales are handed to workers as they come free: each row must not depend on the
+        // rows its worker did before.
+        let table = tone_table(1e-4, 3000, |t| {
+            (2.0 * PI * 300.0 * t).sin() + 0.5 * (2.0 * PI * 1200.0 * t).sin()
+        });
+        let inputs = Inputs(BTreeMap::from([(
+            "signal".to_string(),
+            Input::One(Arc::new(Artifact::Table(table))),
+        )]));
+        crate::stage::assert_outputs_independent_of_threads(
+            &Wavelet,
+            &params(100.0, 3000.0, 60, 1e-3),
+            &inputs,
+            "wavelet",
+        );
+    }
+
+    #[test]
     fn chirp_ridge_follows_the_instantaneous_frequency() {
         // s = sin(2π (f_a t + c t²/2)), f_inst = f_a + c t. Tolerance: the ridge within 4 % of the
         // predicted power ridge f_inst · 0.9865 (grid step 1.8 % plus the lag of a sweep across
