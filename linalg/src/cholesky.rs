@@ -110,6 +110,12 @@ impl Cholesky {
             return Err(Error::InvalidInput("no matrix to factorise".into()));
         };
         let n = first.n_rows;
+        if n == 0 {
+            // faer would analyse it as simplicial, which the sweeps cannot read.
+            return Err(Error::InvalidInput(
+                "a matrix of 0 unknowns to factorise".into(),
+            ));
+        }
         for (_, A) in terms {
             if A.n_rows != n || A.n_cols != n {
                 return Err(Error::InvalidInput(format!(

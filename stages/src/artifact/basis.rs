@@ -2,7 +2,7 @@
 //! modes `Ψ_o = −K_oo⁻¹ K_oi` that map between full and reduced coordinates.
 
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::cholesky::Cholesky;
@@ -79,7 +79,8 @@ pub struct StaticModes {
     interface: Vec<usize>,
     /// The DOFs off the interface, ascending (`o`).
     others: Vec<usize>,
-    cholesky: Cholesky,
+    /// `None` when every DOF is on the interface (every body kept whole).
+    cholesky: Option<Cholesky>,
     /// Column `j` of `K_oi`: `(index among the others, value)`.
     coupling: Vec<Vec<(usize, f64)>>,
 }
@@ -106,14 +107,19 @@ impl StaticModes {
                 dofs.map(|dof| dof.and_then(|dof| other_index[dof as usize].map(|i| i as u32)))
             })
             .collect();
-        let cholesky = Cholesky::new(&[(1.0, &K_oo)], &dof_of_node, &[], Par::Seq).map_err(
-            |err| {
-                StageError::new(format!(
-                    "basis: K off the interface ({} DOFs) cannot be factorised: {err} (is the structure held away from the contact?)",
-                    others.len()
-                ))
-            },
-        )?;
+        let cholesky = if others.is_empty() {
+            None
+        } else {
+            let cholesky = Cholesky::new(&[(1.0, &K_oo)], &dof_of_node, &[], Par::Seq).map_err(
+                |err| {
+                    StageError::new(format!(
+                        "basis: K off the interface ({} DOFs) cannot be factorised: {err} (is the structure held away from the contact?)",
+                        others.len()
+                    ))
+                },
+            )?;
+            Some(cholesky)
+        };
         let coupling = interface
             .iter()
             .map(|&col| {
@@ -137,6 +143,13 @@ impl StaticModes {
         &self.interface
     }
 
+    /// `K_oo⁻¹ B` in place, `B` over the DOFs off the interface.
+    fn solve_in_place(&self, B: MatMut<'_, f64>) {
+        if let Some(cholesky) = &self.cholesky {
+            cholesky.solve_in_place(B, Par::Seq);
+        }
+    }
+
     /// `S X_i` over every free DOF, `S = [I; Ψ_o]` the static modes: the displacement with the
     /// interface at `X_i` (`n_i × p`) and no load off it.
     pub fn static_displacement(&self, X_i: MatRef<'_, f64>) -> Mat<f64> {
@@ -154,7 +167,7 @@ impl StaticModes {
         }
         B.as_mut()
             .par_col_chunks_mut(SOLVE_COLUMNS)
-            .for_each(|chunk| self.cholesky.solve_in_place(chunk, Par::Seq));
+            .for_each(|chunk| self.solve_in_place(chunk));
         let mut U = Mat::<f64>::zeros(self.n, p);
         for k in 0..p {
             for (j, &dof) in self.interface.iter().enumerate() {
@@ -174,7 +187,7 @@ impl StaticModes {
         let mut B = Mat::from_fn(self.others.len(), p, |row, k| F[(self.others[row], k)]);
         B.as_mut()
             .par_col_chunks_mut(SOLVE_COLUMNS)
-            .for_each(|chunk| self.cholesky.solve_in_place(chunk, Par::Seq));
+            .for_each(|chunk| self.solve_in_place(chunk));
         let mut U = Mat::<f64>::zeros(self.n, p);
         for k in 0..p {
             for (index, &dof) in self.others.iter().enumerate() {

@@ -112,6 +112,7 @@ struct BasisParams {
     probe_tau: f64,
     probe_amplitude: f64,
     probe_samples: i64,
+    keep_whole_up_to: i64,
 }
 
 impl Stage for ReductionBasis {
@@ -206,6 +207,12 @@ impl Stage for ReductionBasis {
                 "adaptive: steps of the probe checked against the full step equation; each gives a residual vector and a correction",
             )
             .at_least(1.0),
+            ParamSpec::int(
+                "keep_whole_up_to",
+                0,
+                "bodies (DOF sets no matrix couples: the disc, each pad) of at most this many DOFs stay physical whole, with the interface, and the vectors reduce the others (0: the interface alone, the paper's bases)",
+            )
+            .at_least(0.0),
         ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
@@ -290,8 +297,9 @@ impl Stage for ReductionBasis {
         equilibrium
             .check_belongs_to(model)
             .map_err(|err| StageError::new(format!("basis: {}", err.message)))?;
-        let interface = interface_dofs(model);
-        if interface.is_empty() {
+        let contact_dofs = interface_dofs(model);
+        let interface = with_whole_bodies(model, &contact_dofs, params.keep_whole_up_to as usize);
+        if contact_dofs.is_empty() {
             return Err(StageError::new(
                 "basis: the model has no contact pair, so no interface to keep",
             ));
@@ -309,7 +317,11 @@ impl Stage for ReductionBasis {
         };
         phase(
             0.0,
-            format!("static modes of the {} interface DOFs", interface.len()),
+            format!(
+                "static modes of the {} interface DOFs and {} of whole bodies",
+                contact_dofs.len(),
+                interface.len() - contact_dofs.len()
+            ),
         );
         let static_modes = StaticModes::new(model, &interface)?;
         let sources = Sources {
@@ -369,7 +381,8 @@ impl Stage for ReductionBasis {
         let n_candidates: usize = lists.iter().map(Candidates::len).sum();
         let mut summary: Vec<(&str, f64)> = vec![
             ("n_dofs", model.n_dofs() as f64),
-            ("n_interface", interface.len() as f64),
+            ("n_interface", contact_dofs.len() as f64),
+            ("n_whole", (interface.len() - contact_dofs.len()) as f64),
             ("n_candidates", n_candidates as f64),
             ("n_vectors", basis.vectors.len() as f64),
             ("n_completion", kept_completion as f64),
@@ -398,6 +411,21 @@ impl Stage for ReductionBasis {
             ),
         ]))
     }
+}
+
+/// The DOFs kept physical: the contact interface's, and every DOF of the bodies (sets of DOFs
+/// that no matrix couples) of at most `up_to` DOFs; ascending.
+fn with_whole_bodies(model: &Model, contact_dofs: &[usize], up_to: usize) -> Vec<usize> {
+    let mut physical = contact_dofs.to_vec();
+    if up_to > 0 {
+        components(&[&model.M, &model.C, &model.K])
+            .into_iter()
+            .filter(|body| body.len() <= up_to)
+            .for_each(|body| physical.extend(body));
+        physical.sort_unstable();
+        physical.dedup();
+    }
+    physical
 }
 
 /// The candidate vectors of `params.kind`, and the real modes that may complete them.

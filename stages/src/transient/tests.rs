@@ -20,7 +20,12 @@ pub(crate) fn stage_params(overrides: &[(&str, Value)]) -> Params {
 
 /// A coarse brake through equilibrium and stability, as the transient's inputs.
 pub(crate) fn brake_inputs() -> Inputs {
-    let mesh = brake(&BrakeGeometry::small()).unwrap();
+    brake_inputs_of(&BrakeGeometry::small())
+}
+
+/// A brake's model, sliding equilibrium and stability tables (modes below 8 kHz).
+pub(crate) fn brake_inputs_of(geometry: &BrakeGeometry) -> Inputs {
+    let mesh = brake(geometry).unwrap();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
     let equilibrium = equilibrium::solve(
         &model,
