@@ -21,6 +21,12 @@
 //! condensed stiffness: `K S`'s interface rows) and `Sᵀ K Φ = 0` (`Φ` vanishes on the
 //! interface).
 //!
+//! With `keep_whole_up_to` = m > 0, every DOF of each body of at most m DOFs (a body: a
+//! connected component of the union of `M`'s, `C`'s and `K`'s patterns, no matrix coupling it
+//! to the rest) joins `i`: those bodies (a brake's pads) stay physical whole, and the vectors,
+//! which vanish on `i`, reduce the other bodies (the disc) alone. The span holds the basis with
+//! the interface alone, and `J` becomes block-diagonal by body (docs/science.md §5).
+//!
 //! The candidates, by `kind`:
 //! - `fc` (the paper's FC_N): the real and imaginary parts of the first N complex modes of the
 //!   stability stage, and the static equilibrium `u_e`;
@@ -120,11 +126,11 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 7: `Tᵀ A T` body by body, `K`'s static blocks from `K S` (the same matrices to
+        // 8: `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body, `K`'s static blocks from `K S` (the same matrices to
         // round-off). 6: the basis holds its model's fingerprint. 5: the adaptive basis's
         // probe is the transient of its version 13. (Its probes' last bits follow the
         // transient's.)
-        7
+        8
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"

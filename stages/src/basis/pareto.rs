@@ -9,8 +9,11 @@
 //! `total_s` against `|error|` (`1 − MAC` for a MAC; no other point is both faster and more
 //! accurate).
 //!
-//! The figure plots, per error, `|error|` against `total_s` (log–log), the front joined, each
-//! point labelled by its coordinates, the reference's run time as a vertical line; and, when
+//! The figure plots, per error, `|error|` against `total_s` (log–log), the front joined, the
+//! reference's run time as a vertical line; the points of a sweep over several axes are
+//! grouped in series by every coordinate but the last (a colour each, joined, named in the
+//! legend) and labelled by the last (a sweep over bases and time steps: one series per basis,
+//! its points labelled by their step); and, when
 //! the errors carry the runs' `residual_indicator` (compare's `candidate_summary`), each error
 //! against the indicator: whether the estimate a reduced run makes of itself, without the
 //! reference, orders the bases as their true errors do.
@@ -38,8 +41,9 @@ impl Stage for Pareto {
         "pareto"
     }
     fn version(&self) -> u32 {
-        // 2: labels in exponent form, error ticks at 1, 2 and 5.
-        2
+        // 3: series by every coordinate but the last. 2: labels in exponent form, error
+        // ticks at 1, 2 and 5.
+        3
     }
     fn doc(&self) -> &'static str {
         "Run time against error over a sweep of bases: one table with speed-ups and errors, the Pareto fronts, and their figure"
@@ -184,10 +188,26 @@ impl Stage for Pareto {
                 });
             }
         }
-        let labels: Vec<String> = rows.iter().map(|(coords, _)| label(coords)).collect();
+        let mut series: Vec<String> = Vec::new();
+        let mut series_of = Vec::with_capacity(rows.len());
+        let mut labels = Vec::with_capacity(rows.len());
+        for (coords, _) in &rows {
+            let (name, point) = series_and_point(coords);
+            let index = series
+                .iter()
+                .position(|other| *other == name)
+                .unwrap_or_else(|| {
+                    series.push(name);
+                    series.len() - 1
+                });
+            series_of.push(index);
+            labels.push(point);
+        }
         let figure = plot::render(
             &ParetoFigure {
                 labels: &labels,
+                series: &series,
+                series_of: &series_of,
                 panels: &panels,
                 reference_s,
             },
@@ -239,17 +259,38 @@ fn shown_name(name: &str) -> String {
     }
 }
 
-/// A point's label: its coordinates' values, numbers far from 1 in exponent form (a time step
-/// reads `5e-6`, not `0.000005`).
+/// A point's label: its coordinates' values.
 fn label(coords: &Coords) -> String {
     coords
         .iter()
-        .map(|(_, value)| match value {
-            Value::Float(x) if *x != 0.0 && !(1e-3..1e6).contains(&x.abs()) => format!("{x:e}"),
-            _ => value.to_string(),
-        })
+        .map(|(_, value)| shown_value(value))
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// A coordinate's value, numbers far from 1 in exponent form (a time step reads `5e-6`, not
+/// `0.000005`).
+fn shown_value(value: &Value) -> String {
+    match value {
+        Value::Float(x) if *x != 0.0 && !(1e-3..1e6).contains(&x.abs()) => format!("{x:e}"),
+        _ => value.to_string(),
+    }
+}
+
+/// A point's series, named by every coordinate but the last (`name=value`), and its label,
+/// the last coordinate's value. A sweep over one axis is one unnamed series.
+fn series_and_point(coords: &Coords) -> (String, String) {
+    match coords.split_last() {
+        Some((last, others)) if !others.is_empty() => (
+            others
+                .iter()
+                .map(|(name, value)| format!("{name}={}", shown_value(value)))
+                .collect::<Vec<_>>()
+                .join(", "),
+            shown_value(&last.1),
+        ),
+        _ => (String::new(), label(coords)),
+    }
 }
 
 /// An error axis's tick label, only at mantissas 1, 2 and 5: a log axis over one decade would
@@ -295,6 +336,9 @@ struct Panel {
 
 struct ParetoFigure<'a> {
     labels: &'a [String],
+    /// The series' names, and each point's series.
+    series: &'a [String],
+    series_of: &'a [usize],
     panels: &'a [Panel],
     reference_s: f64,
 }
@@ -303,8 +347,8 @@ impl Drawing for ParetoFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         let rows = self.panels.len().div_ceil(2).max(1);
         let areas = root.split_evenly((rows, 2));
-        for (panel, area) in self.panels.iter().zip(&areas) {
-            self.draw_panel(panel, area)?;
+        for (k, (panel, area)) in self.panels.iter().zip(&areas).enumerate() {
+            self.draw_panel(panel, area, k == 0)?;
         }
         Ok(())
     }
@@ -329,6 +373,7 @@ impl ParetoFigure<'_> {
         &self,
         panel: &Panel,
         area: &DrawingArea<DB, Shift>,
+        with_legend: bool,
     ) -> DrawResult {
         let against_time = panel.x_name != INDICATOR;
         let reference = against_time.then_some(self.reference_s);
@@ -368,10 +413,7 @@ impl ParetoFigure<'_> {
             .collect();
         front.sort_by(|a, b| a.0.total_cmp(&b.0));
         chart
-            .draw_series(LineSeries::new(
-                front,
-                plot::series_color(1).stroke_width(2),
-            ))
+            .draw_series(LineSeries::new(front, BLACK.mix(0.6).stroke_width(3)))
             .map_err(drawing_error)?;
         if let Some(reference_s) = reference {
             chart
@@ -381,17 +423,46 @@ impl ParetoFigure<'_> {
                 ))
                 .map_err(drawing_error)?;
         }
-        chart
-            .draw_series((0..panel.x.len()).filter(|&i| shown(i)).map(|i| {
-                EmptyElement::at((panel.x[i], panel.errors[i]))
-                    + Circle::new((0, 0), 4, plot::series_color(0).filled())
-                    + Text::new(
-                        self.labels[i].clone(),
-                        (6, -12),
-                        (plot::FONT, 11).into_font(),
-                    )
-            }))
-            .map_err(drawing_error)?;
+        for (k, name) in self.series.iter().enumerate() {
+            let color = plot::series_color(k);
+            let members: Vec<usize> = (0..panel.x.len())
+                .filter(|&i| self.series_of[i] == k && shown(i))
+                .collect();
+            let mut line: Vec<(f64, f64)> = members
+                .iter()
+                .map(|&i| (panel.x[i], panel.errors[i]))
+                .collect();
+            line.sort_by(|a, b| a.0.total_cmp(&b.0));
+            chart
+                .draw_series(LineSeries::new(line, color.mix(0.5).stroke_width(1)))
+                .map_err(drawing_error)?;
+            let points = chart
+                .draw_series(members.iter().map(|&i| {
+                    EmptyElement::at((panel.x[i], panel.errors[i]))
+                        + Circle::new((0, 0), 4, color.filled())
+                        + Text::new(
+                            self.labels[i].clone(),
+                            (6, -12),
+                            (plot::FONT, 11).into_font(),
+                        )
+                }))
+                .map_err(drawing_error)?;
+            if !name.is_empty() {
+                points
+                    .label(name.as_str())
+                    .legend(move |(x, y)| Circle::new((x, y), 4, color.filled()));
+            }
+        }
+        if with_legend && self.series.len() > 1 {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .label_font((plot::FONT, 11))
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK.mix(0.3))
+                .draw()
+                .map_err(drawing_error)?;
+        }
         Ok(())
     }
 }
@@ -487,6 +558,18 @@ mod tests {
         coords.push(("tau".to_string(), Value::Float(5e-6)));
         coords.push(("mu".to_string(), Value::Float(0.38)));
         assert_eq!(label(&coords), "fc 400 5e-6 0.38");
+        // Series by every coordinate but the last, which labels the point.
+        assert_eq!(
+            series_and_point(&coords),
+            (
+                "kind=fc, n_modes=400, tau=5e-6".to_string(),
+                "0.38".to_string()
+            )
+        );
+        assert_eq!(
+            series_and_point(&point("fc", 400)[1..].to_vec()),
+            (String::new(), "400".to_string())
+        );
         assert_eq!(error_tick_label(2e-3), "2e-3");
         assert_eq!(error_tick_label(0.01), "1e-2");
         assert_eq!(error_tick_label(7e-3), "");
