@@ -187,20 +187,7 @@ fn bodies_kept_whole_stay_physical_and_the_vectors_reduce_the_others() {
     for vector in &basis.vectors {
         assert!(pads.iter().all(|&dof| vector[dof] == 0.0));
     }
-    let n_r = basis.n_reduced();
-    let T = StaticModes::new(model, &interface)
-        .unwrap()
-        .basis_matrix(basis);
-    for (A, reduced, name) in [
-        (&model.M, &basis.mass, "mass"),
-        (&model.C, &basis.damping, "damping"),
-        (&model.K, &basis.stiffness, "stiffness"),
-    ] {
-        let reference = transpose_times(T.as_ref(), symmetric_mul(A, T.as_ref()).as_ref());
-        let reduced = faer::Mat::from_fn(n_r, n_r, |i, j| reduced[j * n_r + i]);
-        let error = (&reduced - &reference).norm_max() / reference.norm_max();
-        assert!(error < 1e-12, "{name}: {error:.1e} from Tᵀ A T");
-    }
+    assert_reduced_matrices_are_the_dense_projection(model, basis);
     let params = stage_params(&[
         ("tau", Value::Float(2e-6)),
         ("duration", Value::Float(4e-4)),
@@ -226,6 +213,27 @@ fn bodies_kept_whole_stay_physical_and_the_vectors_reduce_the_others() {
         with_pads < 0.5 * paper,
         "residual indicator: pads whole {with_pads:.2e}, the paper's basis {paper:.2e}"
     );
+}
+
+/// The basis's reduced `M`, `C` and `K` against `Tᵀ A T` with the dense `T` (every body at
+/// once, every block summed): the same to round-off, `K`'s static–modal blocks too (exact
+/// zeros in the basis: `Φ` vanishes on the interface, `K S` off it).
+fn assert_reduced_matrices_are_the_dense_projection(model: &Model, basis: &Basis) {
+    let interface: Vec<usize> = basis.interface.iter().map(|&dof| dof as usize).collect();
+    let T = StaticModes::new(model, &interface)
+        .unwrap()
+        .basis_matrix(basis);
+    let n_r = basis.n_reduced();
+    for (A, reduced, name) in [
+        (&model.M, &basis.mass, "mass"),
+        (&model.C, &basis.damping, "damping"),
+        (&model.K, &basis.stiffness, "stiffness"),
+    ] {
+        let reference = transpose_times(T.as_ref(), symmetric_mul(A, T.as_ref()).as_ref());
+        let reduced = faer::Mat::from_fn(n_r, n_r, |i, j| reduced[j * n_r + i]);
+        let error = (&reduced - &reference).norm_max() / reference.norm_max();
+        assert!(error < 1e-12, "{name}: {error:.1e} from Tᵀ A T");
+    }
 }
 
 /// The fixture's FC basis at the default cut-off, with its outputs.
@@ -269,22 +277,8 @@ fn reduced_matrices_are_symmetric_and_the_vectors_M_orthonormal_with_the_rank_re
         basis.n_reduced() as f64,
         quantity(summary, "n_interface") + quantity(summary, "n_vectors")
     );
-    // The reduced matrices against `Tᵀ A T` with the dense `T` (every body at once, every
-    // block summed): the same to round-off, `K`'s static–modal blocks too (exact zeros in the
-    // basis: `Φ` vanishes on the interface, `K S` off it).
+    assert_reduced_matrices_are_the_dense_projection(model, basis);
     let n_r = basis.n_reduced();
-    let static_modes = StaticModes::new(model, &interface_dofs(model)).unwrap();
-    let T = static_modes.basis_matrix(basis);
-    for (A, reduced, name) in [
-        (&model.M, &basis.mass, "mass"),
-        (&model.C, &basis.damping, "damping"),
-        (&model.K, &basis.stiffness, "stiffness"),
-    ] {
-        let reference = transpose_times(T.as_ref(), symmetric_mul(A, T.as_ref()).as_ref());
-        let reduced = faer::Mat::from_fn(n_r, n_r, |i, j| reduced[j * n_r + i]);
-        let error = (&reduced - &reference).norm_max() / reference.norm_max();
-        assert!(error < 1e-12, "{name}: {error:.1e} from Tᵀ A T");
-    }
     // The reduced stiffness of the static modes is the Schur complement of K_oo: positive
     // definite.
     let K_r = faer::Mat::from_fn(n_r, n_r, |i, j| basis.stiffness[j * n_r + i]);
