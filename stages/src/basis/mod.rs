@@ -126,10 +126,10 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 8: `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body, `K`'s static blocks from `K S` (the same matrices to
-        // round-off). 6: the basis holds its model's fingerprint. 5: the adaptive basis's
-        // probe is the transient of its version 13. (Its probes' last bits follow the
-        // transient's.)
+        // 8: `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body,
+        // `K`'s static blocks from `K S` (the same matrices to round-off). 6: the basis holds
+        // its model's fingerprint. 5: the adaptive basis's probe is the transient of its
+        // version 13. (Its probes' last bits follow the transient's.)
         8
     }
     fn doc(&self) -> &'static str {
@@ -491,9 +491,15 @@ fn candidates_of(
             cutoff_hz,
         )?,
     }
-    if candidates.len() == 0 {
+    // With every body kept whole there is nothing left to reduce, and no vector is right.
+    if candidates.len() == 0 && interface.len() < model.n_dofs() {
+        let limit = if params.n_modes > 0 {
+            format!("n_modes = {}", params.n_modes)
+        } else {
+            format!("below {cutoff_hz:.1} Hz")
+        };
         return Err(StageError::new(format!(
-            "basis: no {} vector below {cutoff_hz:.1} Hz",
+            "basis: no {} vector ({limit})",
             params.kind
         )));
     }
@@ -715,6 +721,10 @@ impl Candidates {
             on_interface[dof] = true;
         }
         let others: Vec<usize> = (0..n).filter(|&dof| !on_interface[dof]).collect();
+        if others.is_empty() {
+            // Every body kept whole: nothing is left to reduce.
+            return Ok(());
+        }
         let mut index = vec![usize::MAX; n];
         for (k, &dof) in others.iter().enumerate() {
             index[dof] = k;

@@ -4,7 +4,8 @@
 //! reduced run grows at the rate of the unstable mode it starts from; the completion by real
 //! modes restores complex modes the stability stage did not seek; the residual indicator
 //! vanishes on a full basis and tracks the true error of the others, and the adaptive basis
-//! meets its target; clear errors; outputs independent of the thread count.
+//! meets its target; bodies kept whole stay physical; clear errors; outputs independent of the
+//! thread count.
 
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -18,6 +19,7 @@ use crate::modes::Modes;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
 use crate::transient::Transient;
+use crate::transient::products::Products;
 use crate::transient::tests::{
     brake_inputs, brake_inputs_of, f64_column, growth_rate, stage_params,
 };
@@ -67,13 +69,22 @@ fn a_basis_spanning_every_dof_reproduces_the_full_transient() {
     let n = inputs.get::<Model>("model").unwrap().n_dofs();
     let modes = real_modes(&inputs, n, 0.0);
     insert(&mut inputs, "modes", modes);
-    // Every real mode, and every body kept whole (no vector at all).
+    // Every real mode, and every body kept whole (no vector at all: no fixed-interface mode
+    // is left to compute, and an FC basis's modes vanish less their static parts).
     let every_mode = [
         ("kind", Value::Str("real".into())),
         ("n_modes", Value::Int(n as i64)),
         ("rank_tolerance", Value::Float(1e-8)),
     ];
-    let every_body = [("keep_whole_up_to", Value::Int(n as i64))];
+    let every_body = [
+        ("kind", Value::Str("craig_bampton".into())),
+        ("n_modes", Value::Int(10)),
+        ("keep_whole_up_to", Value::Int(n as i64)),
+    ];
+    let fc_every_body = fc_basis(&inputs, &[("keep_whole_up_to", Value::Int(n as i64))]);
+    let summary = fc_every_body["summary"].as_table().unwrap();
+    assert_eq!(quantity(summary, "n_vectors"), 0.0);
+    assert_eq!(quantity(summary, "n_reduced"), n as f64);
     // A kick that opens and closes pairs: the contact laws are exercised, not only the
     // linear dynamics.
     let params = stage_params(&[
@@ -138,9 +149,9 @@ fn a_basis_spanning_every_dof_reproduces_the_full_transient() {
 }
 
 /// The pads kept whole: their DOFs are coordinates, the vectors vanish on them and reduce the
-/// disc alone, the reduced matrices are `Tᵀ A T`, and a run on the basis is closer to the full
-/// model than on the paper's basis of the same modes (a few: on this small brake, the modes
-/// below the default cut-off already span the pads).
+/// disc alone, the reduced matrices are `Tᵀ A T` with `C` Rayleigh's row by row, and a run on
+/// the basis is closer to the full model than on the paper's basis of the same modes (a few:
+/// on this small brake, the modes below the default cut-off already span the pads).
 #[test]
 fn bodies_kept_whole_stay_physical_and_the_vectors_reduce_the_others() {
     // Pucks of two layers: one layer would have every free DOF on the interface.
@@ -199,20 +210,42 @@ fn bodies_kept_whole_stay_physical_and_the_vectors_reduce_the_others() {
         let outputs = Transient.run(&params, &inputs).unwrap();
         quantity(outputs["summary"].as_table().unwrap(), "residual_indicator")
     };
-    let (paper, with_pads) = (
-        indicator(&fc_basis(&inputs, &[("n_modes", Value::Int(4))])),
-        indicator(&fc_basis(
-            &inputs,
-            &[
-                ("n_modes", Value::Int(4)),
-                ("keep_whole_up_to", Value::Int(disc as i64 - 1)),
-            ],
-        )),
+    let paper = fc_basis(&inputs, &[("n_modes", Value::Int(4))]);
+    let with_pads = fc_basis(
+        &inputs,
+        &[
+            ("n_modes", Value::Int(4)),
+            ("keep_whole_up_to", Value::Int(disc as i64 - 1)),
+        ],
     );
+    let (paper_indicator, with_pads_indicator) = (indicator(&paper), indicator(&with_pads));
     assert!(
-        with_pads < 0.5 * paper,
-        "residual indicator: pads whole {with_pads:.2e}, the paper's basis {paper:.2e}"
+        with_pads_indicator < 0.5 * paper_indicator,
+        "residual indicator: pads whole {with_pads_indicator:.2e}, the paper's basis {paper_indicator:.2e}"
     );
+    // Each vector lies on the disc alone, so the reduced `C` is Rayleigh's row by row and a
+    // step streams `K` alone; the paper's vectors span the disc and the pads, whose Rayleigh
+    // coefficients differ.
+    let rayleigh = |outputs: &Outputs| {
+        let Artifact::Basis(basis) = &outputs["basis"] else {
+            panic!("not a basis")
+        };
+        let n_r = basis.n_reduced();
+        let sparse = |dense: &[f64]| {
+            let entries = (0..n_r * n_r)
+                .filter(|&k| dense[k] != 0.0)
+                .map(|k| (k % n_r, k / n_r, dense[k]))
+                .collect();
+            CscMatrix::from_triplets(n_r, n_r, entries)
+        };
+        Products::new(
+            &sparse(&basis.mass),
+            &sparse(&basis.damping),
+            &sparse(&basis.stiffness),
+        )
+        .is_rayleigh()
+    };
+    assert!(rayleigh(&with_pads) && !rayleigh(&paper));
 }
 
 /// The basis's reduced `M`, `C` and `K` against `Tᵀ A T` with the dense `T` (every body at
@@ -381,6 +414,17 @@ fn bad_requests_are_refused_with_what_is_missing() {
         &inputs,
     );
     assert!(message.contains("mode 99999"), "{message}");
+    let message = refuse(
+        &[
+            ("kind", Value::Str("craig_bampton".into())),
+            ("f_cutoff_hz", Value::Float(1.0)),
+        ],
+        &inputs,
+    );
+    assert!(
+        message.contains("no craig_bampton vector (below 1.0 Hz)"),
+        "{message}"
+    );
     let message = refuse(&[("n_modes", Value::Int(100_000))], &inputs);
     assert!(message.contains("n_modes = 100000"), "{message}");
     for tolerance in [0.0, 1.0] {

@@ -68,7 +68,7 @@
 pub mod contact;
 pub mod energy;
 mod figure;
-mod products;
+pub(crate) mod products;
 pub mod reduced;
 pub mod scheme;
 #[cfg(test)]
