@@ -304,12 +304,13 @@ impl Stage for ReductionBasis {
             .check_belongs_to(model)
             .map_err(|err| StageError::new(format!("basis: {}", err.message)))?;
         let contact_dofs = interface_dofs(model);
-        let interface = with_whole_bodies(model, &contact_dofs, params.keep_whole_up_to as usize);
         if contact_dofs.is_empty() {
             return Err(StageError::new(
                 "basis: the model has no contact pair, so no interface to keep",
             ));
         }
+        let bodies = components(&[&model.M, &model.C, &model.K]);
+        let interface = with_whole_bodies(&bodies, &contact_dofs, params.keep_whole_up_to as usize);
         // The phases' shares of an fc build on the default brake; an adaptive basis reports
         // its rounds instead. `squeal run -v` logs them, timed.
         let phase = |fraction: f64, message: String| {
@@ -353,7 +354,7 @@ impl Stage for ReductionBasis {
             0.5,
             format!("M, C, K on the {} static modes", interface.len()),
         );
-        let mut reduction = Reduction::new(model, &static_modes);
+        let mut reduction = Reduction::new(model, &static_modes, bodies);
         phase(0.7, format!("M, C, K on the {} vectors", span.len()));
         reduction.extend(model, span.vectors());
         let mut lists = vec![candidates, completion];
@@ -421,11 +422,11 @@ impl Stage for ReductionBasis {
 
 /// The DOFs kept physical: the contact interface's, and every DOF of the bodies (sets of DOFs
 /// that no matrix couples) of at most `up_to` DOFs; ascending.
-fn with_whole_bodies(model: &Model, contact_dofs: &[usize], up_to: usize) -> Vec<usize> {
+fn with_whole_bodies(bodies: &[Vec<usize>], contact_dofs: &[usize], up_to: usize) -> Vec<usize> {
     let mut physical = contact_dofs.to_vec();
     if up_to > 0 {
-        components(&[&model.M, &model.C, &model.K])
-            .into_iter()
+        bodies
+            .iter()
             .filter(|body| body.len() <= up_to)
             .for_each(|body| physical.extend(body));
         physical.sort_unstable();
@@ -946,8 +947,9 @@ struct BodyModes {
 }
 
 impl Reduction {
-    /// `T` = the static modes of the interface.
-    fn new(model: &Model, static_modes: &StaticModes) -> Reduction {
+    /// `T` = the static modes of the interface; `bodies`: the model's, `csc::components` of
+    /// its matrices.
+    fn new(model: &Model, static_modes: &StaticModes, bodies: Vec<Vec<usize>>) -> Reduction {
         let interface = static_modes.interface();
         let n_i = interface.len();
         let matrices = [&model.M, &model.C, &model.K];
@@ -955,7 +957,7 @@ impl Reduction {
         for (k, &dof) in interface.iter().enumerate() {
             position[dof] = k;
         }
-        let bodies: Vec<BodyModes> = components(&matrices)
+        let bodies: Vec<BodyModes> = bodies
             .into_iter()
             .filter_map(|dofs| {
                 let columns: Vec<usize> = dofs

@@ -333,7 +333,8 @@ fn the_reduction_grown_by_blocks_is_the_dense_projection() {
         W[(static_modes.interface()[j], k)]
     });
     let V = &W - static_modes.static_displacement(W_i.as_ref());
-    let mut reduction = Reduction::new(model, &static_modes);
+    let bodies = components(&[&model.M, &model.C, &model.K]);
+    let mut reduction = Reduction::new(model, &static_modes, bodies);
     reduction.extend(model, V.as_ref());
     reduction.extend(model, W.as_ref());
     let n_i = static_modes.interface().len();
