@@ -66,6 +66,18 @@ impl<const N: usize> Rows<N> {
         }
     }
 
+    /// Every row times `x`, for each matrix, over fixed chunks of rows in parallel.
+    fn times(&self, x: &[f64]) -> Vec<[f64; N]> {
+        let mut out = vec![[0.0; N]; x.len()];
+        by_chunks(&mut out, |i, slot| *slot = self.row_times(i, x));
+        out
+    }
+
+    /// Bytes a product reads of the matrices.
+    fn bytes(&self) -> usize {
+        self.col_ptr.len() * 8 + self.row_idx.len() * (4 + 8 * N)
+    }
+
     /// Row `i` times `x`, for each matrix.
     fn row_times(&self, i: usize, x: &[f64]) -> [f64; N] {
         let mut sum = [0.0; N];
@@ -106,8 +118,9 @@ fn union_column<const N: usize>(
 /// Columns of each fixed chunk of [`LowerRuns`]'s product (independent of the thread count).
 const RUN_CHUNK: usize = 256;
 
-/// `C` and `K` by their lower triangles, each column's entries below the diagonal stored as
-/// runs of consecutive rows, for the fused products. A reduced model's matrices are dense but
+/// Symmetric matrices by their lower triangles, each column's entries below the diagonal
+/// stored as runs of consecutive rows: `C` and `K` for the fused products, or `K` alone. A
+/// reduced model's matrices are dense but
 /// for the blocks between separate bodies (and `K`'s between the interface and the vectors,
 /// [`super::reduced`]), so a column is a few long runs: the product reads each stored entry
 /// once and no index per entry, for its row (a dot product with `x`) and for its column (`x_j`
@@ -118,9 +131,8 @@ const RUN_CHUNK: usize = 256;
 /// sums of the rows from its first column on; row `i` adds its chunks' partials in chunk
 /// order. Every sum's order is fixed by the pattern alone, so the bits do not depend on the
 /// thread count.
-pub(crate) struct LowerRuns {
-    /// `C`'s, then `K`'s.
-    triangles: [Triangle; 2],
+pub(crate) struct LowerRuns<const N: usize> {
+    triangles: [Triangle; N],
 }
 
 /// One symmetric matrix's lower triangle as runs.
@@ -191,21 +203,21 @@ impl Triangle {
     }
 }
 
-impl LowerRuns {
-    fn new(C: &CscMatrix, K: &CscMatrix) -> LowerRuns {
+impl<const N: usize> LowerRuns<N> {
+    fn new(matrices: [&CscMatrix; N]) -> LowerRuns<N> {
         LowerRuns {
-            triangles: [Triangle::new(C), Triangle::new(K)],
+            triangles: matrices.map(Triangle::new),
         }
     }
 
-    /// `[C x, K x]` per row.
-    fn times(&self, x: &[f64]) -> Vec<[f64; 2]> {
+    /// Every row times `x`, for each matrix.
+    fn times(&self, x: &[f64]) -> Vec<[f64; N]> {
         let n = x.len();
-        let partials: Vec<[Vec<f64>; 2]> = (0..n.div_ceil(RUN_CHUNK))
+        let partials: Vec<[Vec<f64>; N]> = (0..n.div_ceil(RUN_CHUNK))
             .into_par_iter()
             .map(|chunk| {
                 let start = chunk * RUN_CHUNK;
-                let mut partial = [vec![0.0; n - start], vec![0.0; n - start]];
+                let mut partial: [Vec<f64>; N] = std::array::from_fn(|_| vec![0.0; n - start]);
                 for j in start..(start + RUN_CHUNK).min(n) {
                     for (triangle, partial) in self.triangles.iter().zip(&mut partial) {
                         triangle.column_times(j, x, start, partial);
@@ -216,24 +228,65 @@ impl LowerRuns {
             .collect();
         (0..n)
             .map(|i| {
-                let mut sum = [0.0; 2];
-                for (chunk, [C_part, K_part]) in partials[..=i / RUN_CHUNK].iter().enumerate() {
-                    sum[0] += C_part[i - chunk * RUN_CHUNK];
-                    sum[1] += K_part[i - chunk * RUN_CHUNK];
+                let mut sum = [0.0; N];
+                for (chunk, parts) in partials[..=i / RUN_CHUNK].iter().enumerate() {
+                    for (slot, part) in sum.iter_mut().zip(parts) {
+                        *slot += part[i - chunk * RUN_CHUNK];
+                    }
                 }
                 sum
             })
             .collect()
+    }
+
+    /// Bytes a product reads and writes: the triangles, and each chunk's partial sums.
+    fn bytes(&self) -> usize {
+        let n = self.triangles[0].diagonal.len();
+        let partials: usize = (0..n).step_by(RUN_CHUNK).map(|start| n - start).sum();
+        self.triangles
+            .iter()
+            .map(|triangle| {
+                8 * (triangle.diagonal.len() + triangle.col_runs.len() + triangle.values.len())
+                    + std::mem::size_of::<Run>() * triangle.runs.len()
+                    + 16 * partials
+            })
+            .sum()
+    }
+}
+
+/// `K` in whichever layout a product reads fewer bytes of: both triangles with an index per
+/// entry (an FE model's sparse `K`, whose runs are a node's few DOFs), or the lower
+/// triangle's runs (a reduced model's dense blocks, a third of the bytes).
+pub(crate) enum Stiffness {
+    Rows(Rows<1>),
+    Runs(LowerRuns<1>),
+}
+
+impl Stiffness {
+    fn new(K: &CscMatrix) -> Stiffness {
+        let (rows, runs) = (Rows::new([K]), LowerRuns::new([K]));
+        if runs.bytes() < rows.bytes() {
+            Stiffness::Runs(runs)
+        } else {
+            Stiffness::Rows(rows)
+        }
+    }
+
+    fn times(&self, x: &[f64]) -> Vec<[f64; 1]> {
+        match self {
+            Stiffness::Rows(rows) => rows.times(x),
+            Stiffness::Runs(runs) => runs.times(x),
+        }
     }
 }
 
 /// How a run gets its products.
 pub(crate) enum Products {
     /// `C` and `K` in one pass over their lower triangles.
-    Fused(LowerRuns),
+    Fused(LowerRuns<2>),
     /// `K` alone: `C = diag(a) M + diag(b) K`.
     Rayleigh {
-        K: Rows<1>,
+        K: Stiffness,
         a: Vec<f64>,
         b: Vec<f64>,
     },
@@ -243,7 +296,7 @@ impl Products {
     pub fn new(M: &CscMatrix, C: &CscMatrix, K: &CscMatrix) -> Products {
         match rayleigh_rows(M, C, K) {
             Some((a, b)) => Products::Rayleigh {
-                K: Rows::new([K]),
+                K: Stiffness::new(K),
                 a,
                 b,
             },
@@ -252,13 +305,25 @@ impl Products {
     }
 
     fn fused(C: &CscMatrix, K: &CscMatrix) -> Products {
-        Products::Fused(LowerRuns::new(C, K))
+        Products::Fused(LowerRuns::new([C, K]))
     }
 
     /// Whether a step streams `K` alone.
     #[cfg(test)]
     pub fn is_rayleigh(&self) -> bool {
         matches!(self, Products::Rayleigh { .. })
+    }
+
+    /// Whether a step streams `K` alone, by its lower triangle's runs.
+    #[cfg(test)]
+    pub fn streams_lower_runs(&self) -> bool {
+        matches!(
+            self,
+            Products::Rayleigh {
+                K: Stiffness::Runs(_),
+                ..
+            }
+        )
     }
 
     /// `C x` and `K x` into the last two slots of `out`, given `M x` in its first.
@@ -269,11 +334,12 @@ impl Products {
                     [slot[1], slot[2]] = [C_x, K_x];
                 }
             }
-            Products::Rayleigh { K, a, b } => by_chunks(out, |i, slot| {
-                let [K_x] = K.row_times(i, x);
-                slot[1] = a[i] * slot[0] + b[i] * K_x;
-                slot[2] = K_x;
-            }),
+            Products::Rayleigh { K, a, b } => {
+                for (i, (slot, [K_x])) in out.iter_mut().zip(K.times(x)).enumerate() {
+                    slot[1] = a[i] * slot[0] + b[i] * K_x;
+                    slot[2] = K_x;
+                }
+            }
         }
     }
 
@@ -290,18 +356,19 @@ impl Products {
                     ];
                 }
             }
-            Products::Rayleigh { K, a, b } => by_chunks(out, |i, slot| {
-                let [K_x] = K.row_times(i, x);
-                let M_x = tau * (J_x[i] - (theta * b[i] + tau * theta * theta) * K_x)
-                    / (1.0 + tau * theta * a[i]);
-                *slot = [M_x, a[i] * M_x + b[i] * K_x, K_x];
-            }),
+            Products::Rayleigh { K, a, b } => {
+                for (i, (slot, [K_x])) in out.iter_mut().zip(K.times(x)).enumerate() {
+                    let M_x = tau * (J_x[i] - (theta * b[i] + tau * theta * theta) * K_x)
+                        / (1.0 + tau * theta * a[i]);
+                    *slot = [M_x, a[i] * M_x + b[i] * K_x, K_x];
+                }
+            }
         }
     }
 }
 
 /// `row(i, out_i)` for every row, over fixed chunks of rows in parallel.
-fn by_chunks(out: &mut [[f64; 3]], row: impl Fn(usize, &mut [f64; 3]) + Sync) {
+fn by_chunks<T: Send>(out: &mut [T], row: impl Fn(usize, &mut T) + Sync) {
     out.par_chunks_mut(PRODUCT_CHUNK)
         .enumerate()
         .for_each(|(chunk, slots)| {
@@ -408,6 +475,7 @@ mod tests {
         let C = CscMatrix::from_triplets(n, n, triplets);
         let rayleigh = Products::new(&M, &C, &K);
         assert!(rayleigh.is_rayleigh());
+        assert!(!rayleigh.streams_lower_runs(), "a tridiagonal K is read by rows");
         let fused = Products::fused(&C, &K);
         let (tau, theta) = (1e-6, 0.6);
         let J = combination(&[(1.0 / tau, &M), (theta, &C), (tau * theta * theta, &K)]);
@@ -439,46 +507,48 @@ mod tests {
         }
     }
 
-    /// A reduced model's pattern: dense blocks, two bodies that do not couple, `K` without the
-    /// blocks `C` has between the bodies and the modes, runs longer and shorter than the
-    /// lanes, more columns than a chunk. The fused products agree with
-    /// both triangles' products to rounding, and their bits do not depend on the thread count.
-    #[test]
-    fn products_over_the_lower_runs_agree_and_keep_their_bits_on_any_thread_count() {
+    /// A reduced model's pattern, `n = 2 RUN_CHUNK + 77`: dense blocks, two bodies that do not
+    /// couple, and modal coordinates that couple with both bodies if `modes_couple` (`K` has
+    /// no blocks between the bodies and the modes, `C` does); a gap in each column, so that
+    /// runs end and start again within it, longer and shorter than the lanes.
+    fn dense_blocks(scale: f64, modes_couple: bool) -> CscMatrix {
         let n = 2 * RUN_CHUNK + 77;
         let body = |i: usize| match i {
             _ if i < 200 => Some(0),
             _ if i < 411 => Some(1),
-            _ => None, // modal coordinates: coupled with every body
+            _ => None,
         };
-        // `K` alone leaves out the blocks between the bodies and the modal coordinates.
-        let dense = |scale: f64, modes_couple: bool| {
-            let mut triplets = Vec::new();
-            for j in 0..n {
-                for i in j..n {
-                    let coupled = match (body(i), body(j)) {
-                        (Some(a), Some(b)) => a == b,
-                        (None, None) => true,
-                        _ => modes_couple,
+        let mut triplets = Vec::new();
+        for j in 0..n {
+            for i in j..n {
+                let coupled = match (body(i), body(j)) {
+                    (Some(a), Some(b)) => a == b,
+                    (None, None) => true,
+                    _ => modes_couple,
+                };
+                if coupled && (i == j || (i + 3 * j) % 41 != 0) {
+                    let value = if i == j {
+                        scale * (n as f64)
+                    } else {
+                        scale * (((i * 7 + j * 13) % 17) as f64 - 8.0) / 9.0
                     };
-                    // A gap in each column: runs end and start again within it.
-                    if coupled && (i == j || (i + 3 * j) % 41 != 0) {
-                        let value = if i == j {
-                            scale * (n as f64)
-                        } else {
-                            scale * (((i * 7 + j * 13) % 17) as f64 - 8.0) / 9.0
-                        };
-                        triplets.push((i, j, value));
-                        if i != j {
-                            triplets.push((j, i, value));
-                        }
+                    triplets.push((i, j, value));
+                    if i != j {
+                        triplets.push((j, i, value));
                     }
                 }
             }
-            CscMatrix::from_triplets(n, n, triplets)
-        };
-        let (C, K) = (dense(3e-4, true), dense(2e7, false));
-        let products = LowerRuns::new(&C, &K);
+        }
+        CscMatrix::from_triplets(n, n, triplets)
+    }
+
+    /// The fused products over a reduced model's lower runs agree with both triangles'
+    /// products to rounding, and their bits do not depend on the thread count.
+    #[test]
+    fn products_over_the_lower_runs_agree_and_keep_their_bits_on_any_thread_count() {
+        let n = 2 * RUN_CHUNK + 77;
+        let (C, K) = (dense_blocks(3e-4, true), dense_blocks(2e7, false));
+        let products = LowerRuns::new([&C, &K]);
         assert!(
             products
                 .triangles
@@ -510,6 +580,53 @@ mod tests {
                     .zip(&CK_x)
                     .all(|(a, b)| a[0].to_bits() == b[0].to_bits()
                         && a[1].to_bits() == b[1].to_bits()),
+                "the bits changed on {threads} threads"
+            );
+        }
+    }
+
+    /// A reduced model with the pads kept whole: dense blocks, Rayleigh damping row by row.
+    /// A step streams `K`'s lower runs alone, and the products agree with the exact ones to
+    /// rounding, with the same bits on any thread count.
+    #[test]
+    fn a_dense_rayleigh_model_streams_k_by_its_lower_runs() {
+        let n = 2 * RUN_CHUNK + 77;
+        let (M, K) = (dense_blocks(1.0, false), dense_blocks(2e7, false));
+        let (alpha, beta) = (3.0, 5e-8);
+        let C = combination(&[(alpha, &M), (beta, &K)]);
+        let products = Products::new(&M, &C, &K);
+        assert!(products.streams_lower_runs());
+        let (tau, theta) = (1e-6, 0.5);
+        let J = combination(&[(1.0 / tau, &M), (theta, &C), (tau * theta * theta, &K)]);
+        let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
+        let J_x = J.mul_vec(&x);
+        let mut got = vec![[0.0; 3]; n];
+        products.of_solution(&x, &J_x, tau, theta, &mut got);
+        let exact = [M.mul_vec(&x), C.mul_vec(&x), K.mul_vec(&x)];
+        for (d, exact) in exact.iter().enumerate() {
+            let scale = exact.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for i in 0..n {
+                assert!(
+                    (got[i][d] - exact[i]).abs() <= 1e-8 * scale,
+                    "row {i}, product {d}: {} against {}",
+                    got[i][d],
+                    exact[i]
+                );
+            }
+        }
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut on_pool = vec![[0.0; 3]; n];
+            pool.install(|| products.of_solution(&x, &J_x, tau, theta, &mut on_pool));
+            assert!(
+                on_pool
+                    .iter()
+                    .flatten()
+                    .zip(got.iter().flatten())
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
                 "the bits changed on {threads} threads"
             );
         }
