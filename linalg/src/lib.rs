@@ -23,6 +23,7 @@ pub mod kernels;
 pub mod lanczos;
 pub mod lblt;
 pub mod ldlt;
+pub mod lu;
 pub mod matrix_market;
 pub mod ordering;
 pub mod rng;

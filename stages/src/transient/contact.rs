@@ -61,10 +61,10 @@
 //! Convergence is measured by the natural residual `max_p ‖r_p − proj(r_p)‖ / R`, `R` the
 //! force scale (the largest equilibrium reaction, or the largest reaction found).
 
-use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
 use squeal_linalg::kernels::{axpy, dot};
+use squeal_linalg::lu::PackedLu;
 
 /// Chord iterations tried before a step falls back to Gauss–Seidel.
 const CHORD_ITERATIONS: usize = 6;
@@ -476,7 +476,7 @@ struct Factorisation {
     /// In single precision: the chord needs only an approximate Jacobian (it already is one,
     /// from an earlier step), its residual is evaluated and the step accepted in double
     /// precision, and a solve, bound by reading the factors, takes half the time.
-    lu: PartialPivLu<f32>,
+    lu: PackedLu,
 }
 
 impl Factorisation {
@@ -548,13 +548,15 @@ impl Factorisation {
         Some(Factorisation {
             states: states.clone(),
             offsets,
-            lu: Mat::<f32>::from_fn(A.nrows(), A.ncols(), |i, j| A[(i, j)] as f32).partial_piv_lu(),
+            lu: PackedLu::new(
+                Mat::<f32>::from_fn(A.nrows(), A.ncols(), |i, j| A[(i, j)] as f32).as_ref(),
+            ),
         })
     }
 
     /// The residual `F` of the set's laws at `r`, `w` (velocity rows scaled by ρ: forces),
     /// evaluated in double precision and rounded for the single-precision solve.
-    fn laws(&self, problem: &Problem, step: &Step, r: &[f64], w: &[f64], F: &mut Mat<f32>) {
+    fn laws(&self, problem: &Problem, step: &Step, r: &[f64], w: &[f64], F: &mut [f32]) {
         for (p, state) in self.states.iter().enumerate() {
             let (k, i) = (3 * p, self.offsets[p]);
             let normal = step.rho_n[p] * (w[k] - problem.w_n_min[p]);
@@ -575,7 +577,7 @@ impl Factorisation {
                 }
             };
             for (e, value) in values.into_iter().enumerate() {
-                F[(i + e, 0)] = value as f32;
+                F[i + e] = value as f32;
             }
         }
     }
@@ -590,16 +592,17 @@ impl Factorisation {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Option<Report> {
-        let mut F = Mat::<f32>::zeros(self.offsets[self.states.len()], 1);
+        let mut F = vec![0.0_f32; self.lu.n()];
         let mut last_residual = f64::INFINITY;
         for iteration in 1..=CHORD_ITERATIONS {
             self.laws(problem, step, r, w, &mut F);
-            let correction = self.lu.solve(&F);
+            self.lu.solve_in_place(&mut F);
+            let correction = &F;
             for (p, state) in self.states.iter().enumerate() {
                 let (k, i) = (3 * p, self.offsets[p]);
                 match state {
                     PairState::Open => r[k..k + 3].fill(0.0),
-                    _ => (0..3).for_each(|d| r[k + d] -= correction[(i + d, 0)] as f64),
+                    _ => (0..3).for_each(|d| r[k + d] -= correction[i + d] as f64),
                 }
             }
             velocities(problem, r, w);

@@ -169,11 +169,13 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 13: the sweeps read each column of a supernode once, by the vector kernels (12:
+        // 14: a reduced model's dense K streamed by its lower runs, the chord's LU solved by
+        // packed sweeps (13: the sweeps read each column of a supernode once, by the vector
+        // kernels; 12:
         // Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single precision, the
         // snapshots lifted by products of blocks; 11: a reduced step corrects by the response
         // J⁻¹ Hᵀ); the last bits of every run.
-        13
+        14
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

@@ -475,7 +475,10 @@ mod tests {
         let C = CscMatrix::from_triplets(n, n, triplets);
         let rayleigh = Products::new(&M, &C, &K);
         assert!(rayleigh.is_rayleigh());
-        assert!(!rayleigh.streams_lower_runs(), "a tridiagonal K is read by rows");
+        assert!(
+            !rayleigh.streams_lower_runs(),
+            "a tridiagonal K is read by rows"
+        );
         let fused = Products::fused(&C, &K);
         let (tau, theta) = (1e-6, 0.6);
         let J = combination(&[(1.0 / tau, &M), (theta, &C), (tau * theta * theta, &K)]);
