@@ -101,10 +101,10 @@ pub(super) fn enrich(
     let mut rounds = Vec::new();
     for round in 1..=enrichment.max_rounds {
         let basis = reduction.basis("adaptive");
-        let (_, indicator) = run_reduced(
+        let (run, reduced) = run_reduced(
             model,
             (&structure, &contact_state),
-            (&basis, probe.static_modes, &full_step),
+            (&basis, probe.static_modes),
             &settings,
             start.clone(),
             &RunContext::detached(),
@@ -115,6 +115,8 @@ pub(super) fn enrich(
                 basis.vectors.len()
             ))
         })?;
+        let indicator =
+            full_step.indicator(&reduced, &basis, &structure, &contact_state, &run.samples);
         rounds.push(Round {
             n_vectors: basis.vectors.len(),
             n_reduced: basis.n_reduced(),

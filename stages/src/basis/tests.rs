@@ -369,21 +369,35 @@ fn a_reduced_run_grows_at_the_rate_of_the_unstable_mode_it_starts_from() {
     let basis = fc_basis(&inputs, &[]);
     insert(&mut inputs, "basis", basis["basis"].clone());
     let tau = period / 60.0;
-    let outputs = Transient
-        .run(
-            &stage_params(&[
-                ("tau", Value::Float(tau)),
-                ("duration", Value::Float((3.0 / expected).min(4000.0 * tau))),
-                ("amplitude", Value::Float(1e-9)),
-            ]),
-            &inputs,
-        )
-        .unwrap();
+    let run = |indicator_samples: i64| {
+        Transient
+            .run(
+                &stage_params(&[
+                    ("tau", Value::Float(tau)),
+                    ("duration", Value::Float((3.0 / expected).min(4000.0 * tau))),
+                    ("amplitude", Value::Float(1e-9)),
+                    ("indicator_samples", Value::Int(indicator_samples)),
+                ]),
+                &inputs,
+            )
+            .unwrap()
+    };
+    let outputs = run(20);
     let measured = growth_rate(outputs["history"].as_table().unwrap(), period, tau);
     assert!(
         (measured - expected).abs() < 0.02 * expected,
         "reduced growth rate {measured} /s against Re lambda = {expected} /s"
     );
+    // Without the indicator: the same run, and a summary that says it was not computed.
+    let without = run(0);
+    assert!(quantity(outputs["summary"].as_table().unwrap(), "residual_indicator").is_finite());
+    assert!(quantity(without["summary"].as_table().unwrap(), "residual_indicator").is_nan());
+    for table in ["history", "snapshots"] {
+        assert!(
+            outputs[table].as_table().unwrap() == without[table].as_table().unwrap(),
+            "{table}: the indicator changed the run"
+        );
+    }
     // The modal coordinates are eliminated last, so the bodies' interface blocks, which do not
     // couple, stay apart in J's factor: the dense factor would hold n² entries (supernodes are
     // stored whole).

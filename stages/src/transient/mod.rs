@@ -84,7 +84,7 @@ use crate::stage::{
 };
 use crate::table::{ColumnData, Table};
 use contact::Solver;
-use reduced::{FullStep, Indicator, ReducedModel};
+use reduced::{FullStep, ReducedModel};
 use scheme::{ContactState, Failure, Run, Settings, Structure};
 
 /// Progress reports over a run.
@@ -260,9 +260,9 @@ impl Stage for Transient {
             ParamSpec::int(
                 "indicator_samples",
                 20,
-                "with a basis: steps, spread over the run, at which the full step equation is checked on the lifted reduced solution (the residual indicator)",
+                "with a basis: steps, spread over the run, at which the full step equation is checked on the lifted reduced solution (the residual indicator); 0: no indicator (the full J is not factorised, the summary's residual_indicator is NaN)",
             )
-            .at_least(1.0),
+            .at_least(0.0),
         ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
@@ -396,32 +396,43 @@ impl Stage for Transient {
                 let interface: Vec<usize> =
                     basis.interface.iter().map(|&dof| dof as usize).collect();
                 let static_modes = StaticModes::new(model, &interface)?;
-                let full_step = FullStep::new(&structure, settings.theta, settings.tau)?;
-                let (run, indicator) = run_reduced(
+                let full_step = match samples {
+                    0 => None,
+                    _ => Some(FullStep::new(&structure, settings.theta, settings.tau)?),
+                };
+                let (run, reduced) = run_reduced(
                     model,
                     (&structure, &contact_state),
-                    (basis, &static_modes, &full_step),
+                    (basis, &static_modes),
                     &settings,
                     (u0, v0),
                     context,
                 )?;
-                (run, Some(indicator))
+                let indicator = full_step.map(|full_step| {
+                    full_step.indicator(&reduced, basis, &structure, &contact_state, &run.samples)
+                });
+                (run, indicator)
             }
         };
-        outputs(model, &settings, &run, indicator.as_ref())
+        let residual_indicator = match (basis, indicator) {
+            (None, _) => 0.0,
+            (Some(_), Some(indicator)) => indicator.value,
+            (Some(_), None) => f64::NAN,
+        };
+        outputs(model, &settings, &run, residual_indicator)
     }
 }
 
-/// A run on a reduction basis, its snapshots lifted to the full DOFs, and its residual
-/// indicator against the full model's step (`full_step`).
-pub fn run_reduced(
+/// A run on a reduction basis, its snapshots lifted to the full DOFs, and the reduced model
+/// it ran on (for [`FullStep::indicator`]).
+pub fn run_reduced<'m>(
     model: &Model,
     (structure, contact_state): (&Structure, &ContactState),
-    (basis, static_modes, full_step): (&Basis, &StaticModes, &FullStep),
+    (basis, static_modes): (&Basis, &'m StaticModes),
     settings: &Settings,
     (u0, v0): (Vec<f64>, Vec<f64>),
     context: &RunContext,
-) -> Result<(Run, Indicator), StageError> {
+) -> Result<(Run, ReducedModel<'m>), StageError> {
     let reduced = ReducedModel::new(model, basis, static_modes, structure)?;
     let restrict = |u: &[f64]| static_modes.restrict(basis, &model.M, u);
     let start = (restrict(&u0), restrict(&v0));
@@ -433,8 +444,7 @@ pub fn run_reduced(
         context,
     )?;
     reduced.lift_snapshots(basis, &mut run);
-    let indicator = full_step.indicator(&reduced, basis, structure, contact_state, &run.samples);
-    Ok((run, indicator))
+    Ok((run, reduced))
 }
 
 /// The start of a run from the sliding equilibrium plus the most unstable mode of the
@@ -727,7 +737,7 @@ fn outputs(
     model: &Model,
     settings: &Settings,
     run: &Run,
-    indicator: Option<&Indicator>,
+    residual_indicator: f64,
 ) -> Result<Outputs, StageError> {
     let history = &run.history;
     let column =
@@ -779,7 +789,7 @@ fn outputs(
             .map(|snapshot| (snapshot_name(snapshot.t), snapshot.v.clone()))
             .collect(),
     );
-    let summary = summary_table(settings, run, indicator);
+    let summary = summary_table(settings, run, residual_indicator);
     let figure = figure::history(history, settings)?;
     let energy_figure = figure::energy(history)?;
     Ok(Outputs::from([
@@ -835,8 +845,8 @@ pub fn peak_energy(history: &[scheme::HistoryRow]) -> f64 {
 }
 
 /// The run's figures; `residual_indicator` is 0 for a run on the full model (which is its own
-/// reference).
-fn summary_table(settings: &Settings, run: &Run, indicator: Option<&Indicator>) -> Table {
+/// reference), NaN for a reduced run without the indicator.
+fn summary_table(settings: &Settings, run: &Run, residual_indicator: f64) -> Table {
     let last = run.history.last().cloned().unwrap_or_default();
     let peak = peak_energy(&run.history);
     let worst_balance = run
@@ -871,10 +881,7 @@ fn summary_table(settings: &Settings, run: &Run, indicator: Option<&Indicator>) 
         ("final_open", last.open),
         ("final_stick", last.stick),
         ("final_slide", last.slide),
-        (
-            "residual_indicator",
-            indicator.map_or(0.0, |indicator| indicator.value),
-        ),
+        ("residual_indicator", residual_indicator),
     ];
     Table::quantities(&quantities)
 }

@@ -27,6 +27,7 @@
 //!
 //! dimensionless, zero for a basis that spans every DOF, and computed from the reduced run
 //! alone (one factorisation of the full `J` and one solve per sampled step, no full run).
+//! `indicator_samples: 0` skips it.
 
 use faer::{Mat, Par};
 
