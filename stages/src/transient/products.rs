@@ -18,11 +18,12 @@
 //!    (C v)_i = a_i (M v)_i + b_i (K v)_i
 //! ```
 //!
-//! so a step streams `K` alone ([`Products::Rayleigh`]: both triangles, row by row, 12 bytes
-//! an entry). The rows' `a`, `b` are found by least squares on each row's entries and accepted
-//! only if every entry of `C` (and every zero of `C` under an entry of `M` or `K`) agrees to
-//! rounding (`RAYLEIGH_TOLERANCE` of the row's largest terms); otherwise the fused products are
-//! used. Either way every sum's order is fixed by the pattern, so the bits do not depend on
+//! so a step streams `K` alone ([`Products::Rayleigh`]; [`Stiffness`]: both triangles row by
+//! row, 12 bytes an entry, for an FE model's sparse `K`, its lower triangle's runs, 8 bytes an
+//! entry of one triangle, for a reduced model's dense blocks). The rows' `a`, `b` are found by
+//! least squares on each row's entries and accepted only if every entry of `C` (and every zero
+//! of `C` under an entry of `M` or `K`) agrees to rounding (`RAYLEIGH_TOLERANCE` of the row's
+//! largest terms); otherwise the fused products are used. Either way every sum's order is fixed by the pattern, so the bits do not depend on
 //! the thread count.
 
 use rayon::prelude::*;
