@@ -52,9 +52,17 @@ fn uniform(state: &mut u64) -> f64 {
 fn a_run_killed_at_50_random_points_reruns_to_the_bytes_of_an_uninterrupted_run() {
     let reference = Workspace::new();
     reference.write("study.yaml", STUDY);
-    let started = Instant::now();
-    reference.run_ok(&["run", "study.yaml", "--out", "out"]);
-    let full = started.elapsed();
+    // The kills are spread over the fastest of three uncached runs: the first, from a cold
+    // start, can take a third longer than the trials, whose kills would then land late.
+    let full = (0..3)
+        .map(|_| {
+            let _ = std::fs::remove_dir_all(reference.path().join(".squeal"));
+            let started = Instant::now();
+            reference.run_ok(&["run", "study.yaml", "--out", "out"]);
+            started.elapsed()
+        })
+        .min()
+        .expect("three runs");
     let expected = outputs_but_the_manifest(&reference.path().join("out"));
     assert_eq!(statuses(&reference.path().join("out")).len(), 8);
 

@@ -5,25 +5,14 @@
 
 #![allow(non_snake_case)] // matrices are named as in the equations
 
-use std::hint::black_box;
-use std::time::Instant;
+mod common;
 
+use std::hint::black_box;
+
+use common::median_seconds;
 use faer::Mat;
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use squeal_linalg::lu::PackedLu;
-
-/// Median wall time of `f` over `runs` runs (s).
-fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
-    let mut times: Vec<f64> = (0..runs)
-        .map(|_| {
-            let clock = Instant::now();
-            f();
-            clock.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[runs / 2]
-}
 
 fn main() {
     let n = 864;

@@ -6,24 +6,12 @@
 
 #![allow(non_snake_case)] // matrices are named as in the equations
 
-use std::time::Instant;
+mod common;
 
+use common::median_seconds;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, MatRef, Par, c64};
 use squeal_linalg::tall::{add_times, adjoint_times, subtract_then_adjoint_times};
-
-/// Median wall time of `f` over `runs` runs (s).
-fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
-    let mut times: Vec<f64> = (0..runs)
-        .map(|_| {
-            let clock = Instant::now();
-            f();
-            clock.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[runs / 2]
-}
 
 fn main() {
     let rows = 28_224;

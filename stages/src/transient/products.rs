@@ -561,29 +561,42 @@ mod tests {
         );
         let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
         let CK_x = products.times(&x);
-        for (d, exact) in [C.mul_vec(&x), K.mul_vec(&x)].iter().enumerate() {
+        assert_products_agree(&CK_x, &[C.mul_vec(&x), K.mul_vec(&x)], 1e-13);
+        assert_same_bits_on_any_thread_count(&CK_x, || products.times(&x));
+    }
+
+    /// Each product `got[i][d]` within `tolerance` of `exact[d][i]`, relative to the largest
+    /// `exact[d]`.
+    fn assert_products_agree<const N: usize>(got: &[[f64; N]], exact: &[Vec<f64>], tolerance: f64) {
+        for (d, exact) in exact.iter().enumerate() {
             let scale = exact.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-            for i in 0..n {
+            for (i, (got, exact)) in got.iter().zip(exact).enumerate() {
                 assert!(
-                    (CK_x[i][d] - exact[i]).abs() <= 1e-13 * scale,
-                    "row {i}, product {d}: {} against {}",
-                    CK_x[i][d],
-                    exact[i]
+                    (got[d] - exact).abs() <= tolerance * scale,
+                    "row {i}, product {d}: {} against {exact}",
+                    got[d]
                 );
             }
         }
+    }
+
+    /// `compute` gives `expected`'s bits on 1 and 3 threads.
+    fn assert_same_bits_on_any_thread_count<const N: usize>(
+        expected: &[[f64; N]],
+        compute: impl Fn() -> Vec<[f64; N]> + Send + Sync,
+    ) {
         for threads in [1, 3] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let on_pool = pool.install(|| products.times(&x));
+            let on_pool = pool.install(&compute);
             assert!(
                 on_pool
                     .iter()
-                    .zip(&CK_x)
-                    .all(|(a, b)| a[0].to_bits() == b[0].to_bits()
-                        && a[1].to_bits() == b[1].to_bits()),
+                    .flatten()
+                    .zip(expected.iter().flatten())
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
                 "the bits changed on {threads} threads"
             );
         }
@@ -604,36 +617,14 @@ mod tests {
         let J = combination(&[(1.0 / tau, &M), (theta, &C), (tau * theta * theta, &K)]);
         let x: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
         let J_x = J.mul_vec(&x);
-        let mut got = vec![[0.0; 3]; n];
-        products.of_solution(&x, &J_x, tau, theta, &mut got);
-        let exact = [M.mul_vec(&x), C.mul_vec(&x), K.mul_vec(&x)];
-        for (d, exact) in exact.iter().enumerate() {
-            let scale = exact.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-            for i in 0..n {
-                assert!(
-                    (got[i][d] - exact[i]).abs() <= 1e-8 * scale,
-                    "row {i}, product {d}: {} against {}",
-                    got[i][d],
-                    exact[i]
-                );
-            }
-        }
-        for threads in [1, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let mut on_pool = vec![[0.0; 3]; n];
-            pool.install(|| products.of_solution(&x, &J_x, tau, theta, &mut on_pool));
-            assert!(
-                on_pool
-                    .iter()
-                    .flatten()
-                    .zip(got.iter().flatten())
-                    .all(|(a, b)| a.to_bits() == b.to_bits()),
-                "the bits changed on {threads} threads"
-            );
-        }
+        let solution = || {
+            let mut out = vec![[0.0; 3]; n];
+            products.of_solution(&x, &J_x, tau, theta, &mut out);
+            out
+        };
+        let got = solution();
+        assert_products_agree(&got, &[M.mul_vec(&x), C.mul_vec(&x), K.mul_vec(&x)], 1e-8);
+        assert_same_bits_on_any_thread_count(&got, solution);
     }
 
     /// Damping that is not row-wise Rayleigh (a dashpot between two DOFs of different
