@@ -596,13 +596,13 @@ impl Factorisation {
         let mut last_residual = f64::INFINITY;
         for iteration in 1..=CHORD_ITERATIONS {
             self.laws(problem, step, r, w, &mut F);
+            // F becomes the correction A⁻¹ F.
             self.lu.solve_in_place(&mut F);
-            let correction = &F;
             for (p, state) in self.states.iter().enumerate() {
                 let (k, i) = (3 * p, self.offsets[p]);
                 match state {
                     PairState::Open => r[k..k + 3].fill(0.0),
-                    _ => (0..3).for_each(|d| r[k + d] -= correction[i + d] as f64),
+                    _ => (0..3).for_each(|d| r[k + d] -= F[i + d] as f64),
                 }
             }
             velocities(problem, r, w);

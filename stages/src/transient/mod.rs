@@ -171,10 +171,9 @@ impl Stage for Transient {
     fn version(&self) -> u32 {
         // 14: a reduced model's dense K streamed by its lower runs, the chord's LU solved by
         // packed sweeps (13: the sweeps read each column of a supernode once, by the vector
-        // kernels; 12:
-        // Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single precision, the
-        // snapshots lifted by products of blocks; 11: a reduced step corrects by the response
-        // J⁻¹ Hᵀ); the last bits of every run.
+        // kernels; 12: Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single
+        // precision, the snapshots lifted by products of blocks; 11: a reduced step corrects
+        // by the response J⁻¹ Hᵀ); the last bits of every run.
         14
     }
     fn doc(&self) -> &'static str {

@@ -154,8 +154,8 @@ struct Run {
 }
 
 impl Triangle {
-    fn new(A: &CscMatrix) -> Triangle {
-        let rows = Rows::new([A]);
+    /// The lower triangle of the matrix `rows` holds.
+    fn new(rows: &Rows<1>) -> Triangle {
         let n = rows.col_ptr.len() - 1;
         let mut triangle = Triangle {
             diagonal: vec![0.0; n],
@@ -207,7 +207,7 @@ impl Triangle {
 impl<const N: usize> LowerRuns<N> {
     fn new(matrices: [&CscMatrix; N]) -> LowerRuns<N> {
         LowerRuns {
-            triangles: matrices.map(Triangle::new),
+            triangles: matrices.map(|A| Triangle::new(&Rows::new([A]))),
         }
     }
 
@@ -265,7 +265,10 @@ pub(crate) enum Stiffness {
 
 impl Stiffness {
     fn new(K: &CscMatrix) -> Stiffness {
-        let (rows, runs) = (Rows::new([K]), LowerRuns::new([K]));
+        let rows = Rows::new([K]);
+        let runs = LowerRuns {
+            triangles: [Triangle::new(&rows)],
+        };
         if runs.bytes() < rows.bytes() {
             Stiffness::Runs(runs)
         } else {
