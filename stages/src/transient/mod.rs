@@ -76,6 +76,7 @@ pub(crate) mod tests;
 
 use faer::c64;
 use serde::Deserialize;
+use squeal_linalg::csc::components;
 
 use crate::artifact::basis::StaticModes;
 use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
@@ -169,12 +170,13 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 14: a reduced model's dense K streamed by its lower runs, the chord's LU solved by
-        // packed sweeps (13: the sweeps read each column of a supernode once, by the vector
-        // kernels; 12: Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single
-        // precision, the snapshots lifted by products of blocks; 11: a reduced step corrects
-        // by the response J⁻¹ Hᵀ); the last bits of every run.
-        14
+        // 15: Gauss–Seidel sweeps a pad's pairs together (14: a reduced model's dense K
+        // streamed by its lower runs, the chord's LU solved by packed sweeps; 13: the sweeps
+        // read each column of a supernode once, by the vector kernels; 12: Anderson-accelerated
+        // Gauss–Seidel, the chord's Jacobian in single precision, the snapshots lifted by
+        // products of blocks; 11: a reduced step corrects by the response J⁻¹ Hᵀ); the last
+        // bits of every run.
+        15
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
@@ -478,11 +480,31 @@ pub fn structure_of<'a>(
         dof_of_node: &model.dof_of_node,
         H_rows: crate::contact::h_columns(model, frames),
     };
+    // The bodies the pairs' pad nodes belong to: no matrix couples two bodies.
+    let mut body_of_dof = vec![0; model.n_dofs()];
+    for (body, dofs) in components(&[&model.M, &model.K]).into_iter().enumerate() {
+        for dof in dofs {
+            body_of_dof[dof] = body;
+        }
+    }
+    let body_of_pair: Vec<usize> = model
+        .mesh
+        .contact_pairs
+        .iter()
+        .map(|pair| {
+            model.dof_of_node[pair.pad_node as usize]
+                .iter()
+                .flatten()
+                .next()
+                .map_or(usize::MAX, |&dof| body_of_dof[dof as usize])
+        })
+        .collect();
     let contact_state = ContactState {
         gap: equilibrium.gap.clone(),
         sliding_speed: frames.sliding_speed.clone(),
         r_e,
         mu: equilibrium.mu,
+        blocks: contact::pad_blocks(&body_of_pair),
     };
     Ok((structure, contact_state))
 }

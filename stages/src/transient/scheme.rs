@@ -47,6 +47,9 @@ pub struct ContactState {
     /// Equilibrium reactions, three per pair (n, t, b) (N).
     pub r_e: Vec<f64>,
     pub mu: f64,
+    /// The pairs' Gauss–Seidel blocks ([`contact::pad_blocks`]): consecutive ranges covering
+    /// every pair, in order.
+    pub blocks: Vec<std::ops::Range<usize>>,
 }
 
 #[derive(Debug, Clone)]
@@ -220,6 +223,10 @@ impl<'s> Operators<'s> {
         timings: &mut Timings,
     ) -> Result<Operators<'s>, Failure> {
         let Settings { theta, tau, .. } = *settings;
+        debug_assert!(
+            (contact_state.blocks.iter().cloned().flatten()).eq(0..contact_state.gap.len()),
+            "the Gauss–Seidel blocks cover every pair, in order"
+        );
         let clock = std::time::Instant::now();
         let cholesky = factorise_J(structure, theta, tau).map_err(Failure::Linear)?;
         timings.factor = clock.elapsed().as_secs_f64();
@@ -264,6 +271,7 @@ impl<'s> Operators<'s> {
             sliding_speed: &self.contact_state.sliding_speed,
             mu: self.contact_state.mu,
             force_scale: self.force_scale,
+            blocks: &self.contact_state.blocks,
         }
     }
 

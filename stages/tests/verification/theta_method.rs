@@ -11,7 +11,7 @@ use serde::Deserialize;
 use squeal_stages::NoCheckpoints;
 use squeal_stages::artifact::CscMatrix;
 use squeal_stages::stability::lumped::solve_matrices;
-use squeal_stages::transient::contact::Solver;
+use squeal_stages::transient::contact::{Solver, pad_blocks};
 use squeal_stages::transient::mode_start;
 use squeal_stages::transient::scheme::{self, ContactState, Settings, Structure, integrate};
 
@@ -120,6 +120,7 @@ fn no_contact() -> ContactState {
         sliding_speed: Vec::new(),
         r_e: Vec::new(),
         mu: 0.0,
+        blocks: Vec::new(),
     }
 }
 
@@ -272,6 +273,7 @@ fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
         sliding_speed: vec![case.sliding_speed],
         r_e: vec![0.0; 3],
         mu: case.mu,
+        blocks: pad_blocks(&[0]),
     };
     let tolerance = case.tolerance;
     for &theta in &case.thetas {
@@ -369,6 +371,7 @@ fn stick_slip(
         sliding_speed: vec![belt],
         r_e: vec![normal_force, mu * normal_force, 0.0],
         mu,
+        blocks: pad_blocks(&[0]),
     };
     let tau = 2.0 * PI / (k / m).sqrt() / 2000.0;
     let mut settings = settings(0.5, tau, n_steps);
@@ -626,6 +629,7 @@ fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
         sliding_speed: vec![belt],
         r_e: vec![normal_force, mu * normal_force, 0.0],
         mu,
+        blocks: pad_blocks(&[0]),
     };
     let period = 2.0 * PI / lambda.im;
     let steps_per_period = 400;
