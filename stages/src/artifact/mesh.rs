@@ -60,6 +60,53 @@ pub fn norm(a: [f64; 3]) -> f64 {
 }
 
 impl Mesh {
+    /// Connected components of the elements: the body of each node (`usize::MAX` for a node in
+    /// no element), numbered by first element.
+    pub fn bodies_of_nodes(&self) -> (Vec<usize>, usize) {
+        let mut parent: Vec<usize> = (0..self.n_nodes()).collect();
+        fn root(parent: &mut [usize], mut node: usize) -> usize {
+            while parent[node] != node {
+                parent[node] = parent[parent[node]];
+                node = parent[node];
+            }
+            node
+        }
+        for hex in &self.hexes {
+            let first = root(&mut parent, hex[0] as usize);
+            for &node in &hex[1..] {
+                let other = root(&mut parent, node as usize);
+                if other != first {
+                    parent[other] = first;
+                }
+            }
+        }
+        let mut body_of_root = vec![usize::MAX; self.n_nodes()];
+        let mut n_bodies = 0;
+        for hex in &self.hexes {
+            let top = root(&mut parent, hex[0] as usize);
+            if body_of_root[top] == usize::MAX {
+                body_of_root[top] = n_bodies;
+                n_bodies += 1;
+            }
+        }
+        let mut in_element = vec![false; self.n_nodes()];
+        for hex in &self.hexes {
+            for &node in hex {
+                in_element[node as usize] = true;
+            }
+        }
+        let body = (0..self.n_nodes())
+            .map(|node| {
+                if in_element[node] {
+                    body_of_root[root(&mut parent, node)]
+                } else {
+                    usize::MAX
+                }
+            })
+            .collect();
+        (body, n_bodies)
+    }
+
     pub fn n_nodes(&self) -> usize {
         self.nodes.len()
     }

@@ -21,7 +21,7 @@
 use faer::Mat;
 
 use crate::artifact::Model;
-use crate::artifact::mesh::{Mesh, cross, dot, sub};
+use crate::artifact::mesh::{cross, dot, sub};
 use crate::mesh::interface::{Side, faces_within};
 use crate::stage::StageError;
 
@@ -185,53 +185,6 @@ pub struct FloatingBodies {
     pub pinned: Vec<usize>,
 }
 
-/// Connected components of the elements: the body of each node (`usize::MAX` for a node in
-/// no element), numbered by first element.
-fn bodies_of_nodes(mesh: &Mesh) -> (Vec<usize>, usize) {
-    let mut parent: Vec<usize> = (0..mesh.n_nodes()).collect();
-    fn root(parent: &mut [usize], mut node: usize) -> usize {
-        while parent[node] != node {
-            parent[node] = parent[parent[node]];
-            node = parent[node];
-        }
-        node
-    }
-    for hex in &mesh.hexes {
-        let first = root(&mut parent, hex[0] as usize);
-        for &node in &hex[1..] {
-            let other = root(&mut parent, node as usize);
-            if other != first {
-                parent[other] = first;
-            }
-        }
-    }
-    let mut body_of_root = vec![usize::MAX; mesh.n_nodes()];
-    let mut n_bodies = 0;
-    for hex in &mesh.hexes {
-        let top = root(&mut parent, hex[0] as usize);
-        if body_of_root[top] == usize::MAX {
-            body_of_root[top] = n_bodies;
-            n_bodies += 1;
-        }
-    }
-    let mut in_element = vec![false; mesh.n_nodes()];
-    for hex in &mesh.hexes {
-        for &node in hex {
-            in_element[node as usize] = true;
-        }
-    }
-    let body = (0..mesh.n_nodes())
-        .map(|node| {
-            if in_element[node] {
-                body_of_root[root(&mut parent, node)]
-            } else {
-                usize::MAX
-            }
-        })
-        .collect();
-    (body, n_bodies)
-}
-
 /// The rigid motion (t, θ) = `coefficients` at `x`: t + θ × (x − c) / length.
 fn rigid_motion(coefficients: &[f64; 6], x: [f64; 3], centroid: [f64; 3], length: f64) -> [f64; 3] {
     let theta = [coefficients[3], coefficients[4], coefficients[5]];
@@ -243,7 +196,7 @@ fn rigid_motion(coefficients: &[f64; 6], x: [f64; 3], centroid: [f64; 3], length
 pub fn floating_bodies(model: &Model) -> Result<FloatingBodies, StageError> {
     let mesh = &model.mesh;
     let n = model.n_dofs();
-    let (body_of_node, n_bodies) = bodies_of_nodes(mesh);
+    let (body_of_node, n_bodies) = mesh.bodies_of_nodes();
     let mut nodes_of_body: Vec<Vec<u32>> = vec![Vec::new(); n_bodies];
     for (node, &body) in body_of_node.iter().enumerate() {
         if body != usize::MAX {

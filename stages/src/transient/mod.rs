@@ -76,7 +76,6 @@ pub(crate) mod tests;
 
 use faer::c64;
 use serde::Deserialize;
-use squeal_linalg::csc::components;
 
 use crate::artifact::basis::StaticModes;
 use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
@@ -480,24 +479,12 @@ pub fn structure_of<'a>(
         dof_of_node: &model.dof_of_node,
         H_rows: crate::contact::h_columns(model, frames),
     };
-    // The bodies the pairs' pad nodes belong to: no matrix couples two bodies.
-    let mut body_of_dof = vec![0; model.n_dofs()];
-    for (body, dofs) in components(&[&model.M, &model.K]).into_iter().enumerate() {
-        for dof in dofs {
-            body_of_dof[dof] = body;
-        }
-    }
+    let body_of_node = model.mesh.bodies_of_nodes().0;
     let body_of_pair: Vec<usize> = model
         .mesh
         .contact_pairs
         .iter()
-        .map(|pair| {
-            model.dof_of_node[pair.pad_node as usize]
-                .iter()
-                .flatten()
-                .next()
-                .map_or(usize::MAX, |&dof| body_of_dof[dof as usize])
-        })
+        .map(|pair| body_of_node[pair.pad_node as usize])
         .collect();
     let contact_state = ContactState {
         gap: equilibrium.gap.clone(),
