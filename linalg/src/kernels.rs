@@ -61,12 +61,22 @@ crate::widest_vectors! {
     }
 }
 
+crate::widest_vectors! {
+    /// `y += a x` for `x` stored in single precision, widened to double.
+    pub fn axpy_single(a: f64, x: &[f32], y: &mut [f64]) {
+        for (y, x) in y.iter_mut().zip(x) {
+            *y += a * f64::from(*x);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     /// Every length around the lanes: the chains and the tail agree with a plain sum, and
-    /// `axpy` with its definition; the fused kernel with both.
+    /// `axpy` with its definition; the fused kernel with both, and the widening `axpy` with
+    /// `axpy` on values single precision holds exactly.
     #[test]
     fn dot_and_axpy_agree_with_their_definitions_at_every_length() {
         for n in 0..3 * LANES + 2 {
@@ -83,6 +93,10 @@ mod tests {
             let mut fused = b.clone();
             assert_eq!(dot_and_axpy(&a, &b, -2.0, &mut fused), plain, "length {n}");
             assert_eq!(fused, y);
+            let single: Vec<f32> = a.iter().map(|&x| x as f32).collect();
+            let mut widened = b.clone();
+            axpy_single(-2.0, &single, &mut widened);
+            assert_eq!(widened, y, "length {n}");
         }
     }
 }

@@ -65,12 +65,27 @@
 //!
 //! Convergence is measured by the natural residual `max_p ‖r_p − proj(r_p)‖ / R`, `R` the
 //! force scale (the largest equilibrium reaction, or the largest reaction found).
+//!
+//! # Precision
+//!
+//! A step's solve is bound by reading `W` (with J's factor, `Y` and the products, more than
+//! the cache holds), so the iterations' passes over it — Gauss–Seidel's updates of the rest
+//! of `w` after a block, the chord's `w += W Δr` — read a single-precision copy, half the
+//! bytes. Each pass then leaves an error of about `2⁻²⁴ |W Δr|` in `w`, small against the
+//! step's change of velocity but not always against the tolerance. So a step solved this way
+//! is accepted on its exact velocities: the scheme computes `w = H v¹` from the step's own
+//! solution ([`ContactSolver::settle`]). A solution that misses the tolerance there is
+//! refined by Gauss–Seidel in double precision from `w = H v¹` and the step solved again
+//! ([`ContactSolver::refine`]), and the next steps are solved in double precision, for twice
+//! as long after each refusal that follows fewer than [`PAYBACK_STEPS`] acceptances.
+//! Tolerances below [`SINGLE_PRECISION_TOLERANCE`] are solved in double precision from the
+//! start, and so is the fixed-point solver (it rebuilds `w` from the whole of `r`).
 
 use std::ops::Range;
 
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
-use squeal_linalg::kernels::{axpy, dot};
+use squeal_linalg::kernels::{axpy, axpy_single, dot};
 use squeal_linalg::lu::PackedLu;
 
 /// Chord iterations tried before a step falls back to Gauss–Seidel.
@@ -85,6 +100,10 @@ const CHORD_CONTRACTION: f64 = 0.1;
 const PAYBACK_STEPS: usize = 16;
 /// The longest wait (steps) between factorisations.
 const LONGEST_WAIT: usize = 4096;
+/// The least tolerance tried with passes over `W` in single precision. Below it, their
+/// rounding most often misses the tolerance (on the default brake at 1e-10, in 895 steps of
+/// 1,667), and every step would be solved twice before the run settles in double.
+const SINGLE_PRECISION_TOLERANCE: f64 = 1e-9;
 /// Residuals kept for an error message.
 const HISTORY_KEPT: usize = 12;
 
@@ -138,10 +157,64 @@ fn slip(w: &[f64], p: usize, sliding_speed: f64) -> (f64, [f64; 2]) {
     }
 }
 
+/// The Delassus operator, 3 rows and columns per pair in the order (n, t, b), fixed through a
+/// run: in double precision, and copied to single precision for the iterations' passes over
+/// it (half the bytes, see [`Precision`]); with the projections' step lengths from its
+/// diagonal.
+pub struct Delassus {
+    double: Mat<f64>,
+    single: Mat<f32>,
+    step: Step,
+}
+
+impl Delassus {
+    pub fn new(W: Mat<f64>) -> Delassus {
+        let step = Step {
+            rho_n: (0..W.nrows() / 3)
+                .map(|p| 1.0 / W[(3 * p, 3 * p)])
+                .collect(),
+            rho_T: (0..W.nrows() / 3)
+                .map(|p| 1.0 / W[(3 * p + 1, 3 * p + 1)].max(W[(3 * p + 2, 3 * p + 2)]))
+                .collect(),
+        };
+        Delassus {
+            single: Mat::from_fn(W.nrows(), W.ncols(), |i, j| W[(i, j)] as f32),
+            double: W,
+            step,
+        }
+    }
+
+    /// `w += W e_k change`, from the copy in `precision`.
+    fn add_column(&self, k: usize, change: f64, w: &mut [f64], precision: Precision) {
+        match precision {
+            Precision::Double => axpy(change, column(self.double.as_ref(), k), w),
+            Precision::Single => {
+                let column = self
+                    .single
+                    .col(k)
+                    .try_as_col_major()
+                    .expect("the Delassus operator is stored column-major")
+                    .as_slice();
+                axpy_single(change, column, w)
+            }
+        }
+    }
+}
+
+/// Which copy of `W` an iteration's passes read. A pass in single precision leaves an error
+/// of about `2⁻²⁴ |W Δr|` in `w`, `Δr` the pass's change of the reactions: far below a
+/// step's change of velocity, but not always below the tolerance. A step solved so is
+/// accepted on its end-of-step velocities, computed in double precision from the solution
+/// ([`ContactSolver::settle`]), or refined in double precision.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Precision {
+    Single,
+    Double,
+}
+
 /// The data of one step's problem.
 pub struct Problem<'a> {
-    /// The Delassus operator, 3 rows and columns per pair in the order (n, t, b).
-    pub W: MatRef<'a, f64>,
+    pub W: &'a Delassus,
     /// End-of-step relative velocities without reaction.
     pub w_free: &'a [f64],
     /// Least normal relative velocity per pair, `−B̃/τ`.
@@ -162,6 +235,9 @@ pub struct Problem<'a> {
 pub struct Report {
     pub iterations: usize,
     pub residual: f64,
+    /// The passes' precision: after [`Precision::Single`] the residual is the iteration's,
+    /// to be confirmed by [`ContactSolver::settle`].
+    pub precision: Precision,
 }
 
 /// A solve that did not reach its tolerance: the iterations done and the last residuals.
@@ -181,15 +257,8 @@ impl Problem<'_> {
         self.w_n_min.len()
     }
 
-    fn step_lengths(&self) -> Step {
-        let W = self.W;
-        let (mut rho_n, mut rho_T) = (Vec::new(), Vec::new());
-        for p in 0..self.n_pairs() {
-            let k = 3 * p;
-            rho_n.push(1.0 / W[(k, k)]);
-            rho_T.push(1.0 / W[(k + 1, k + 1)].max(W[(k + 2, k + 2)]));
-        }
-        Step { rho_n, rho_T }
+    fn step_lengths(&self) -> &Step {
+        &self.W.step
     }
 
     /// The projection of the laws for pair `p` at reaction `r` and velocities `w`.
@@ -254,7 +323,7 @@ squeal_linalg::widest_vectors! {
         w.copy_from_slice(problem.w_free);
         for (k, &r_k) in r.iter().enumerate() {
             if r_k != 0.0 {
-                for (slot, W_ik) in w.iter_mut().zip(column(problem.W, k)) {
+                for (slot, W_ik) in w.iter_mut().zip(column(problem.W.double.as_ref(), k)) {
                     *slot += W_ik * r_k;
                 }
             }
@@ -379,10 +448,12 @@ fn solve_small(A: &mut [f64], b: &mut [f64], m: usize) -> Option<Vec<f64>> {
 
 /// Solves the step's problem with an iterative solver from the reactions `r` (a warm start,
 /// overwritten with the solution), `w` its velocities on entry, the solution's on return.
+#[allow(clippy::too_many_arguments)]
 fn iterate(
     problem: &Problem,
     step: &Step,
     gauss_seidel: bool,
+    precision: Precision,
     tolerance: f64,
     max_iterations: usize,
     r: &mut [f64],
@@ -394,7 +465,7 @@ fn iterate(
     for iteration in 1..=max_iterations {
         if gauss_seidel {
             anderson.start(r);
-            gauss_seidel_sweep(problem, step, r, w);
+            gauss_seidel_sweep(problem, step, precision, r, w);
         } else {
             for p in 0..problem.n_pairs() {
                 let projected = problem.project(p, step, pair(r, p), pair(w, p));
@@ -412,6 +483,7 @@ fn iterate(
             return Ok(Report {
                 iterations: iteration,
                 residual,
+                precision,
             });
         }
         if !residual.is_finite() {
@@ -444,6 +516,7 @@ pub struct Memory {
     previous: Option<Vec<PairState>>,
     last: Option<LastSolution>,
     pacing: Pacing,
+    single: Pacing,
 }
 
 /// When a factorisation is worth its cost: in a limit cycle pairs open, stick and slide from
@@ -492,7 +565,7 @@ struct Factorisation {
 
 impl Factorisation {
     fn new(problem: &Problem, step: &Step, basis: &Basis) -> Option<Factorisation> {
-        let W = problem.W;
+        let W = problem.W.double.as_ref();
         let states = &basis.states;
         let mut offsets = Vec::with_capacity(states.len() + 1);
         let mut columns = Vec::new();
@@ -599,6 +672,7 @@ impl Factorisation {
         &self,
         problem: &Problem,
         step: &Step,
+        precision: Precision,
         tolerance: f64,
         r: &mut [f64],
         w: &mut [f64],
@@ -607,21 +681,27 @@ impl Factorisation {
         let mut last_residual = f64::INFINITY;
         for iteration in 1..=CHORD_ITERATIONS {
             self.laws(problem, step, r, w, &mut F);
-            // F becomes the correction A⁻¹ F.
+            // F becomes the correction A⁻¹ F, and w follows r's change.
             self.lu.solve_in_place(&mut F);
             for (p, state) in self.states.iter().enumerate() {
                 let (k, i) = (3 * p, self.offsets[p]);
-                match state {
-                    PairState::Open => r[k..k + 3].fill(0.0),
-                    _ => (0..3).for_each(|d| r[k + d] -= F[i + d] as f64),
+                for d in 0..3 {
+                    let change = match state {
+                        PairState::Open => -r[k + d],
+                        _ => -f64::from(F[i + d]),
+                    };
+                    if change != 0.0 {
+                        r[k + d] += change;
+                        problem.W.add_column(k + d, change, w, precision);
+                    }
                 }
             }
-            velocities(problem, r, w);
             let residual = problem.residual(step, r, w);
             if residual <= tolerance {
                 return Some(Report {
                     iterations: iteration,
                     residual,
+                    precision,
                 });
             }
             if !residual.is_finite() || residual > CHORD_CONTRACTION * last_residual {
@@ -640,6 +720,9 @@ pub struct ContactSolver {
     previous: Option<Vec<PairState>>,
     last: Option<LastSolution>,
     pacing: Pacing,
+    /// When passes in single precision are worth trying: after a refused solution the next
+    /// steps are solved in double.
+    single: Pacing,
     /// Factorisations so far (for benchmarks; not part of any output).
     pub factorisations: usize,
 }
@@ -652,6 +735,7 @@ impl ContactSolver {
             previous: None,
             last: None,
             pacing: Pacing::default(),
+            single: Pacing::default(),
             factorisations: 0,
         }
     }
@@ -663,18 +747,20 @@ impl ContactSolver {
             previous: self.previous.clone(),
             last: self.last.clone(),
             pacing: self.pacing.clone(),
+            single: self.single.clone(),
         }
     }
 
     /// Takes back a checkpoint's memory, for a problem of the same run.
     pub fn restore(&mut self, memory: Memory, problem: &Problem) {
         self.factorisation = memory.factorised.and_then(|basis| {
-            let factorisation = Factorisation::new(problem, &problem.step_lengths(), &basis);
+            let factorisation = Factorisation::new(problem, problem.step_lengths(), &basis);
             factorisation.map(|f| (basis, f))
         });
         self.previous = memory.previous;
         self.last = memory.last;
         self.pacing = memory.pacing;
+        self.single = memory.single;
     }
 
     /// Solves the step's problem from the reactions `r` (the last solution, or any warm
@@ -706,37 +792,106 @@ impl ContactSolver {
             }
             _ => velocities(problem, r, w),
         }
+        // Fixed-point iterations rebuild w from the whole of r: single precision would leave
+        // an error of 2⁻²⁴ |W r| rather than of the change.
+        self.single.wait = self.single.wait.saturating_sub(1);
+        let precision = if self.single.wait == 0
+            && self.solver != Solver::FixedPoint
+            && tolerance >= SINGLE_PRECISION_TOLERANCE
+        {
+            Precision::Single
+        } else {
+            Precision::Double
+        };
         let report = match self.solver {
             Solver::GaussSeidel | Solver::FixedPoint => iterate(
                 problem,
-                &step,
+                step,
                 self.solver == Solver::GaussSeidel,
+                precision,
                 tolerance,
                 max_iterations,
                 r,
                 w,
             ),
             Solver::ActiveSet => {
-                self.solve_active_set(problem, &step, tolerance, max_iterations, r, w)
+                self.solve_active_set(problem, step, precision, tolerance, max_iterations, r, w)
             }
         }?;
         let before = self.last.take().map(|last| (last.r, last.W_r));
         self.last = Some(LastSolution {
             before,
             r: r.to_vec(),
-            W_r: w
-                .iter()
-                .zip(problem.w_free)
-                .map(|(w, w_free)| w - w_free)
-                .collect(),
+            W_r: reaction_velocities(problem, w),
         });
         Ok(report)
     }
 
+    /// Takes the exact velocities `w` of the reactions `r` just found in single precision
+    /// (the step's own, `H v¹`, which the iteration's `w` approximates): `Ok` with their
+    /// residual if it meets the tolerance, the solution then the next step's warm start;
+    /// `Err` with it if not, and the next steps are solved in double precision for a while
+    /// (twice as long after each failure that follows too few successes), the first by
+    /// [`ContactSolver::refine`].
+    pub fn settle(
+        &mut self,
+        problem: &Problem,
+        tolerance: f64,
+        r: &[f64],
+        w: &[f64],
+    ) -> Result<f64, f64> {
+        let residual = problem.residual(problem.step_lengths(), r, w);
+        if let Some(last) = self.last.as_mut() {
+            last.W_r = reaction_velocities(problem, w);
+        }
+        if residual <= tolerance {
+            self.single.uses += 1;
+            if self.single.uses >= PAYBACK_STEPS {
+                self.single.backoff = 1;
+            }
+            Ok(residual)
+        } else {
+            self.single.backoff = (2 * self.single.backoff).min(LONGEST_WAIT);
+            self.single.wait = self.single.backoff;
+            self.single.uses = 0;
+            Err(residual)
+        }
+    }
+
+    /// After [`ContactSolver::settle`] refused a solution: Gauss–Seidel in double precision
+    /// from it, `r` and its exact velocities `w`; the result replaces it as the last solution.
+    pub fn refine(
+        &mut self,
+        problem: &Problem,
+        tolerance: f64,
+        max_iterations: usize,
+        r: &mut [f64],
+        w: &mut [f64],
+    ) -> Result<Report, NotConverged> {
+        let step = problem.step_lengths();
+        let report = iterate(
+            problem,
+            step,
+            true,
+            Precision::Double,
+            tolerance,
+            max_iterations,
+            r,
+            w,
+        )?;
+        if let Some(last) = self.last.as_mut() {
+            last.r.copy_from_slice(r);
+            last.W_r = reaction_velocities(problem, w);
+        }
+        Ok(report)
+    }
+
+    #[allow(clippy::too_many_arguments)]
     fn solve_active_set(
         &mut self,
         problem: &Problem,
         step: &Step,
+        precision: Precision,
         tolerance: f64,
         max_iterations: usize,
         r: &mut [f64],
@@ -745,7 +900,7 @@ impl ContactSolver {
         self.pacing.wait = self.pacing.wait.saturating_sub(1);
         if let Some((_, factorisation)) = &self.factorisation {
             let warm_start = (r.to_vec(), w.to_vec());
-            if let Some(report) = factorisation.chord(problem, step, tolerance, r, w) {
+            if let Some(report) = factorisation.chord(problem, step, precision, tolerance, r, w) {
                 self.pacing.uses += 1;
                 if self.pacing.uses >= PAYBACK_STEPS {
                     self.pacing.backoff = 1;
@@ -765,7 +920,16 @@ impl ContactSolver {
             r.copy_from_slice(&warm_start.0);
             w.copy_from_slice(&warm_start.1);
         }
-        let report = iterate(problem, step, true, tolerance, max_iterations, r, w)?;
+        let report = iterate(
+            problem,
+            step,
+            true,
+            precision,
+            tolerance,
+            max_iterations,
+            r,
+            w,
+        )?;
         let basis = basis_of(problem, r, w);
         if self.previous.as_ref() == Some(&basis.states) && self.pacing.wait == 0 {
             self.factorise(problem, step, basis);
@@ -781,6 +945,14 @@ impl ContactSolver {
         self.factorisation =
             Factorisation::new(problem, step, &basis).map(|factorisation| (basis, factorisation));
     }
+}
+
+/// `W r = w − w_free`.
+fn reaction_velocities(problem: &Problem, w: &[f64]) -> Vec<f64> {
+    w.iter()
+        .zip(problem.w_free)
+        .map(|(w, w_free)| w - w_free)
+        .collect()
 }
 
 /// The active set of a solution, with the reactions and velocities to linearise at.
@@ -820,8 +992,14 @@ squeal_linalg::widest_vectors! {
     /// `w_free + W r`. Within a block, [`BLOCK_SWEEPS`] sweeps over its pairs keep only the
     /// block's own rows of `w` current (each pair's update is still exact: no other pair
     /// moves meanwhile); then the block's change of `r` updates every row.
-    fn gauss_seidel_sweep(problem: &Problem, step: &Step, r: &mut [f64], w: &mut [f64]) {
-        let W = problem.W;
+    fn gauss_seidel_sweep(
+        problem: &Problem,
+        step: &Step,
+        precision: Precision,
+        r: &mut [f64],
+        w: &mut [f64],
+    ) {
+        let W = problem.W.double.as_ref();
         for pairs in problem.blocks {
             let rows = 3 * pairs.start..3 * pairs.end;
             let (r_start, w_start) = (r[rows.clone()].to_vec(), w[rows.clone()].to_vec());
@@ -847,7 +1025,7 @@ squeal_linalg::widest_vectors! {
             for (k, before) in rows.zip(r_start) {
                 let change = r[k] - before;
                 if change != 0.0 {
-                    axpy(change, column(W, k), w);
+                    problem.W.add_column(k, change, w, precision);
                 }
             }
         }
@@ -858,6 +1036,31 @@ squeal_linalg::widest_vectors! {
 mod tests {
     use super::*;
     use faer::Mat;
+
+    /// A solve as the scheme makes it: a solution found in single precision is settled on
+    /// its exact velocities `w_free + W r`, or refined in double precision.
+    fn solve_settled(
+        solver: &mut ContactSolver,
+        problem: &Problem,
+        tolerance: f64,
+        max_iterations: usize,
+        r: &mut [f64],
+        w: &mut [f64],
+    ) -> Result<Report, NotConverged> {
+        let mut report = solver.solve(problem, tolerance, max_iterations, r, w)?;
+        if report.precision == Precision::Single {
+            velocities(problem, r, w);
+            match solver.settle(problem, tolerance, r, w) {
+                Ok(residual) => report.residual = residual,
+                Err(_) => {
+                    let refined = solver.refine(problem, tolerance, max_iterations, r, w)?;
+                    report.iterations += refined.iterations;
+                    report.residual = refined.residual;
+                }
+            }
+        }
+        Ok(report)
+    }
 
     /// The six pairs of [`problem_data`] as two pads of three.
     fn two_pads() -> Vec<Range<usize>> {
@@ -895,7 +1098,7 @@ mod tests {
         let n_pairs = 6;
         let (W, w_free, w_n_min, sliding) = problem_data(n_pairs);
         let problem = Problem {
-            W: W.as_ref(),
+            W: &Delassus::new(W.clone()),
             w_free: &w_free,
             w_n_min: &w_n_min,
             sliding_speed: &sliding,
@@ -905,9 +1108,15 @@ mod tests {
         };
         let mut r = vec![0.0; 3 * n_pairs];
         let mut w = vec![0.0; 3 * n_pairs];
-        let report = ContactSolver::new(solver)
-            .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
-            .unwrap();
+        let report = solve_settled(
+            &mut ContactSolver::new(solver),
+            &problem,
+            1e-13,
+            20_000,
+            &mut r,
+            &mut w,
+        )
+        .unwrap();
         (r, w, report)
     }
 
@@ -958,6 +1167,89 @@ mod tests {
         }
     }
 
+    /// Passes in single precision leave `w` off the exact `w_free + W r` by rounding: a
+    /// loose tolerance is still met on the exact velocities; one below that error (1e-9
+    /// here) is refused, refined in double precision to the tolerance, and the next step
+    /// solved in double. Tolerances below the least tried are solved in double at once.
+    #[test]
+    fn single_precision_solutions_are_settled_on_exact_velocities_or_refined() {
+        let n_pairs = 6;
+        let (W, w_free, w_n_min, sliding) = problem_data(n_pairs);
+        let W = Delassus::new(W);
+        let blocks = two_pads();
+        let problem = Problem {
+            W: &W,
+            w_free: &w_free,
+            w_n_min: &w_n_min,
+            sliding_speed: &sliding,
+            mu: 0.38,
+            force_scale: 0.0,
+            blocks: &blocks,
+        };
+        let m = 3 * n_pairs;
+        let exact = |r: &[f64]| {
+            let mut w = vec![0.0; m];
+            velocities(&problem, r, &mut w);
+            w
+        };
+        let distance = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+        };
+        for (tolerance, met_in_single) in [(1e-6, true), (1e-9, false)] {
+            let mut solver = ContactSolver::new(Solver::GaussSeidel);
+            let (mut r, mut w) = (vec![0.0; m], vec![0.0; m]);
+            let report = solver
+                .solve(&problem, tolerance, 20_000, &mut r, &mut w)
+                .unwrap();
+            assert_eq!(report.precision, Precision::Single);
+            let drift = distance(&w, &exact(&r));
+            assert!(
+                drift > 0.0 && drift < 1e-6,
+                "single-precision drift {drift}"
+            );
+            let w_exact = exact(&r);
+            match solver.settle(&problem, tolerance, &r, &w_exact) {
+                Ok(residual) => {
+                    assert!(
+                        met_in_single,
+                        "tolerance {tolerance}: settled at {residual}"
+                    );
+                    assert!(residual <= tolerance);
+                }
+                Err(residual) => {
+                    assert!(
+                        !met_in_single,
+                        "tolerance {tolerance}: refused at {residual}"
+                    );
+                    assert!(
+                        residual > tolerance && residual < 1e-6,
+                        "refused at {residual}"
+                    );
+                    let mut w = w_exact;
+                    let refined = solver
+                        .refine(&problem, tolerance, 20_000, &mut r, &mut w)
+                        .unwrap();
+                    assert!(refined.residual <= tolerance);
+                    assert_eq!(refined.precision, Precision::Double);
+                    assert!(distance(&w, &exact(&r)) < 1e-14, "refined in double");
+                    check_laws(&r, &w, 0.38, 1e-8);
+                    let next = solver
+                        .solve(&problem, tolerance, 20_000, &mut r, &mut w)
+                        .unwrap();
+                    assert_eq!(next.precision, Precision::Double);
+                }
+            }
+        }
+        let (mut r, mut w) = (vec![0.0; m], vec![0.0; m]);
+        let tight = ContactSolver::new(Solver::GaussSeidel)
+            .solve(&problem, 1e-12, 20_000, &mut r, &mut w)
+            .unwrap();
+        assert_eq!(tight.precision, Precision::Double);
+    }
+
     #[test]
     fn the_active_set_solver_reuses_its_factorisation_and_agrees_with_gauss_seidel() {
         let n_pairs = 6;
@@ -975,7 +1267,7 @@ mod tests {
                     .map(|(i, value)| value + 1e-5 * step as f64 * ((i % 5) as f64 - 2.0))
                     .collect();
                 let problem = Problem {
-                    W: W.as_ref(),
+                    W: &Delassus::new(W.clone()),
                     w_free: &drifted,
                     w_n_min: &w_n_min,
                     sliding_speed: &sliding,
@@ -983,9 +1275,8 @@ mod tests {
                     force_scale: 0.0,
                     blocks: &two_pads(),
                 };
-                let report = solver
-                    .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
-                    .unwrap();
+                let report =
+                    solve_settled(&mut solver, &problem, 1e-13, 20_000, &mut r, &mut w).unwrap();
                 check_laws(&r, &w, mu, 1e-10);
                 if step == 0 {
                     for (a, b) in r.iter().zip(&r_gs) {
@@ -1004,7 +1295,7 @@ mod tests {
             // A jump that changes the set: solved all the same, by the fallback.
             let reversed: Vec<f64> = w_free.iter().map(|value| -value).collect();
             let problem = Problem {
-                W: W.as_ref(),
+                W: &Delassus::new(W.clone()),
                 w_free: &reversed,
                 w_n_min: &w_n_min,
                 sliding_speed: &sliding,
@@ -1012,9 +1303,7 @@ mod tests {
                 force_scale: 0.0,
                 blocks: &two_pads(),
             };
-            solver
-                .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
-                .unwrap();
+            solve_settled(&mut solver, &problem, 1e-13, 20_000, &mut r, &mut w).unwrap();
             check_laws(&r, &w, mu, 1e-10);
             // The memory a checkpoint keeps rebuilds the same solver.
             let mut restored = ContactSolver::new(Solver::ActiveSet);
@@ -1035,7 +1324,7 @@ mod tests {
         let steps = 600;
         for step in 0..steps {
             let problem = Problem {
-                W: W.as_ref(),
+                W: &Delassus::new(W.clone()),
                 w_free: if (step / 3) % 2 == 0 {
                     &w_free
                 } else {
@@ -1047,9 +1336,7 @@ mod tests {
                 force_scale: 0.0,
                 blocks: &two_pads(),
             };
-            solver
-                .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
-                .unwrap();
+            solve_settled(&mut solver, &problem, 1e-13, 20_000, &mut r, &mut w).unwrap();
             check_laws(&r, &w, 0.38, 1e-10);
         }
         // Unpaced, one factorisation every three steps (200); paced, the waits 2, 4, …, 256
@@ -1068,7 +1355,7 @@ mod tests {
         let W = Mat::<f64>::identity(3, 3);
         for (mu, expected_r_t) in [(0.8, 0.5), (0.3, 0.3)] {
             let problem = Problem {
-                W: W.as_ref(),
+                W: &Delassus::new(W.clone()),
                 w_free: &[-1.0, 0.5, 0.0],
                 w_n_min: &[0.0],
                 sliding_speed: &[1.0],
@@ -1077,9 +1364,15 @@ mod tests {
                 blocks: &pad_blocks(&[0]),
             };
             let (mut r, mut w) = (vec![0.0; 3], vec![0.0; 3]);
-            ContactSolver::new(Solver::GaussSeidel)
-                .solve(&problem, 1e-14, 100, &mut r, &mut w)
-                .unwrap();
+            solve_settled(
+                &mut ContactSolver::new(Solver::GaussSeidel),
+                &problem,
+                1e-14,
+                100,
+                &mut r,
+                &mut w,
+            )
+            .unwrap();
             assert!((r[0] - 1.0).abs() < 1e-14);
             assert!((r[1] - expected_r_t).abs() < 1e-14, "mu = {mu}: {r:?}");
             assert!(r[2].abs() < 1e-14);
@@ -1169,7 +1462,7 @@ mod tests {
         let solve = |body_of_pair: &[usize]| {
             let blocks = pad_blocks(body_of_pair);
             let problem = Problem {
-                W: W.as_ref(),
+                W: &Delassus::new(W.clone()),
                 w_free: &w_free,
                 w_n_min: &w_n_min,
                 sliding_speed: &sliding,
@@ -1178,9 +1471,15 @@ mod tests {
                 blocks: &blocks,
             };
             let (mut r, mut w) = (vec![0.0; m], vec![0.0; m]);
-            let report = ContactSolver::new(Solver::GaussSeidel)
-                .solve(&problem, 1e-13, 20_000, &mut r, &mut w)
-                .unwrap();
+            let report = solve_settled(
+                &mut ContactSolver::new(Solver::GaussSeidel),
+                &problem,
+                1e-13,
+                20_000,
+                &mut r,
+                &mut w,
+            )
+            .unwrap();
             check_laws(&r, &w, 0.38, 1e-10);
             (r, report.iterations, blocks.len())
         };
@@ -1216,7 +1515,7 @@ mod tests {
     fn a_solve_that_cannot_converge_reports_its_residuals() {
         let (W, w_free, w_n_min, sliding) = problem_data(6);
         let problem = Problem {
-            W: W.as_ref(),
+            W: &Delassus::new(W.clone()),
             w_free: &w_free,
             w_n_min: &w_n_min,
             sliding_speed: &sliding,
@@ -1225,9 +1524,15 @@ mod tests {
             blocks: &two_pads(),
         };
         let (mut r, mut w) = (vec![0.0; 18], vec![0.0; 18]);
-        let failure = ContactSolver::new(Solver::FixedPoint)
-            .solve(&problem, 1e-15, 2, &mut r, &mut w)
-            .unwrap_err();
+        let failure = solve_settled(
+            &mut ContactSolver::new(Solver::FixedPoint),
+            &problem,
+            1e-15,
+            2,
+            &mut r,
+            &mut w,
+        )
+        .unwrap_err();
         assert_eq!(failure.iterations, 2);
         assert_eq!(failure.history.len(), 2);
         assert!(failure.history.iter().all(|residual| *residual > 1e-15));

@@ -169,13 +169,14 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 15: Gauss–Seidel sweeps a pad's pairs together (14: a reduced model's dense K
-        // streamed by its lower runs, the chord's LU solved by packed sweeps; 13: the sweeps
-        // read each column of a supernode once, by the vector kernels; 12: Anderson-accelerated
-        // Gauss–Seidel, the chord's Jacobian in single precision, the snapshots lifted by
-        // products of blocks; 11: a reduced step corrects by the response J⁻¹ Hᵀ); the last
-        // bits of every run.
-        15
+        // 16: the contact iterations pass over W in single precision, a step accepted on its
+        // own end-of-step velocities (15: Gauss–Seidel sweeps a pad's pairs together; 14: a
+        // reduced model's dense K streamed by its lower runs, the chord's LU solved by packed
+        // sweeps; 13: the sweeps read each column of a supernode once, by the vector kernels;
+        // 12: Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single precision, the
+        // snapshots lifted by products of blocks; 11: a reduced step corrects by the response
+        // J⁻¹ Hᵀ); the last bits of every run.
+        16
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

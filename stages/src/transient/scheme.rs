@@ -15,14 +15,16 @@
 //! (and `C v` too when the damping is Rayleigh's row by row, `products.rs`), `K u` by its
 //! recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one pass over `K` (with `C`
 //! for other damping). (The solve's backward error, ε‖J‖‖v‖ per step, is all that separates
-//! the derived products from computed ones.)
+//! the derived products from computed ones.) A contact problem solved with `W` in single
+//! precision is accepted on the step's own relative velocities `H v¹`, or refined and the
+//! step solved again ([`super::contact`]: precision).
 
 use faer::Par;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::CscMatrix;
 use squeal_linalg::cholesky::{Cholesky, InterfaceSolve};
 
-use super::contact::{self, ContactSolver, PairState, Solver, classify};
+use super::contact::{self, ContactSolver, Delassus, PairState, Precision, Solver, classify};
 use super::energy::{Audit, StepWork};
 use super::products::Products;
 use crate::stage::Checkpoints;
@@ -208,6 +210,7 @@ struct Operators<'s> {
     settings: &'s Settings,
     cholesky: Cholesky,
     interface_solve: InterfaceSolve,
+    delassus: Delassus,
     products: Products,
     /// `Hᵀ r_e`, the equilibrium's contact force.
     equilibrium_force: Vec<f64>,
@@ -232,6 +235,7 @@ impl<'s> Operators<'s> {
         timings.factor = clock.elapsed().as_secs_f64();
         let clock = std::time::Instant::now();
         let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
+        let delassus = Delassus::new(interface_solve.W.clone());
         timings.delassus = clock.elapsed().as_secs_f64();
         let mut equilibrium_force = vec![0.0; structure.K.n_rows];
         add_h_transpose_times(
@@ -244,6 +248,7 @@ impl<'s> Operators<'s> {
             contact_state,
             settings,
             cholesky,
+            delassus,
             interface_solve,
             products: Products::new(structure.M, structure.C, structure.K),
             equilibrium_force,
@@ -265,7 +270,7 @@ impl<'s> Operators<'s> {
         w_n_min: &'a [f64],
     ) -> contact::Problem<'a> {
         contact::Problem {
-            W: self.interface_solve.W.as_ref(),
+            W: &self.delassus,
             w_free,
             w_n_min,
             sliding_speed: &self.contact_state.sliding_speed,
@@ -352,6 +357,14 @@ impl<'s> Operators<'s> {
         let mut report = contact::Report {
             iterations: 0,
             residual: 0.0,
+            precision: Precision::Double,
+        };
+        let (tolerance, max_iterations) = (self.settings.tolerance, self.settings.max_iterations);
+        let failed = |failure: contact::NotConverged| Failure::Contact {
+            step,
+            t,
+            history: failure.history,
+            iterations: failure.iterations,
         };
         let (r, w_new, w_n_min) = (&mut state.r, &mut work.w_new, &work.w_n_min);
         self.interface_solve.solve(
@@ -361,25 +374,50 @@ impl<'s> Operators<'s> {
             |w_free| {
                 if n_pairs > 0 {
                     let clock = std::time::Instant::now();
+                    let problem = self.contact_problem(w_free, w_n_min);
                     report = contact_solver
-                        .solve(
-                            &self.contact_problem(w_free, w_n_min),
-                            self.settings.tolerance,
-                            self.settings.max_iterations,
-                            r,
-                            w_new,
-                        )
-                        .map_err(|failure| Failure::Contact {
-                            step,
-                            t,
-                            history: failure.history,
-                            iterations: failure.iterations,
-                        })?;
-                    contact_time = clock.elapsed().as_secs_f64();
+                        .solve(&problem, tolerance, max_iterations, r, w_new)
+                        .map_err(failed)?;
+                    contact_time += clock.elapsed().as_secs_f64();
                 }
                 Ok(&r[..])
             },
         )?;
+        let finite = work.v_new.iter().all(|value| value.is_finite());
+        if report.precision == Precision::Single && finite {
+            // Reactions found with W in single precision: the step is accepted on its own
+            // end-of-step velocities, or its contact problem is refined in double precision
+            // from there and the step solved again.
+            for (slot, row) in work.w_new.iter_mut().zip(&self.structure.H_rows) {
+                *slot = row
+                    .iter()
+                    .map(|&(dof, value)| value * work.v_new[dof])
+                    .sum();
+            }
+            let problem = self.contact_problem(&work.w_free, &work.w_n_min);
+            match contact_solver.settle(&problem, tolerance, &state.r, &work.w_new) {
+                Ok(residual) => report.residual = residual,
+                Err(_) => {
+                    let (r, w_new, w_n_min) = (&mut state.r, &mut work.w_new, &work.w_n_min);
+                    self.interface_solve.solve(
+                        &self.cholesky,
+                        &work.rhs,
+                        (&mut work.w_free, &mut work.y, &mut work.v_new),
+                        |w_free| {
+                            let clock = std::time::Instant::now();
+                            let problem = self.contact_problem(w_free, w_n_min);
+                            let refined = contact_solver
+                                .refine(&problem, tolerance, max_iterations, r, w_new)
+                                .map_err(failed)?;
+                            report.iterations += refined.iterations;
+                            report.residual = refined.residual;
+                            contact_time += clock.elapsed().as_secs_f64();
+                            Ok(&r[..])
+                        },
+                    )?;
+                }
+            }
+        }
         timings.contact += contact_time;
         timings.solve += clock.elapsed().as_secs_f64() - contact_time;
         state.worst_contact_residual = state.worst_contact_residual.max(report.residual);

@@ -196,10 +196,13 @@ fn bad_parameters_are_refused_with_the_figure_that_matters() {
 #[test]
 fn stage_outputs_do_not_depend_on_the_thread_count() {
     let inputs = brake_inputs();
+    // A loose tolerance: the contact iterations read W in single precision, each step then
+    // settled on its own velocities or refined.
     let params = stage_params(&[
         ("tau", Value::Float(2e-6)),
         ("duration", Value::Float(4e-4)),
         ("amplitude", Value::Float(1e-6)),
+        ("tolerance", Value::Float(1e-8)),
     ]);
     crate::stage::assert_outputs_independent_of_threads(&Transient, &params, &inputs, "transient");
 }
@@ -233,6 +236,8 @@ fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
         ("amplitude", Value::Float(1e-6)),
         ("output_every", Value::Int(3)),
         ("n_snapshots", Value::Int(40)),
+        // The contact solver's memory includes when to try single precision.
+        ("tolerance", Value::Float(1e-8)),
     ]);
     let encode = |outputs: Outputs| -> Vec<(String, Vec<u8>)> {
         outputs
@@ -288,4 +293,41 @@ fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
     let first = first_report.lock().unwrap().expect("progress was reported");
     assert!(first > 0.5, "the resumed run started at {first}");
     assert!(encode(resumed) == uninterrupted, "the resumed run differs");
+}
+
+/// A run at a loose tolerance, its contact iterations in single precision, against one at a
+/// tight tolerance in double: its worst contact residual, measured on the steps' own
+/// velocities, meets its tolerance, and the histories agree to what that tolerance allows.
+#[test]
+fn a_loose_tolerance_solved_in_single_precision_is_met_on_the_steps_own_velocities() {
+    let inputs = brake_inputs();
+    let run = |tolerance: f64| {
+        Transient
+            .run(
+                &stage_params(&[
+                    ("initial", Value::Str("kick".into())),
+                    ("kick_velocity", Value::Float(1.0)),
+                    ("tau", Value::Float(2e-6)),
+                    ("duration", Value::Float(6e-4)),
+                    ("tolerance", Value::Float(tolerance)),
+                ]),
+                &inputs,
+            )
+            .unwrap()
+    };
+    let (loose, tight) = (run(1e-8), run(1e-12));
+    let summary = loose["summary"].as_table().unwrap();
+    let residual = summary.quantity("worst_contact_residual").unwrap();
+    assert!(residual <= 1e-8, "worst contact residual {residual:e}");
+    let history = |outputs: &Outputs| outputs["history"].as_table().unwrap().clone();
+    let (a, b) = (history(&loose), history(&tight));
+    for name in ["u_n", "u_t", "v_n", "v_t", "kinetic"] {
+        let (x, y) = (f64_column(&a, name), f64_column(&b, name));
+        let scale = y.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let worst = x
+            .iter()
+            .zip(y)
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(worst < 1e-7 * scale, "{name}: {worst:e} against {scale:e}");
+    }
 }
