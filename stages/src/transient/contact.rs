@@ -725,6 +725,8 @@ pub struct ContactSolver {
     single: Pacing,
     /// Factorisations so far (for benchmarks; not part of any output).
     pub factorisations: usize,
+    /// Solutions refined in double precision so far (likewise).
+    pub refinements: usize,
 }
 
 impl ContactSolver {
@@ -737,6 +739,7 @@ impl ContactSolver {
             pacing: Pacing::default(),
             single: Pacing::default(),
             factorisations: 0,
+            refinements: 0,
         }
     }
 
@@ -868,6 +871,7 @@ impl ContactSolver {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
+        self.refinements += 1;
         let step = problem.step_lengths();
         let report = iterate(
             problem,

@@ -727,7 +727,7 @@ fn log_where_the_time_went(run: &Run) {
     let timings = &run.timings;
     let per_step = |seconds: f64| 1e3 * seconds / timings.steps_run.max(1) as f64;
     tracing::info!(
-        "transient: {} unknowns, J factorised in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {:.2} ms a step: solves {:.2} ms, contact {:.2} ms ({} factorisations of the active set), the rest {:.2} ms",
+        "transient: {} unknowns, J factorised in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {:.2} ms a step: solves {:.2} ms, contact {:.2} ms ({} factorisations of the active set, {} steps refined in double precision), the rest {:.2} ms",
         run.unknowns,
         timings.factor,
         run.factor_len,
@@ -738,6 +738,7 @@ fn log_where_the_time_went(run: &Run) {
         per_step(timings.solve),
         per_step(timings.contact),
         run.contact_factorisations,
+        run.contact_refinements,
         per_step(timings.steps - timings.solve - timings.contact),
     );
 }

@@ -125,6 +125,8 @@ pub struct Run {
     pub peak_penetration: f64,
     /// Factorisations of the active-set contact solver (for benchmarks, like the timings).
     pub contact_factorisations: usize,
+    /// Steps whose single-precision contact solution was refined in double precision.
+    pub contact_refinements: usize,
     /// Where the time went (for benchmarks; never in an output: it is not reproducible).
     pub timings: Timings,
 }
@@ -657,5 +659,6 @@ pub fn integrate(
         most_contact_iterations: state.most_contact_iterations,
         peak_penetration: state.peak_penetration,
         contact_factorisations: contact_solver.factorisations,
+        contact_refinements: contact_solver.refinements,
     })
 }
