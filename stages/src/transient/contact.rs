@@ -519,16 +519,43 @@ pub struct Memory {
     single: Pacing,
 }
 
-/// When a factorisation is worth its cost: in a limit cycle pairs open, stick and slide from
-/// step to step, a set rarely holds, and a factorisation that serves a few steps costs more
-/// than Gauss–Seidel would have.
+/// When a device that can fail is worth trying: a factorisation of the active set (in a limit
+/// cycle pairs open, stick and slide from step to step, a set rarely holds, and a
+/// factorisation that serves a few steps costs more than Gauss–Seidel would have), or passes
+/// in single precision (a refused solution costs a second solve of the step).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Pacing {
-    /// Steps served by the current factorisation.
+    /// Steps served since the last start or failure.
     uses: usize,
-    /// Steps to wait before the next factorisation, and the wait after the next failure.
+    /// Steps to wait before the next try, and the wait after the next failure.
     wait: usize,
     backoff: usize,
+}
+
+impl Pacing {
+    /// A step begins: one less to wait; whether to try.
+    fn next_step(&mut self) -> bool {
+        self.wait = self.wait.saturating_sub(1);
+        self.wait == 0
+    }
+
+    /// A step served: once it has paid for itself the wait after a failure starts again.
+    fn served(&mut self) {
+        self.uses += 1;
+        if self.uses >= PAYBACK_STEPS {
+            self.backoff = 1;
+        }
+    }
+
+    /// A failure: wait before the next try, twice as long as before if too few steps were
+    /// served since.
+    fn failed(&mut self) {
+        if self.uses < PAYBACK_STEPS {
+            self.backoff = (2 * self.backoff).min(LONGEST_WAIT);
+        }
+        self.wait = self.backoff;
+        self.uses = 0;
+    }
 }
 
 impl Default for Pacing {
@@ -797,8 +824,7 @@ impl ContactSolver {
         }
         // Fixed-point iterations rebuild w from the whole of r: single precision would leave
         // an error of 2⁻²⁴ |W r| rather than of the change.
-        self.single.wait = self.single.wait.saturating_sub(1);
-        let precision = if self.single.wait == 0
+        let precision = if self.single.next_step()
             && self.solver != Solver::FixedPoint
             && tolerance >= SINGLE_PRECISION_TOLERANCE
         {
@@ -848,15 +874,10 @@ impl ContactSolver {
             last.W_r = reaction_velocities(problem, w);
         }
         if residual <= tolerance {
-            self.single.uses += 1;
-            if self.single.uses >= PAYBACK_STEPS {
-                self.single.backoff = 1;
-            }
+            self.single.served();
             Ok(residual)
         } else {
-            self.single.backoff = (2 * self.single.backoff).min(LONGEST_WAIT);
-            self.single.wait = self.single.backoff;
-            self.single.uses = 0;
+            self.single.failed();
             Err(residual)
         }
     }
@@ -901,14 +922,11 @@ impl ContactSolver {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
-        self.pacing.wait = self.pacing.wait.saturating_sub(1);
+        self.pacing.next_step();
         if let Some((_, factorisation)) = &self.factorisation {
             let warm_start = (r.to_vec(), w.to_vec());
             if let Some(report) = factorisation.chord(problem, step, precision, tolerance, r, w) {
-                self.pacing.uses += 1;
-                if self.pacing.uses >= PAYBACK_STEPS {
-                    self.pacing.backoff = 1;
-                }
+                self.pacing.served();
                 let basis = basis_of(problem, r, w);
                 self.previous = Some(basis.states.clone());
                 if report.iterations > REFACTORISE_AFTER && self.pacing.uses >= PAYBACK_STEPS {
@@ -916,10 +934,7 @@ impl ContactSolver {
                 }
                 return Ok(report);
             }
-            if self.pacing.uses < PAYBACK_STEPS {
-                self.pacing.backoff = (2 * self.pacing.backoff).min(LONGEST_WAIT);
-            }
-            self.pacing.wait = self.pacing.backoff;
+            self.pacing.failed();
             self.factorisation = None;
             r.copy_from_slice(&warm_start.0);
             w.copy_from_slice(&warm_start.1);

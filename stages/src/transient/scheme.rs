@@ -330,6 +330,38 @@ impl<'s> Operators<'s> {
         })
     }
 
+    /// `v¹` into `work.v_new` from `work.rhs`, with the reactions `r` that `contact` finds
+    /// from the step's contact problem (their velocities into `work.w_new`; `None` without
+    /// pairs), the time it took added to `contact_time`.
+    fn solve_step(
+        &self,
+        work: &mut Work,
+        r: &mut [f64],
+        contact_time: &mut f64,
+        contact: impl FnOnce(
+            &contact::Problem,
+            &mut [f64],
+            &mut [f64],
+        ) -> Result<contact::Report, contact::NotConverged>,
+    ) -> Result<Option<contact::Report>, contact::NotConverged> {
+        let mut report = None;
+        let (w_new, w_n_min) = (&mut work.w_new, &work.w_n_min);
+        self.interface_solve.solve(
+            &self.cholesky,
+            &work.rhs,
+            (&mut work.w_free, &mut work.y, &mut work.v_new),
+            |w_free| {
+                if self.n_pairs() > 0 {
+                    let clock = std::time::Instant::now();
+                    report = Some(contact(&self.contact_problem(w_free, w_n_min), r, w_new)?);
+                    *contact_time += clock.elapsed().as_secs_f64();
+                }
+                Ok(&r[..])
+            },
+        )?;
+        Ok(report)
+    }
+
     /// One step of the scheme, from `state` at step `state.step`.
     fn advance(
         &self,
@@ -356,11 +388,6 @@ impl<'s> Operators<'s> {
         }
         let clock = std::time::Instant::now();
         let mut contact_time = 0.0;
-        let mut report = contact::Report {
-            iterations: 0,
-            residual: 0.0,
-            precision: Precision::Double,
-        };
         let (tolerance, max_iterations) = (self.settings.tolerance, self.settings.max_iterations);
         let failed = |failure: contact::NotConverged| Failure::Contact {
             step,
@@ -368,23 +395,16 @@ impl<'s> Operators<'s> {
             history: failure.history,
             iterations: failure.iterations,
         };
-        let (r, w_new, w_n_min) = (&mut state.r, &mut work.w_new, &work.w_n_min);
-        self.interface_solve.solve(
-            &self.cholesky,
-            &work.rhs,
-            (&mut work.w_free, &mut work.y, &mut work.v_new),
-            |w_free| {
-                if n_pairs > 0 {
-                    let clock = std::time::Instant::now();
-                    let problem = self.contact_problem(w_free, w_n_min);
-                    report = contact_solver
-                        .solve(&problem, tolerance, max_iterations, r, w_new)
-                        .map_err(failed)?;
-                    contact_time += clock.elapsed().as_secs_f64();
-                }
-                Ok(&r[..])
-            },
-        )?;
+        let mut report = self
+            .solve_step(work, &mut state.r, &mut contact_time, |problem, r, w| {
+                contact_solver.solve(problem, tolerance, max_iterations, r, w)
+            })
+            .map_err(failed)?
+            .unwrap_or(contact::Report {
+                iterations: 0,
+                residual: 0.0,
+                precision: Precision::Double,
+            });
         let finite = work.v_new.iter().all(|value| value.is_finite());
         if report.precision == Precision::Single && finite {
             // Reactions found with W in single precision: the step is accepted on its own
@@ -400,23 +420,16 @@ impl<'s> Operators<'s> {
             match contact_solver.settle(&problem, tolerance, &state.r, &work.w_new) {
                 Ok(residual) => report.residual = residual,
                 Err(_) => {
-                    let (r, w_new, w_n_min) = (&mut state.r, &mut work.w_new, &work.w_n_min);
-                    self.interface_solve.solve(
-                        &self.cholesky,
-                        &work.rhs,
-                        (&mut work.w_free, &mut work.y, &mut work.v_new),
-                        |w_free| {
-                            let clock = std::time::Instant::now();
-                            let problem = self.contact_problem(w_free, w_n_min);
-                            let refined = contact_solver
-                                .refine(&problem, tolerance, max_iterations, r, w_new)
-                                .map_err(failed)?;
-                            report.iterations += refined.iterations;
-                            report.residual = refined.residual;
-                            contact_time += clock.elapsed().as_secs_f64();
-                            Ok(&r[..])
-                        },
-                    )?;
+                    let refine = |problem: &contact::Problem, r: &mut [f64], w: &mut [f64]| {
+                        contact_solver.refine(problem, tolerance, max_iterations, r, w)
+                    };
+                    if let Some(refined) = self
+                        .solve_step(work, &mut state.r, &mut contact_time, refine)
+                        .map_err(failed)?
+                    {
+                        report.iterations += refined.iterations;
+                        report.residual = refined.residual;
+                    }
                 }
             }
         }
