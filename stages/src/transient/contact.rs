@@ -68,18 +68,19 @@
 //!
 //! # Precision
 //!
-//! A step's solve is bound by reading `W` (with J's factor, `Y` and the products, more than
-//! the cache holds), so the iterations' passes over it — Gauss–Seidel's updates of the rest
-//! of `w` after a block, the chord's `w += W Δr` — read a single-precision copy, half the
-//! bytes. Each pass then leaves an error of about `2⁻²⁴ |W Δr|` in `w`, small against the
-//! step's change of velocity but not always against the tolerance. So a step solved this way
-//! is accepted on its exact velocities: the scheme computes `w = H v¹` from the step's own
-//! solution ([`ContactSolver::settle`]). A solution that misses the tolerance there is
+//! A step is bound by reading its operators (J's factor, `Y`, `W`, the products: on a reduced
+//! brake more than the cache holds). So at tolerances of at least 1e-9
+//! (`SINGLE_PRECISION_TOLERANCE`) the iterations' passes over `W` — Gauss–Seidel's updates
+//! of the rest of `w` after a block, the chord's `w += W Δr` — read a single-precision copy,
+//! half the bytes. Each pass then leaves an error of about `2⁻²⁴ |W Δr|` in `w`, small against
+//! the step's change of velocity but not always against the tolerance. So a step solved this
+//! way is accepted on its exact velocities: the scheme computes `w = H v¹` from the step's
+//! own solution ([`ContactSolver::settle`]). A solution that misses the tolerance there is
 //! refined by Gauss–Seidel in double precision from `w = H v¹` and the step solved again
 //! ([`ContactSolver::refine`]), and the next steps are solved in double precision, for twice
-//! as long after each refusal that follows fewer than [`PAYBACK_STEPS`] acceptances.
-//! Tolerances below [`SINGLE_PRECISION_TOLERANCE`] are solved in double precision from the
-//! start, and so is the fixed-point solver (it rebuilds `w` from the whole of `r`).
+//! as long after each refusal that follows fewer than `PAYBACK_STEPS` acceptances. Tighter
+//! tolerances are solved in double precision throughout, and so is the fixed-point solver
+//! (it rebuilds `w` from the whole of `r`).
 
 use std::ops::Range;
 
