@@ -215,6 +215,7 @@ pub enum Precision {
 
 /// The data of one step's problem.
 pub struct Problem<'a> {
+    /// The Delassus operator.
     pub W: &'a Delassus,
     /// End-of-step relative velocities without reaction.
     pub w_free: &'a [f64],
@@ -263,7 +264,8 @@ impl Problem<'_> {
     }
 
     /// The projection of the laws for pair `p` at reaction `r` and velocities `w`.
-    fn project(&self, p: usize, step: &Step, r: [f64; 3], w: [f64; 3]) -> [f64; 3] {
+    fn project(&self, p: usize, r: [f64; 3], w: [f64; 3]) -> [f64; 3] {
+        let step = self.step_lengths();
         let r_n = (r[0] - step.rho_n[p] * (w[0] - self.w_n_min[p])).max(0.0);
         let slip = [w[1] - self.sliding_speed[p], w[2]];
         let trial = [
@@ -280,12 +282,12 @@ impl Problem<'_> {
         [r_n, trial[0] * scale, trial[1] * scale]
     }
 
-    fn residual(&self, step: &Step, r: &[f64], w: &[f64]) -> f64 {
+    fn residual(&self, r: &[f64], w: &[f64]) -> f64 {
         let mut worst: f64 = 0.0;
         let mut largest: f64 = 0.0;
         for p in 0..self.n_pairs() {
             let r_p = pair(r, p);
-            let projected = self.project(p, step, r_p, pair(w, p));
+            let projected = self.project(p, r_p, pair(w, p));
             let change = (0..3)
                 .map(|d| (projected[d] - r_p[d]).abs())
                 .fold(0.0, f64::max);
@@ -449,10 +451,8 @@ fn solve_small(A: &mut [f64], b: &mut [f64], m: usize) -> Option<Vec<f64>> {
 
 /// Solves the step's problem with an iterative solver from the reactions `r` (a warm start,
 /// overwritten with the solution), `w` its velocities on entry, the solution's on return.
-#[allow(clippy::too_many_arguments)]
 fn iterate(
     problem: &Problem,
-    step: &Step,
     gauss_seidel: bool,
     precision: Precision,
     tolerance: f64,
@@ -466,16 +466,16 @@ fn iterate(
     for iteration in 1..=max_iterations {
         if gauss_seidel {
             anderson.start(r);
-            gauss_seidel_sweep(problem, step, precision, r, w);
+            gauss_seidel_sweep(problem, precision, r, w);
         } else {
             for p in 0..problem.n_pairs() {
-                let projected = problem.project(p, step, pair(r, p), pair(w, p));
+                let projected = problem.project(p, pair(r, p), pair(w, p));
                 next[3 * p..3 * p + 3].copy_from_slice(&projected);
             }
             r.copy_from_slice(&next);
             velocities(problem, r, w);
         }
-        let residual = problem.residual(step, r, w);
+        let residual = problem.residual(r, w);
         history.push(residual);
         if history.len() > HISTORY_KEPT {
             history.remove(0);
@@ -592,7 +592,8 @@ struct Factorisation {
 }
 
 impl Factorisation {
-    fn new(problem: &Problem, step: &Step, basis: &Basis) -> Option<Factorisation> {
+    fn new(problem: &Problem, basis: &Basis) -> Option<Factorisation> {
+        let step = problem.step_lengths();
         let W = problem.W.double.as_ref();
         let states = &basis.states;
         let mut offsets = Vec::with_capacity(states.len() + 1);
@@ -668,7 +669,8 @@ impl Factorisation {
 
     /// The residual `F` of the set's laws at `r`, `w` (velocity rows scaled by ρ: forces),
     /// evaluated in double precision and rounded for the single-precision solve.
-    fn laws(&self, problem: &Problem, step: &Step, r: &[f64], w: &[f64], F: &mut [f32]) {
+    fn laws(&self, problem: &Problem, r: &[f64], w: &[f64], F: &mut [f32]) {
+        let step = problem.step_lengths();
         for (p, state) in self.states.iter().enumerate() {
             let (k, i) = (3 * p, self.offsets[p]);
             let normal = step.rho_n[p] * (w[k] - problem.w_n_min[p]);
@@ -699,7 +701,6 @@ impl Factorisation {
     fn chord(
         &self,
         problem: &Problem,
-        step: &Step,
         precision: Precision,
         tolerance: f64,
         r: &mut [f64],
@@ -708,7 +709,7 @@ impl Factorisation {
         let mut F = vec![0.0_f32; self.lu.n()];
         let mut last_residual = f64::INFINITY;
         for iteration in 1..=CHORD_ITERATIONS {
-            self.laws(problem, step, r, w, &mut F);
+            self.laws(problem, r, w, &mut F);
             // F becomes the correction A⁻¹ F, and w follows r's change.
             self.lu.solve_in_place(&mut F);
             for (p, state) in self.states.iter().enumerate() {
@@ -724,7 +725,7 @@ impl Factorisation {
                     }
                 }
             }
-            let residual = problem.residual(step, r, w);
+            let residual = problem.residual(r, w);
             if residual <= tolerance {
                 return Some(Report {
                     iterations: iteration,
@@ -785,7 +786,7 @@ impl ContactSolver {
     /// Takes back a checkpoint's memory, for a problem of the same run.
     pub fn restore(&mut self, memory: Memory, problem: &Problem) {
         self.factorisation = memory.factorised.and_then(|basis| {
-            let factorisation = Factorisation::new(problem, problem.step_lengths(), &basis);
+            let factorisation = Factorisation::new(problem, &basis);
             factorisation.map(|f| (basis, f))
         });
         self.previous = memory.previous;
@@ -804,7 +805,6 @@ impl ContactSolver {
         r: &mut [f64],
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
-        let step = problem.step_lengths();
         match &self.last {
             Some(LastSolution {
                 r: r_0,
@@ -836,7 +836,6 @@ impl ContactSolver {
         let report = match self.solver {
             Solver::GaussSeidel | Solver::FixedPoint => iterate(
                 problem,
-                step,
                 self.solver == Solver::GaussSeidel,
                 precision,
                 tolerance,
@@ -845,7 +844,7 @@ impl ContactSolver {
                 w,
             ),
             Solver::ActiveSet => {
-                self.solve_active_set(problem, step, precision, tolerance, max_iterations, r, w)
+                self.solve_active_set(problem, precision, tolerance, max_iterations, r, w)
             }
         }?;
         let before = self.last.take().map(|last| (last.r, last.W_r));
@@ -870,7 +869,7 @@ impl ContactSolver {
         r: &[f64],
         w: &[f64],
     ) -> Result<f64, f64> {
-        let residual = problem.residual(problem.step_lengths(), r, w);
+        let residual = problem.residual(r, w);
         if let Some(last) = self.last.as_mut() {
             last.W_r = reaction_velocities(problem, w);
         }
@@ -894,10 +893,8 @@ impl ContactSolver {
         w: &mut [f64],
     ) -> Result<Report, NotConverged> {
         self.refinements += 1;
-        let step = problem.step_lengths();
         let report = iterate(
             problem,
-            step,
             true,
             Precision::Double,
             tolerance,
@@ -912,11 +909,9 @@ impl ContactSolver {
         Ok(report)
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn solve_active_set(
         &mut self,
         problem: &Problem,
-        step: &Step,
         precision: Precision,
         tolerance: f64,
         max_iterations: usize,
@@ -926,12 +921,12 @@ impl ContactSolver {
         self.pacing.next_step();
         if let Some((_, factorisation)) = &self.factorisation {
             let warm_start = (r.to_vec(), w.to_vec());
-            if let Some(report) = factorisation.chord(problem, step, precision, tolerance, r, w) {
+            if let Some(report) = factorisation.chord(problem, precision, tolerance, r, w) {
                 self.pacing.served();
                 let basis = basis_of(problem, r, w);
                 self.previous = Some(basis.states.clone());
                 if report.iterations > REFACTORISE_AFTER && self.pacing.uses >= PAYBACK_STEPS {
-                    self.factorise(problem, step, basis);
+                    self.factorise(problem, basis);
                 }
                 return Ok(report);
             }
@@ -940,30 +935,21 @@ impl ContactSolver {
             r.copy_from_slice(&warm_start.0);
             w.copy_from_slice(&warm_start.1);
         }
-        let report = iterate(
-            problem,
-            step,
-            true,
-            precision,
-            tolerance,
-            max_iterations,
-            r,
-            w,
-        )?;
+        let report = iterate(problem, true, precision, tolerance, max_iterations, r, w)?;
         let basis = basis_of(problem, r, w);
         if self.previous.as_ref() == Some(&basis.states) && self.pacing.wait == 0 {
-            self.factorise(problem, step, basis);
+            self.factorise(problem, basis);
         } else {
             self.previous = Some(basis.states);
         }
         Ok(report)
     }
 
-    fn factorise(&mut self, problem: &Problem, step: &Step, basis: Basis) {
+    fn factorise(&mut self, problem: &Problem, basis: Basis) {
         self.factorisations += 1;
         self.pacing.uses = 0;
         self.factorisation =
-            Factorisation::new(problem, step, &basis).map(|factorisation| (basis, factorisation));
+            Factorisation::new(problem, &basis).map(|factorisation| (basis, factorisation));
     }
 }
 
@@ -1014,7 +1000,6 @@ squeal_linalg::widest_vectors! {
     /// moves meanwhile); then the block's change of `r` updates every row.
     fn gauss_seidel_sweep(
         problem: &Problem,
-        step: &Step,
         precision: Precision,
         r: &mut [f64],
         w: &mut [f64],
@@ -1028,7 +1013,7 @@ squeal_linalg::widest_vectors! {
                 for p in pairs.clone() {
                     let k = 3 * p;
                     let start = pair(r, p);
-                    let r_p = problem.project(p, step, start, pair(w, p));
+                    let r_p = problem.project(p, start, pair(w, p));
                     let delta = [r_p[0] - start[0], r_p[1] - start[1], r_p[2] - start[2]];
                     if delta != [0.0; 3] {
                         let columns = [k, k + 1, k + 2].map(|k| &column(W, k)[rows.clone()]);

@@ -410,12 +410,7 @@ impl<'s> Operators<'s> {
             // Reactions found with W in single precision: the step is accepted on its own
             // end-of-step velocities, or its contact problem is refined in double precision
             // from there and the step solved again.
-            for (slot, row) in work.w_new.iter_mut().zip(&self.structure.H_rows) {
-                *slot = row
-                    .iter()
-                    .map(|&(dof, value)| value * work.v_new[dof])
-                    .sum();
-            }
+            work.w_new = h_times(&self.structure.H_rows, &work.v_new);
             let problem = self.contact_problem(&work.w_free, &work.w_n_min);
             match contact_solver.settle(&problem, tolerance, &state.r, &work.w_new) {
                 Ok(residual) => report.residual = residual,
