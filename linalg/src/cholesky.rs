@@ -67,45 +67,17 @@ fn lower_entries(A: &CscMatrix, col: usize) -> impl Iterator<Item = (usize, f64)
 }
 
 /// The lower triangle of `Σ cᵢ Aᵢ` over the union of the patterns, in compressed columns.
-fn combine_lower(terms: &[(f64, &CscMatrix)], n: usize) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    col_ptr.push(0);
-    let mut row_idx = Vec::new();
-    let mut values = Vec::new();
-    let mut column: Vec<(usize, f64)> = Vec::new();
-    for col in 0..n {
-        column.clear();
-        for (coefficient, A) in terms {
-            column.extend(lower_entries(A, col).map(|(row, value)| (row, coefficient * value)));
-        }
-        // A stable sort keeps the terms' order for equal rows: the sums do not depend on
-        // anything but the input.
-        column.sort_by_key(|&(row, _)| row);
-        let mut last = usize::MAX;
-        for &(row, value) in &column {
-            if row == last {
-                *values.last_mut().expect("an entry was pushed") += value;
-            } else {
-                row_idx.push(row);
-                values.push(value);
-                last = row;
-            }
-        }
-        col_ptr.push(row_idx.len());
-    }
-    (col_ptr, row_idx, values)
+pub(crate) struct Combination {
+    pub n: usize,
+    pub col_ptr: Vec<usize>,
+    pub row_idx: Vec<usize>,
+    pub values: Vec<f64>,
 }
 
-impl Cholesky {
-    /// Factorises `A = Σ cᵢ Aᵢ` (each `Aᵢ` symmetric, both triangles stored, size `n`), ordered
-    /// by nested dissection of the node graph (`dof_of_node` groups the unknowns by node) with
-    /// the unknowns of `interface` eliminated last.
-    pub fn new(
-        terms: &[(f64, &CscMatrix)],
-        dof_of_node: &[[Option<u32>; 3]],
-        interface: &[usize],
-        par: Par,
-    ) -> Result<Cholesky, Error> {
+impl Combination {
+    /// Each `Aᵢ` symmetric with both triangles stored, all of one size `n > 0`, every entry
+    /// of the combination finite.
+    pub(crate) fn of(terms: &[(f64, &CscMatrix)]) -> Result<Combination, Error> {
         let Some(&(_, first)) = terms.first() else {
             return Err(Error::InvalidInput("no matrix to factorise".into()));
         };
@@ -124,15 +96,134 @@ impl Cholesky {
                 )));
             }
         }
-        if let Some(&bad) = interface.iter().find(|&&unknown| unknown >= n) {
-            return Err(Error::InvalidInput(format!(
-                "interface unknown {bad} is out of range (n = {n})"
-            )));
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0);
+        let mut row_idx = Vec::new();
+        let mut values = Vec::new();
+        let mut column: Vec<(usize, f64)> = Vec::new();
+        for col in 0..n {
+            column.clear();
+            for (coefficient, A) in terms {
+                column.extend(lower_entries(A, col).map(|(row, value)| (row, coefficient * value)));
+            }
+            // A stable sort keeps the terms' order for equal rows: the sums do not depend on
+            // anything but the input.
+            column.sort_by_key(|&(row, _)| row);
+            let mut last = usize::MAX;
+            for &(row, value) in &column {
+                if row == last {
+                    *values.last_mut().expect("an entry was pushed") += value;
+                } else {
+                    row_idx.push(row);
+                    values.push(value);
+                    last = row;
+                }
+            }
+            col_ptr.push(row_idx.len());
         }
-        let (col_ptr, row_idx, values) = combine_lower(terms, n);
         if let Some(bad) = values.iter().position(|value| !value.is_finite()) {
             return Err(Error::InvalidInput(format!(
                 "the matrix to factorise has a non-finite entry (entry {bad} of its lower triangle)"
+            )));
+        }
+        Ok(Combination {
+            n,
+            col_ptr,
+            row_idx,
+            values,
+        })
+    }
+}
+
+/// `A = Σ cᵢ Aᵢ` ordered and analysed, not yet factorised: what its factor will hold.
+pub struct Analysis {
+    n: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+    symbolic: SymbolicCholesky<usize>,
+    /// Position in elimination order → unknown.
+    forward: Vec<usize>,
+}
+
+impl Analysis {
+    /// Entries the supernodal factor will store.
+    pub fn factor_len(&self) -> usize {
+        self.symbolic.len_val()
+    }
+
+    /// The numeric factorisation.
+    pub fn factorise(self, par: Par) -> Result<Cholesky, Error> {
+        let Analysis {
+            n,
+            col_ptr,
+            row_idx,
+            values,
+            symbolic,
+            forward,
+        } = self;
+        let A = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx),
+            &values,
+        );
+        let mut L_values = vec![0.0; symbolic.len_val()];
+        let mut buffer =
+            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        symbolic
+            .factorize_numeric_llt(
+                &mut L_values,
+                A,
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut buffer),
+                Default::default(),
+            )
+            .map_err(|err| {
+                Error::Breakdown(format!(
+                    "Cholesky of the {n} x {n} matrix failed: it is not positive definite ({err:?})"
+                ))
+            })?;
+        let mut cholesky = Cholesky {
+            n,
+            symbolic,
+            values: L_values,
+            forward,
+            sweeps: SubtreeSweeps::default(),
+        };
+        cholesky.sweeps = SubtreeSweeps::new(cholesky.factor(), n);
+        Ok(cholesky)
+    }
+}
+
+impl Cholesky {
+    /// Factorises `A = Σ cᵢ Aᵢ` (each `Aᵢ` symmetric, both triangles stored, size `n`), ordered
+    /// by nested dissection of the node graph (`dof_of_node` groups the unknowns by node) with
+    /// the unknowns of `interface` eliminated last.
+    pub fn new(
+        terms: &[(f64, &CscMatrix)],
+        dof_of_node: &[[Option<u32>; 3]],
+        interface: &[usize],
+        par: Par,
+    ) -> Result<Cholesky, Error> {
+        Cholesky::analyse(terms, dof_of_node, interface)?.factorise(par)
+    }
+
+    /// The ordering and symbolic factorisation of [`Cholesky::new`].
+    pub fn analyse(
+        terms: &[(f64, &CscMatrix)],
+        dof_of_node: &[[Option<u32>; 3]],
+        interface: &[usize],
+    ) -> Result<Analysis, Error> {
+        let Combination {
+            n,
+            col_ptr,
+            row_idx,
+            values,
+        } = Combination::of(terms)?;
+        if let Some(&bad) = interface.iter().find(|&&unknown| unknown >= n) {
+            return Err(Error::InvalidInput(format!(
+                "interface unknown {bad} is out of range (n = {n})"
             )));
         }
         let matrices: Vec<&CscMatrix> = terms.iter().map(|(_, A)| *A).collect();
@@ -182,37 +273,14 @@ impl Cholesky {
             Some(perm) => perm.arrays().0.to_vec(),
             None => (0..n).collect(),
         };
-        let A = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx),
-            &values,
-        );
-        let mut L_values = vec![0.0; symbolic.len_val()];
-        let mut buffer =
-            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
-        symbolic
-            .factorize_numeric_llt(
-                &mut L_values,
-                A,
-                Side::Lower,
-                LltRegularization::default(),
-                par,
-                MemStack::new(&mut buffer),
-                Default::default(),
-            )
-            .map_err(|err| {
-                Error::Breakdown(format!(
-                    "Cholesky of the {n} x {n} matrix failed: it is not positive definite ({err:?})"
-                ))
-            })?;
-        let mut cholesky = Cholesky {
+        Ok(Analysis {
             n,
+            col_ptr,
+            row_idx,
+            values,
             symbolic,
-            values: L_values,
             forward,
-            sweeps: SubtreeSweeps::default(),
-        };
-        cholesky.sweeps = SubtreeSweeps::new(cholesky.factor(), n);
-        Ok(cholesky)
+        })
     }
 
     pub fn n(&self) -> usize {

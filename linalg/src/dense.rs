@@ -13,7 +13,7 @@ use faer::linalg::evd::{ComputeEigenvectors, self_adjoint_evd, self_adjoint_evd_
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::{Mat, MatRef, Par};
+use faer::{Mat, MatMut, MatRef, Par};
 
 use crate::Error;
 
@@ -78,19 +78,9 @@ pub fn generalized_symmetric_eigen(
 ) -> Result<(Vec<f64>, Mat<f64>), Error> {
     let n = K.nrows();
     let mut L = M.to_owned();
-    let mut buffer = MemBuffer::new(cholesky_in_place_scratch::<f64>(n, par, Default::default()));
-    cholesky_in_place(
-        L.as_mut(),
-        LltRegularization::default(),
-        par,
-        MemStack::new(&mut buffer),
-        Default::default(),
-    )
-    .map_err(|err| {
-        Error::Breakdown(format!(
-            "the {n}×{n} projected mass matrix is not positive definite: {err:?}"
-        ))
-    })?;
+    cholesky_lower(L.as_mut(), par)
+        .map_err(|err| format!("the {n}×{n} projected mass matrix is not positive definite: {err}"))
+        .map_err(Error::Breakdown)?;
     // The factor is in the lower triangle; clear the rest for the triangular solves.
     for j in 0..n {
         for i in 0..j {
@@ -105,6 +95,22 @@ pub fn generalized_symmetric_eigen(
     let (eigenvalues, mut Y) = symmetric_eigen(symmetrised(C.as_ref()).as_ref(), par)?;
     solve_upper_triangular_in_place(L.as_ref().transpose(), Y.as_mut(), par);
     Ok((eigenvalues, Y))
+}
+
+/// `A = L Lᵀ` in place, `L` in the lower triangle (the strict upper one left as it was); the
+/// error is faer's reason.
+pub fn cholesky_lower(A: MatMut<'_, f64>, par: Par) -> Result<(), String> {
+    let n = A.nrows();
+    let mut buffer = MemBuffer::new(cholesky_in_place_scratch::<f64>(n, par, Default::default()));
+    cholesky_in_place(
+        A,
+        LltRegularization::default(),
+        par,
+        MemStack::new(&mut buffer),
+        Default::default(),
+    )
+    .map(|_| ())
+    .map_err(|err| format!("{err:?}"))
 }
 
 /// `A` restricted to the columns `columns`.

@@ -14,6 +14,7 @@
 
 use faer::Par;
 
+pub mod block_inverse;
 pub mod cholesky;
 pub mod csc;
 pub mod dense;

@@ -33,7 +33,7 @@ use squeal_stages::mesh::brake::{BrakeGeometry, brake};
 use squeal_stages::stage::{Input, Inputs, Params, Value};
 use squeal_stages::transient::contact::Solver as ContactSolver;
 use squeal_stages::transient::reduced::ReducedModel;
-use squeal_stages::transient::scheme::{Settings, Structure, factorise_J, integrate};
+use squeal_stages::transient::scheme::{Settings, SolveBy, Structure, factorise_J, integrate};
 use squeal_stages::transient::{kick, structure_of};
 use squeal_stages::{NoCheckpoints, Stage};
 
@@ -131,6 +131,7 @@ fn main() {
         record_pairs: vec![0],
         snapshot_steps: Vec::new(),
         sample_steps: Vec::new(),
+        solve_by: SolveBy::Choice,
     };
     let clock = Instant::now();
     let run = integrate(

@@ -29,7 +29,7 @@ use crate::stage::{RunContext, StageError};
 use crate::table::Table;
 use crate::transient::contact::Solver;
 use crate::transient::reduced::FullStep;
-use crate::transient::scheme::Settings;
+use crate::transient::scheme::{Settings, SolveBy};
 use crate::transient::{self, MAX_STEPS, most_unstable_start, run_reduced, spread_steps};
 use squeal_linalg::gram_schmidt::MSpan;
 
@@ -95,6 +95,7 @@ pub(super) fn enrich(
         record_pairs: Vec::new(),
         snapshot_steps: Vec::new(),
         sample_steps: spread_steps(n_steps, probe.samples),
+        solve_by: SolveBy::Choice,
     };
     let full_step = FullStep::new(&structure, theta, probe.tau)?;
     let start = most_unstable_start(eigenvalues, shapes, model.n_dofs(), probe.amplitude)?;

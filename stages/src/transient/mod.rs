@@ -85,7 +85,7 @@ use crate::stage::{
 use crate::table::{ColumnData, Table};
 use contact::Solver;
 use reduced::{FullStep, ReducedModel};
-use scheme::{ContactState, Failure, Run, Settings, Structure};
+use scheme::{ContactState, Failure, Run, Settings, SolveBy, Structure};
 
 /// Progress reports over a run.
 const PROGRESS_REPORTS: usize = 500;
@@ -169,14 +169,15 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 16: the contact iterations pass over W in single precision, a step accepted on its
-        // own end-of-step velocities (15: Gauss–Seidel sweeps a pad's pairs together; 14: a
+        // 17: a reduced model of dense blocks (its bodies kept whole) solved by their
+        // inverses (16: the contact iterations pass over W in single precision, a step
+        // accepted on its own end-of-step velocities; 15: Gauss–Seidel sweeps a pad's pairs together; 14: a
         // reduced model's dense K streamed by its lower runs, the chord's LU solved by packed
         // sweeps; 13: the sweeps read each column of a supernode once, by the vector kernels;
         // 12: Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single precision, the
         // snapshots lifted by products of blocks; 11: a reduced step corrects by the response
         // J⁻¹ Hᵀ); the last bits of every run.
-        16
+        17
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
@@ -652,6 +653,7 @@ fn settings_of(
         record_pairs,
         snapshot_steps,
         sample_steps: spread_steps(n_steps, n_samples),
+        solve_by: SolveBy::Choice,
     })
 }
 
@@ -727,8 +729,13 @@ fn log_where_the_time_went(run: &Run) {
     let timings = &run.timings;
     let per_step = |seconds: f64| 1e3 * seconds / timings.steps_run.max(1) as f64;
     tracing::info!(
-        "transient: {} unknowns, J factorised in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {:.2} ms a step: solves {:.2} ms, contact {:.2} ms ({} factorisations of the active set, {} steps refined in double precision), the rest {:.2} ms",
+        "transient: {} unknowns, J {} in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {:.2} ms a step: solves {:.2} ms, contact {:.2} ms ({} factorisations of the active set, {} steps refined in double precision), the rest {:.2} ms",
         run.unknowns,
+        if run.by_inverse {
+            "inverted by dense blocks"
+        } else {
+            "factorised"
+        },
         timings.factor,
         run.factor_len,
         timings.delassus,

@@ -19,10 +19,12 @@
 //! precision is accepted on the step's own relative velocities `H v¹`, or refined and the
 //! step solved again ([`super::contact`]: precision).
 
+use faer::Mat;
 use faer::Par;
 use serde::{Deserialize, Serialize};
 use squeal_linalg::CscMatrix;
-use squeal_linalg::cholesky::{Cholesky, InterfaceSolve};
+use squeal_linalg::block_inverse::{BlockInterfaceSolve, BlockInverse, Components};
+use squeal_linalg::cholesky::{self, Cholesky, InterfaceSolve};
 
 use super::contact::{self, ContactSolver, Delassus, PairState, Precision, Solver, classify};
 use super::energy::{Audit, StepWork};
@@ -70,6 +72,18 @@ pub struct Settings {
     pub snapshot_steps: Vec<usize>,
     /// Steps kept whole, as [`StepSample`]s (ascending).
     pub sample_steps: Vec<usize>,
+    pub solve_by: SolveBy,
+}
+
+/// What the steps solve by ([`StepSolve`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolveBy {
+    /// `J`'s inverse by dense blocks where it pays and its residual stays small, `J`'s
+    /// factor otherwise.
+    Choice,
+    Factor,
+    /// `J`'s inverse by dense blocks whatever the model's size and condition (for tests).
+    Inverse,
 }
 
 /// One row of the history, at time `t`.
@@ -117,9 +131,13 @@ pub struct Run {
     pub samples: Vec<StepSample>,
     /// Unknowns of the structure (DOFs, or reduced coordinates).
     pub unknowns: usize,
+    /// Entries of `J`'s factor, or of its inverse's blocks when `by_inverse`.
     pub factor_len: usize,
-    /// Rows of `Y = L⁻¹ Pᵀ Hᵀ` that are not zero.
+    /// Rows of `Y = L⁻¹ Pᵀ Hᵀ` that are not zero; by the inverse, the unknowns of the blocks
+    /// that `H` reaches.
     pub interface_rows: usize,
+    /// Whether the steps solved by `J`'s inverse, by dense blocks, rather than its factor.
+    pub by_inverse: bool,
     pub worst_contact_residual: f64,
     pub most_contact_iterations: usize,
     pub peak_penetration: f64,
@@ -171,12 +189,21 @@ fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// `J = M/τ + θ C + τθ² K` factorised, the contact DOFs ordered last.
-pub fn factorise_J(
+/// The terms of `J = M/τ + θ C + τθ² K`.
+fn J_terms<'a>(structure: &Structure<'a>, theta: f64, tau: f64) -> [(f64, &'a CscMatrix); 3] {
+    [
+        (1.0 / tau, structure.M),
+        (theta, structure.C),
+        (tau * theta * theta, structure.K),
+    ]
+}
+
+/// `J`'s ordering and symbolic factorisation, the contact DOFs ordered last.
+fn analyse_J(
     structure: &Structure,
     theta: f64,
     tau: f64,
-) -> Result<Cholesky, squeal_linalg::Error> {
+) -> Result<cholesky::Analysis, squeal_linalg::Error> {
     let mut interface: Vec<usize> = structure
         .H_rows
         .iter()
@@ -193,16 +220,102 @@ pub fn factorise_J(
     } else {
         &interface[..]
     };
-    Cholesky::new(
-        &[
-            (1.0 / tau, structure.M),
-            (theta, structure.C),
-            (tau * theta * theta, structure.K),
-        ],
-        structure.dof_of_node,
-        last,
-        Par::Seq,
-    )
+    Cholesky::analyse(&J_terms(structure, theta, tau), structure.dof_of_node, last)
+}
+
+/// `J` factorised, the contact DOFs ordered last.
+pub fn factorise_J(
+    structure: &Structure,
+    theta: f64,
+    tau: f64,
+) -> Result<Cholesky, squeal_linalg::Error> {
+    analyse_J(structure, theta, tau)?.factorise(Par::Seq)
+}
+
+/// Below these many entries, `J`'s factor and `Y` stay in cache: the inverse would gain
+/// nothing.
+const LEAST_INVERSE_ENTRIES: usize = 1 << 16;
+/// The largest condition `κ₁(Â)` of an inverse's scaled blocks that a step solves by: a
+/// product by the inverse leaves a residual `κ₁(Â)` times a solve's at worst, and the step's
+/// derived products (`products.rs`) and its energy audit read the step's equation as exact.
+const MOST_INVERSE_CONDITION: f64 = 1e4;
+
+/// How a step solves `J v¹ = F + Hᵀ r`: by `J`'s sparse factor split around the contact
+/// DOFs, or by the dense inverses of `J`'s connected components
+/// ([`squeal_linalg::block_inverse`]) where these hold no more entries than the factor would
+/// (a reduced model with its bodies kept whole: each body's block is dense, and so is its
+/// factor), unless the model is small enough to solve in cache or a block's condition makes
+/// the inverse's residual too large.
+enum StepSolve {
+    Factor(Box<Cholesky>, InterfaceSolve),
+    Inverse(BlockInverse, BlockInterfaceSolve),
+}
+
+impl StepSolve {
+    /// The solve, with the time its operator and its Delassus operator took into `timings`.
+    fn new(
+        structure: &Structure,
+        (theta, tau, solve_by): (f64, f64, SolveBy),
+        timings: &mut Timings,
+    ) -> Result<StepSolve, squeal_linalg::Error> {
+        let clock = std::time::Instant::now();
+        let analysis = analyse_J(structure, theta, tau)?;
+        let components = Components::of(&[structure.M, structure.C, structure.K]);
+        let entries = components.dense_len();
+        let worth_trying = match solve_by {
+            SolveBy::Choice => (LEAST_INVERSE_ENTRIES..=analysis.factor_len()).contains(&entries),
+            SolveBy::Factor => false,
+            SolveBy::Inverse => true,
+        };
+        if worth_trying {
+            let inverse = BlockInverse::new(&J_terms(structure, theta, tau), &components)?;
+            if solve_by == SolveBy::Inverse || inverse.condition() <= MOST_INVERSE_CONDITION {
+                timings.factor = clock.elapsed().as_secs_f64();
+                let clock = std::time::Instant::now();
+                let split = BlockInterfaceSolve::new(&inverse, &structure.H_rows);
+                timings.delassus = clock.elapsed().as_secs_f64();
+                return Ok(StepSolve::Inverse(inverse, split));
+            }
+        }
+        let cholesky = analysis.factorise(Par::Seq)?;
+        timings.factor = clock.elapsed().as_secs_f64();
+        let clock = std::time::Instant::now();
+        let split = InterfaceSolve::new(&cholesky, &structure.H_rows);
+        timings.delassus = clock.elapsed().as_secs_f64();
+        Ok(StepSolve::Factor(Box::new(cholesky), split))
+    }
+
+    /// The Delassus operator `W = H J⁻¹ Hᵀ`.
+    fn W(&self) -> &Mat<f64> {
+        match self {
+            StepSolve::Factor(_, split) => &split.W,
+            StepSolve::Inverse(_, split) => &split.W,
+        }
+    }
+
+    /// `x = J⁻¹ (b + Hᵀ r)`, `r` chosen by `react` from `H J⁻¹ b` (written to `w_free`).
+    fn solve<'r, E>(
+        &self,
+        b: &[f64],
+        work: (&mut [f64], &mut [f64], &mut [f64]),
+        react: impl FnOnce(&[f64]) -> Result<&'r [f64], E>,
+    ) -> Result<(), E> {
+        match self {
+            StepSolve::Factor(cholesky, split) => split.solve(cholesky, b, work, react),
+            StepSolve::Inverse(inverse, split) => split.solve(inverse, b, work, react),
+        }
+    }
+
+    /// What the run reports of its operator: its entries, the rows the contact reaches, and
+    /// whether it is `J`'s inverse.
+    fn size(&self) -> (usize, usize, bool) {
+        match self {
+            StepSolve::Factor(cholesky, split) => (cholesky.factor_len(), split.rows.len(), false),
+            StepSolve::Inverse(inverse, split) => {
+                (inverse.entries(), split.contact_rows(inverse), true)
+            }
+        }
+    }
 }
 
 /// What stays fixed through a run: J's factorisation, the Delassus operator, the products.
@@ -210,8 +323,7 @@ struct Operators<'s> {
     structure: &'s Structure<'s>,
     contact_state: &'s ContactState,
     settings: &'s Settings,
-    cholesky: Cholesky,
-    interface_solve: InterfaceSolve,
+    step_solve: StepSolve,
     delassus: Delassus,
     products: Products,
     /// `Hᵀ r_e`, the equilibrium's contact force.
@@ -232,13 +344,11 @@ impl<'s> Operators<'s> {
             (contact_state.blocks.iter().cloned().flatten()).eq(0..contact_state.gap.len()),
             "the Gauss–Seidel blocks cover every pair, in order"
         );
+        let step_solve = StepSolve::new(structure, (theta, tau, settings.solve_by), timings)
+            .map_err(Failure::Linear)?;
         let clock = std::time::Instant::now();
-        let cholesky = factorise_J(structure, theta, tau).map_err(Failure::Linear)?;
-        timings.factor = clock.elapsed().as_secs_f64();
-        let clock = std::time::Instant::now();
-        let interface_solve = InterfaceSolve::new(&cholesky, &structure.H_rows);
-        let delassus = Delassus::new(interface_solve.W.clone());
-        timings.delassus = clock.elapsed().as_secs_f64();
+        let delassus = Delassus::new(step_solve.W().clone());
+        timings.delassus += clock.elapsed().as_secs_f64();
         let mut equilibrium_force = vec![0.0; structure.K.n_rows];
         add_h_transpose_times(
             &structure.H_rows,
@@ -249,9 +359,8 @@ impl<'s> Operators<'s> {
             structure,
             contact_state,
             settings,
-            cholesky,
+            step_solve,
             delassus,
-            interface_solve,
             products: Products::new(structure.M, structure.C, structure.K),
             equilibrium_force,
             force_scale: contact_state
@@ -346,8 +455,7 @@ impl<'s> Operators<'s> {
     ) -> Result<Option<contact::Report>, contact::NotConverged> {
         let mut report = None;
         let (w_new, w_n_min) = (&mut work.w_new, &work.w_n_min);
-        self.interface_solve.solve(
-            &self.cholesky,
+        self.step_solve.solve(
             &work.rhs,
             (&mut work.w_free, &mut work.y, &mut work.v_new),
             |w_free| {
@@ -655,11 +763,13 @@ pub fn integrate(
         on_step(state.step);
     }
     timings.steps = steps_clock.elapsed().as_secs_f64();
+    let (factor_len, interface_rows, by_inverse) = operators.step_solve.size();
     Ok(Run {
         timings,
         unknowns: structure.K.n_rows,
-        factor_len: operators.cholesky.factor_len(),
-        interface_rows: operators.interface_solve.rows.len(),
+        factor_len,
+        interface_rows,
+        by_inverse,
         history: state.history,
         snapshots: state.snapshots,
         samples: state.samples,

@@ -13,7 +13,9 @@ use squeal_stages::artifact::CscMatrix;
 use squeal_stages::stability::lumped::solve_matrices;
 use squeal_stages::transient::contact::{Solver, pad_blocks};
 use squeal_stages::transient::mode_start;
-use squeal_stages::transient::scheme::{self, ContactState, Settings, Structure, integrate};
+use squeal_stages::transient::scheme::{
+    self, ContactState, Settings, SolveBy, Structure, integrate,
+};
 
 use crate::reference;
 
@@ -111,6 +113,7 @@ fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
         record_pairs: Vec::new(),
         snapshot_steps: Vec::new(),
         sample_steps: Vec::new(),
+        solve_by: SolveBy::Choice,
     }
 }
 
