@@ -26,7 +26,9 @@
 //! ```
 //!
 //! one whole solve, `G` applied to its result (a few entries per row) and one pass over `Z`
-//! ([`InterfaceSolve::solve`] takes whichever reads less).
+//! ([`InterfaceSolve::solve`] takes whichever reads less). Where `A` falls into a few dense
+//! blocks, their inverses read less still ([`crate::block_inverse`]); [`Cholesky::analyse`]
+//! tells what the factor would hold before it is computed.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;

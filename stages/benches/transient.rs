@@ -97,18 +97,15 @@ fn main() {
         });
     let reduced_structure = reduced.as_ref().map(ReducedModel::structure);
     let structure = reduced_structure.as_ref().unwrap_or(&full);
-    let (u0, v0) = match (&basis, &static_modes) {
-        (Some(basis), Some(static_modes)) => {
+    let (u0, v0) = match &basis {
+        Some(basis) => {
             println!(
                 "on a Craig-Bampton basis of {n_modes} modes: {} reduced unknowns",
                 basis.n_reduced()
             );
-            (
-                static_modes.restrict(basis, &model.M, &u0),
-                static_modes.restrict(basis, &model.M, &v0),
-            )
+            (basis.restrict(&model.M, &u0), basis.restrict(&model.M, &v0))
         }
-        _ => (u0, v0),
+        None => (u0, v0),
     };
 
     let theta = 0.5;

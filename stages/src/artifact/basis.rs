@@ -42,6 +42,22 @@ impl Basis {
         self.interface.len() + self.vectors.len()
     }
 
+    /// The reduced coordinates of `u`: `u_i` itself, and the `M`-orthogonal projection of the
+    /// rest, `q = Φᵀ M (u − S u_i) = Φᵀ M u − (Φᵀ M S) u_i`, `Φᵀ M S` read off the reduced
+    /// mass (exact when `u` lies in the span of `T`; no solve by `K_oo`).
+    pub fn restrict(&self, M: &CscMatrix, u: &[f64]) -> Vec<f64> {
+        let (n_i, n_r) = (self.interface.len(), self.n_reduced());
+        let u_i: Vec<f64> = self.interface.iter().map(|&dof| u[dof as usize]).collect();
+        let M_u = M.mul_vec(u);
+        let q = self.vectors.iter().enumerate().map(|(k, vector)| {
+            let coupling: f64 = (0..n_i)
+                .map(|j| self.mass[n_i + k + j * n_r] * u_i[j])
+                .sum();
+            vector.iter().zip(&M_u).map(|(a, b)| a * b).sum::<f64>() - coupling
+        });
+        u_i.iter().copied().chain(q).collect()
+    }
+
     /// An error unless the basis was built on `model` (its reduced matrices are that model's).
     pub fn check_built_on(&self, model: &Model) -> Result<(), StageError> {
         if self.model == model.fingerprint() {
@@ -68,7 +84,7 @@ impl Basis {
 
 /// Right-hand sides per sequential solve: the solves run in parallel over fixed chunks of
 /// columns, so the result does not depend on the thread count.
-const SOLVE_COLUMNS: usize = 32;
+const SOLVE_COLUMNS: usize = 64;
 
 /// Rows of each fixed chunk of a lift (independent of the thread count).
 const LIFT_ROWS: usize = 256;
@@ -231,27 +247,6 @@ impl StaticModes {
                 matmul(U_chunk, Accum::Add, Phi.as_ref(), Q, 1.0, Par::Seq);
             });
         U
-    }
-
-    /// The reduced coordinates of `u`: `u_i` itself, and the `M`-orthogonal projection of the
-    /// rest, `q = Φᵀ M (u − S u_i)` (exact when `u` lies in the span of `T`).
-    pub fn restrict(&self, basis: &Basis, M: &CscMatrix, u: &[f64]) -> Vec<f64> {
-        let u_i = Mat::from_fn(self.interface.len(), 1, |j, _| u[self.interface[j]]);
-        let static_part = self.static_displacement(u_i.as_ref());
-        let rest: Vec<f64> = u
-            .iter()
-            .zip(static_part.col(0).iter())
-            .map(|(a, b)| a - b)
-            .collect();
-        let M_rest = M.mul_vec(&rest);
-        let mut x: Vec<f64> = self.interface.iter().map(|&dof| u[dof]).collect();
-        x.extend(
-            basis
-                .vectors
-                .iter()
-                .map(|vector| vector.iter().zip(&M_rest).map(|(a, b)| a * b).sum::<f64>()),
-        );
-        x
     }
 }
 

@@ -316,6 +316,21 @@ fn reduced_matrices_are_symmetric_and_the_vectors_M_orthonormal_with_the_rank_re
     // definite.
     let K_r = faer::Mat::from_fn(n_r, n_r, |i, j| basis.stiffness[j * n_r + i]);
     assert!(K_r.as_ref().llt(faer::Side::Lower).is_ok());
+    // A state in the span of T restricts to its own coordinates, `Φᵀ M S` read off the
+    // reduced mass.
+    let interface: Vec<usize> = basis.interface.iter().map(|&dof| dof as usize).collect();
+    let static_modes = StaticModes::new(model, &interface).unwrap();
+    let x: Vec<f64> = (0..n_r)
+        .map(|i| ((i * 7919) % 101) as f64 / 50.0 - 1.0)
+        .collect();
+    let u = static_modes.lift(basis, faer::Mat::from_fn(n_r, 1, |i, _| x[i]).as_ref());
+    let u: Vec<f64> = u.col(0).iter().copied().collect();
+    let restricted = basis.restrict(&model.M, &u);
+    let gap = restricted
+        .iter()
+        .zip(&x)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(gap < 1e-12, "restrict(T x) − x: {gap:.2e}");
 }
 
 /// `Reduction` against the dense `Tᵀ A T`, `T = [S, V, W]`, for vectors `V` that vanish on the

@@ -436,7 +436,7 @@ pub fn run_reduced<'m>(
     context: &RunContext,
 ) -> Result<(Run, ReducedModel<'m>), StageError> {
     let reduced = ReducedModel::new(model, basis, static_modes, structure)?;
-    let restrict = |u: &[f64]| static_modes.restrict(basis, &model.M, u);
+    let restrict = |u: &[f64]| basis.restrict(&model.M, u);
     let start = (restrict(&u0), restrict(&v0));
     let mut run = integrate(
         &reduced.structure(),

@@ -94,25 +94,29 @@ impl<const N: usize> Rows<N> {
 }
 
 /// Column `col` of the union of the matrices' patterns into `column`: `(row, each matrix's
-/// value)`, ascending.
+/// value)`, ascending (a merge of the matrices' columns, whose rows ascend).
 fn union_column<const N: usize>(
     matrices: [&CscMatrix; N],
     col: usize,
     column: &mut Vec<(usize, [f64; N])>,
 ) {
-    let mut entries: Vec<(usize, usize, f64)> = Vec::new();
-    for (which, A) in matrices.iter().enumerate() {
-        for entry in A.col_ptr[col]..A.col_ptr[col + 1] {
-            entries.push((A.row_idx[entry], which, A.values[entry]));
-        }
-    }
-    entries.sort_by_key(|&(row, which, _)| (row, which));
+    let mut next = matrices.map(|A| A.col_ptr[col]);
+    let end = matrices.map(|A| A.col_ptr[col + 1]);
     column.clear();
-    for (row, which, value) in entries {
-        if column.last().is_none_or(|&(last, _)| last != row) {
-            column.push((row, [0.0; N]));
+    loop {
+        let row = (0..N)
+            .filter(|&k| next[k] < end[k])
+            .map(|k| matrices[k].row_idx[next[k]])
+            .min();
+        let Some(row) = row else { break };
+        let mut values = [0.0; N];
+        for k in 0..N {
+            if next[k] < end[k] && matrices[k].row_idx[next[k]] == row {
+                values[k] = matrices[k].values[next[k]];
+                next[k] += 1;
+            }
         }
-        column.last_mut().expect("an entry was pushed").1[which] += value;
+        column.push((row, values));
     }
 }
 
