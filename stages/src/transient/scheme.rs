@@ -15,8 +15,9 @@
 //! their inverses ([`StepSolve`]). `M v` comes from the step's own equation
 //! (and `C v` too when the damping is Rayleigh's row by row, `products.rs`), `K u` by its
 //! recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one pass over `K` (with `C`
-//! for other damping). (The solve's backward error, ε‖J‖‖v‖ per step, is all that separates
-//! the derived products from computed ones.) A contact problem solved with `W` in single
+//! for other damping). (The solve's backward error, ε‖J‖‖v‖ per step by the factor, up to
+//! `κ₁(Â) ε ‖b‖` by the inverse's blocks, is all that separates the derived products from
+//! computed ones.) A contact problem solved with `W` in single
 //! precision is accepted on the step's own relative velocities `H v¹`, or refined and the
 //! step solved again ([`super::contact`]: precision).
 
@@ -73,6 +74,7 @@ pub struct Settings {
     pub snapshot_steps: Vec<usize>,
     /// Steps kept whole, as [`StepSample`]s (ascending).
     pub sample_steps: Vec<usize>,
+    /// `J`'s factor or its inverse's blocks ([`SolveBy::Choice`] but in tests).
     pub solve_by: SolveBy,
 }
 
