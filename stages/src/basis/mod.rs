@@ -126,11 +126,13 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 8: `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body,
-        // `K`'s static blocks from `K S` (the same matrices to round-off). 6: the basis holds
-        // its model's fingerprint. 5: the adaptive basis's probe is the transient of its
-        // version 13. (Its probes' last bits follow the transient's.)
-        8
+        // 9: the static modes solved 64 right-hand sides at a time (the last bits of every
+        // basis), the adaptive basis's probe the transient of its version 17. 8:
+        // `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body, `K`'s
+        // static blocks from `K S` (the same matrices to round-off). 6: the basis holds its
+        // model's fingerprint. 5: the adaptive basis's probe is the transient of its version
+        // 13. (Its probes' last bits follow the transient's.)
+        9
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"
