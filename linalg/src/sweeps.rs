@@ -81,7 +81,7 @@ impl SubtreeSweeps {
     /// Splits the elimination forest of `L` (`n` unknowns): starting from its roots, the
     /// heaviest subtree (in factor entries) is replaced by its children, its root joining the
     /// top, until none outweighs half a task's share or the heaviest is a single supernode;
-    /// the subtrees are then packed into [`TASKS`] tasks.
+    /// the subtrees are then packed into `TASKS` tasks.
     pub fn new(L: SupernodalLltRef<'_, usize, f64>, n: usize) -> SubtreeSweeps {
         let symbolic = L.symbolic();
         let n_supernodes = symbolic.n_supernodes();

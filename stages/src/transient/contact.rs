@@ -979,7 +979,7 @@ const BLOCK_SWEEPS: usize = 8;
 const LARGEST_BLOCK: usize = 32;
 
 /// Gauss–Seidel blocks for pairs pressing the bodies `body_of_pair` (any labels): runs of
-/// consecutive pairs on one body, at most [`LARGEST_BLOCK`] pairs each.
+/// consecutive pairs on one body, at most `LARGEST_BLOCK` pairs each.
 pub fn pad_blocks(body_of_pair: &[usize]) -> Vec<Range<usize>> {
     let mut blocks: Vec<Range<usize>> = Vec::new();
     for (p, body) in body_of_pair.iter().enumerate() {

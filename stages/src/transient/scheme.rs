@@ -12,7 +12,7 @@
 //! solved as in [`squeal_linalg::cholesky`]: one forward sweep, the contact problem on the
 //! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep (the independent subtrees of J's elimination
 //! tree in parallel, [`squeal_linalg::sweeps`]); or, for a reduced model of dense blocks, by
-//! their inverses ([`StepSolve`]). `M v` comes from the step's own equation
+//! their inverses (`StepSolve`). `M v` comes from the step's own equation
 //! (and `C v` too when the damping is Rayleigh's row by row, `products.rs`), `K u` by its
 //! recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one pass over `K` (with `C`
 //! for other damping). (The solve's backward error, ε‖J‖‖v‖ per step by the factor, up to
@@ -78,7 +78,7 @@ pub struct Settings {
     pub solve_by: SolveBy,
 }
 
-/// What the steps solve by ([`StepSolve`]).
+/// What the steps solve by (`StepSolve`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SolveBy {
     /// `J`'s inverse by dense blocks where it pays and its residual stays small, `J`'s
