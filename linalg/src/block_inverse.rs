@@ -25,7 +25,7 @@ use faer::linalg::cholesky::llt::inverse::{inverse, inverse_scratch};
 use faer::{Mat, Par};
 
 use crate::Error;
-use crate::cholesky::Combination;
+use crate::cholesky::{Analysis, Combination, rows_times};
 use crate::csc::{self, CscMatrix};
 use crate::dense;
 use crate::kernels::dot_and_axpy;
@@ -105,18 +105,15 @@ pub struct BlockInverse {
 }
 
 impl BlockInverse {
-    /// Inverts `A = Σ cᵢ Aᵢ` (each `Aᵢ` symmetric, both triangles stored) block by block over
-    /// `components`, those of the terms' patterns ([`Components::of`]).
-    pub fn new(
-        terms: &[(f64, &CscMatrix)],
-        components: &Components,
-    ) -> Result<BlockInverse, Error> {
-        let combination = Combination::of(terms)?;
+    /// Inverts `A = Σ cᵢ Aᵢ`, as `analysis` combined it ([`crate::cholesky::Cholesky::analyse`]), block by
+    /// block over `components`, those of the terms' patterns ([`Components::of`]).
+    pub fn new(analysis: &Analysis, components: &Components) -> Result<BlockInverse, Error> {
+        let combination = &analysis.combination;
         let blocks = components
             .members
             .iter()
             .map(|unknowns| {
-                let (lower, condition) = inverse_lower(&combination, unknowns)?;
+                let (lower, condition) = inverse_lower(combination, unknowns)?;
                 Ok(Block {
                     lower,
                     condition,
@@ -202,9 +199,7 @@ impl BlockInterfaceSolve {
         for block in &inverse.blocks {
             block.apply(b, x, &mut local);
         }
-        for (slot, row) in g_free.iter_mut().zip(&self.G_rows) {
-            *slot = row.iter().map(|&(unknown, value)| value * x[unknown]).sum();
-        }
+        rows_times(&self.G_rows, x, g_free);
         let r = react(g_free)?;
         y.copy_from_slice(b);
         for (row, &r_row) in self.G_rows.iter().zip(r) {
@@ -341,6 +336,10 @@ fn inverse_lower(combination: &Combination, unknowns: &[usize]) -> Result<(Vec<f
 mod tests {
     use super::*;
     use crate::cholesky::{Cholesky, InterfaceSolve};
+
+    fn analysed(terms: &[(f64, &CscMatrix)]) -> Analysis {
+        Cholesky::analyse(terms, &[], &[]).unwrap()
+    }
     use crate::rng::SplitMix64;
 
     /// Two separate parts (a dense block of 30 unknowns and a banded one of 50), interleaved
@@ -405,7 +404,7 @@ mod tests {
         let components = Components::of(&[&A, &B]);
         assert_eq!(components.members.len(), 3);
         assert_eq!(components.dense_len(), 50 * 51 / 2 + 30 * 31 / 2 + 1);
-        let inverse = BlockInverse::new(&terms, &components).unwrap();
+        let inverse = BlockInverse::new(&analysed(&terms), &components).unwrap();
         let split = BlockInterfaceSolve::new(&inverse, &G_rows);
         assert_eq!(inverse.entries(), components.dense_len());
         assert_eq!(split.contact_rows(&inverse), 80);
@@ -493,12 +492,12 @@ mod tests {
             ],
         );
         let components = Components::of(&[&A]);
-        let inverse = BlockInverse::new(&[(1.0, &A)], &components).unwrap();
+        let inverse = BlockInverse::new(&analysed(&[(1.0, &A)]), &components).unwrap();
         let expected = (1.0 + a) / (1.0 - a);
         assert!((inverse.condition() - expected).abs() <= 1e-14 * expected);
         let D = CscMatrix::from_triplets(2, 2, vec![(0, 0, 1e-6), (1, 1, 1e6)]);
         let components = Components::of(&[&D]);
-        let inverse = BlockInverse::new(&[(1.0, &D)], &components).unwrap();
+        let inverse = BlockInverse::new(&analysed(&[(1.0, &D)]), &components).unwrap();
         assert_eq!(inverse.condition(), 1.0);
     }
 
@@ -517,7 +516,7 @@ mod tests {
             ],
         );
         let components = Components::of(&[&A]);
-        let err = BlockInverse::new(&[(1.0, &A)], &components)
+        let err = BlockInverse::new(&analysed(&[(1.0, &A)]), &components)
             .err()
             .expect("an indefinite block");
         let message = err.to_string();

@@ -137,12 +137,17 @@ impl Combination {
     }
 }
 
+/// `out = G x` for `G` given by its sparse rows `(unknown, coefficient)`.
+pub(crate) fn rows_times(G_rows: &[Vec<(usize, f64)>], x: &[f64], out: &mut [f64]) {
+    for (slot, row) in out.iter_mut().zip(G_rows) {
+        *slot = row.iter().map(|&(unknown, value)| value * x[unknown]).sum();
+    }
+}
+
 /// `A = Σ cᵢ Aᵢ` ordered and analysed, not yet factorised: what its factor will hold.
 pub struct Analysis {
-    n: usize,
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    values: Vec<f64>,
+    /// The combination, in the unknowns' own order.
+    pub(crate) combination: Combination,
     symbolic: SymbolicCholesky<usize>,
     /// Position in elimination order → unknown.
     forward: Vec<usize>,
@@ -157,10 +162,13 @@ impl Analysis {
     /// The numeric factorisation.
     pub fn factorise(self, par: Par) -> Result<Cholesky, Error> {
         let Analysis {
-            n,
-            col_ptr,
-            row_idx,
-            values,
+            combination:
+                Combination {
+                    n,
+                    col_ptr,
+                    row_idx,
+                    values,
+                },
             symbolic,
             forward,
         } = self;
@@ -276,10 +284,12 @@ impl Cholesky {
             None => (0..n).collect(),
         };
         Ok(Analysis {
-            n,
-            col_ptr,
-            row_idx,
-            values,
+            combination: Combination {
+                n,
+                col_ptr,
+                row_idx,
+                values,
+            },
             symbolic,
             forward,
         })
@@ -562,9 +572,7 @@ impl InterfaceSolve {
             Some(Z) => {
                 cholesky.backward_vector(y);
                 cholesky.unpermute(y, x);
-                for (slot, row) in g_free.iter_mut().zip(&self.G_rows) {
-                    *slot = row.iter().map(|&(unknown, value)| value * x[unknown]).sum();
-                }
+                rows_times(&self.G_rows, x, g_free);
                 let r = react(g_free)?;
                 let m = r.len();
                 x.par_chunks_mut(RESPONSE_CHUNK)

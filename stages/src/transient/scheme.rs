@@ -192,16 +192,7 @@ fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The terms of `J = M/τ + θ C + τθ² K`.
-fn J_terms<'a>(structure: &Structure<'a>, theta: f64, tau: f64) -> [(f64, &'a CscMatrix); 3] {
-    [
-        (1.0 / tau, structure.M),
-        (theta, structure.C),
-        (tau * theta * theta, structure.K),
-    ]
-}
-
-/// `J`'s ordering and symbolic factorisation, the contact DOFs ordered last.
+/// `J = M/τ + θ C + τθ² K` combined, ordered and analysed, the contact DOFs ordered last.
 fn analyse_J(
     structure: &Structure,
     theta: f64,
@@ -223,7 +214,15 @@ fn analyse_J(
     } else {
         &interface[..]
     };
-    Cholesky::analyse(&J_terms(structure, theta, tau), structure.dof_of_node, last)
+    Cholesky::analyse(
+        &[
+            (1.0 / tau, structure.M),
+            (theta, structure.C),
+            (tau * theta * theta, structure.K),
+        ],
+        structure.dof_of_node,
+        last,
+    )
 }
 
 /// `J` factorised, the contact DOFs ordered last.
@@ -271,7 +270,7 @@ impl StepSolve {
             SolveBy::Inverse => true,
         };
         if worth_trying {
-            let inverse = BlockInverse::new(&J_terms(structure, theta, tau), &components)?;
+            let inverse = BlockInverse::new(&analysis, &components)?;
             if solve_by == SolveBy::Inverse || inverse.condition() <= MOST_INVERSE_CONDITION {
                 timings.factor = clock.elapsed().as_secs_f64();
                 let clock = std::time::Instant::now();
