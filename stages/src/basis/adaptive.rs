@@ -102,10 +102,11 @@ pub(super) fn enrich(
     let mut rounds = Vec::new();
     for round in 1..=enrichment.max_rounds {
         let basis = reduction.basis("adaptive");
-        let (run, reduced) = run_reduced(
+        let (run, static_modes) = run_reduced(
             model,
             (&structure, &contact_state),
-            (&basis, probe.static_modes),
+            &basis,
+            || Ok(probe.static_modes),
             &settings,
             start.clone(),
             &RunContext::detached(),
@@ -117,7 +118,7 @@ pub(super) fn enrich(
             ))
         })?;
         let indicator =
-            full_step.indicator(&reduced, &basis, &structure, &contact_state, &run.samples);
+            full_step.indicator(static_modes, &basis, &structure, &contact_state, &run.samples);
         rounds.push(Round {
             n_vectors: basis.vectors.len(),
             n_reduced: basis.n_reduced(),

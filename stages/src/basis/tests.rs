@@ -811,7 +811,8 @@ fn a_reduced_run_by_the_inverse_of_its_blocks_agrees_with_one_by_the_factor() {
         run_reduced(
             model,
             (&structure, &contact_state),
-            (basis, &static_modes),
+            basis,
+            || Ok(&static_modes),
             &settings,
             kick(model, equilibrium, 1.0),
             &RunContext::detached(),

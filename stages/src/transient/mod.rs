@@ -74,6 +74,8 @@ pub mod scheme;
 #[cfg(test)]
 pub(crate) mod tests;
 
+use std::borrow::Borrow;
+
 use faer::c64;
 use serde::Deserialize;
 
@@ -397,21 +399,34 @@ impl Stage for Transient {
             Some(basis) => {
                 let interface: Vec<usize> =
                     basis.interface.iter().map(|&dof| dof as usize).collect();
-                let static_modes = StaticModes::new(model, &interface)?;
-                let full_step = match samples {
-                    0 => None,
-                    _ => Some(FullStep::new(&structure, settings.theta, settings.tau)?),
-                };
-                let (run, reduced) = run_reduced(
-                    model,
-                    (&structure, &contact_state),
-                    (basis, &static_modes),
-                    &settings,
-                    (u0, v0),
-                    context,
-                )?;
-                let indicator = full_step.map(|full_step| {
-                    full_step.indicator(&reduced, basis, &structure, &contact_state, &run.samples)
+                // The full J for the indicator is factorised on another core while the
+                // reduced model integrates, as are the static modes (inside `run_reduced`).
+                let (full_step, reduced) = rayon::join(
+                    || match samples {
+                        0 => Ok(None),
+                        _ => FullStep::new(&structure, settings.theta, settings.tau).map(Some),
+                    },
+                    || {
+                        run_reduced(
+                            model,
+                            (&structure, &contact_state),
+                            basis,
+                            || StaticModes::new(model, &interface),
+                            &settings,
+                            (u0, v0),
+                            context,
+                        )
+                    },
+                );
+                let (run, static_modes) = reduced?;
+                let indicator = full_step?.map(|full_step| {
+                    full_step.indicator(
+                        &static_modes,
+                        basis,
+                        &structure,
+                        &contact_state,
+                        &run.samples,
+                    )
                 });
                 (run, indicator)
             }
@@ -425,28 +440,45 @@ impl Stage for Transient {
     }
 }
 
-/// A run on a reduction basis, its snapshots lifted to the full DOFs, and the reduced model
-/// it ran on (for [`FullStep::indicator`]).
-pub fn run_reduced<'m>(
+/// A run on a reduction basis, its snapshots lifted to the full DOFs by the static modes that
+/// `static_modes` returns (the model's, on the basis's interface). Building them factorises
+/// `K` off the interface, which the steps do not need: it runs on another core while the
+/// reduced model integrates.
+pub fn run_reduced<S: Borrow<StaticModes> + Send>(
     model: &Model,
     (structure, contact_state): (&Structure, &ContactState),
-    (basis, static_modes): (&Basis, &'m StaticModes),
+    basis: &Basis,
+    static_modes: impl FnOnce() -> Result<S, StageError> + Send,
     settings: &Settings,
     (u0, v0): (Vec<f64>, Vec<f64>),
     context: &RunContext,
-) -> Result<(Run, ReducedModel<'m>), StageError> {
-    let reduced = ReducedModel::new(model, basis, static_modes, structure)?;
+) -> Result<(Run, S), StageError> {
+    let reduced = ReducedModel::new(model, basis, structure)?;
     let restrict = |u: &[f64]| basis.restrict(&model.M, u);
     let start = (restrict(&u0), restrict(&v0));
-    let mut run = integrate(
-        &reduced.structure(),
-        contact_state,
-        settings,
-        start,
-        context,
-    )?;
-    reduced.lift_snapshots(basis, &mut run);
-    Ok((run, reduced))
+    let (static_modes, run) = rayon::join(static_modes, || {
+        integrate(
+            &reduced.structure(),
+            contact_state,
+            settings,
+            start,
+            context,
+        )
+    });
+    let (static_modes, mut run) = (static_modes?, run?);
+    if !static_modes
+        .borrow()
+        .interface()
+        .iter()
+        .copied()
+        .eq(basis.interface.iter().map(|&dof| dof as usize))
+    {
+        return Err(StageError::new(
+            "transient: the basis does not belong to this model: its interface is not the static modes' one",
+        ));
+    }
+    reduced::lift_snapshots(basis, static_modes.borrow(), &mut run);
+    Ok((run, static_modes))
 }
 
 /// The start of a run from the sliding equilibrium plus the most unstable mode of the

@@ -38,9 +38,8 @@ use crate::stage::StageError;
 use squeal_linalg::cholesky::Cholesky;
 use squeal_linalg::csc::symmetric_mul;
 
-/// The reduced matrices and the maps to and from the full DOFs.
-pub struct ReducedModel<'a> {
-    pub static_modes: &'a StaticModes,
+/// The reduced matrices and `H` on the reduced coordinates.
+pub struct ReducedModel {
     pub M: CscMatrix,
     pub C: CscMatrix,
     pub K: CscMatrix,
@@ -74,15 +73,13 @@ fn compressed(n: usize, values: &[f64]) -> CscMatrix {
     }
 }
 
-impl<'a> ReducedModel<'a> {
-    /// `full`: the full model's structure (its `H`); `static_modes`: the model's, on the
-    /// basis's interface.
+impl ReducedModel {
+    /// `full`: the full model's structure (its `H`).
     pub fn new(
         model: &Model,
         basis: &Basis,
-        static_modes: &'a StaticModes,
         full: &Structure,
-    ) -> Result<ReducedModel<'a>, StageError> {
+    ) -> Result<ReducedModel, StageError> {
         let n = model.n_dofs();
         let n_r = basis.n_reduced();
         let foreign = |what: String| {
@@ -124,16 +121,7 @@ impl<'a> ReducedModel<'a> {
         let Some(H_rows) = H_rows else {
             return foreign("a contact DOF is not on its interface".to_string());
         };
-        if !static_modes
-            .interface()
-            .iter()
-            .copied()
-            .eq(basis.interface.iter().map(|&dof| dof as usize))
-        {
-            return foreign("its interface is not the static modes' one".to_string());
-        }
         Ok(ReducedModel {
-            static_modes,
             M: compressed(n_r, &basis.mass),
             C: compressed(n_r, &basis.damping),
             K: compressed(n_r, &basis.stiffness),
@@ -152,19 +140,21 @@ impl<'a> ReducedModel<'a> {
         }
     }
 
-    /// Every snapshot's `u` and `v` lifted to the full DOFs.
-    pub fn lift_snapshots(&self, basis: &Basis, run: &mut Run) {
-        // The displacements and the velocities side by side: one pass over the vectors.
-        let (n_r, p) = (basis.n_reduced(), run.snapshots.len());
-        let X = Mat::from_fn(n_r, 2 * p, |i, k| {
-            let snapshot = &run.snapshots[k % p];
-            if k < p { snapshot.u[i] } else { snapshot.v[i] }
-        });
-        let UV = self.static_modes.lift(basis, X.as_ref());
-        for (k, snapshot) in run.snapshots.iter_mut().enumerate() {
-            snapshot.u = UV.col(k).iter().copied().collect();
-            snapshot.v = UV.col(p + k).iter().copied().collect();
-        }
+}
+
+/// Every snapshot's `u` and `v` lifted to the full DOFs by `static_modes`, the model's
+/// on the basis's interface.
+pub fn lift_snapshots(basis: &Basis, static_modes: &StaticModes, run: &mut Run) {
+    // The displacements and the velocities side by side: one pass over the vectors.
+    let (n_r, p) = (basis.n_reduced(), run.snapshots.len());
+    let X = Mat::from_fn(n_r, 2 * p, |i, k| {
+        let snapshot = &run.snapshots[k % p];
+        if k < p { snapshot.u[i] } else { snapshot.v[i] }
+    });
+    let UV = static_modes.lift(basis, X.as_ref());
+    for (k, snapshot) in run.snapshots.iter_mut().enumerate() {
+        snapshot.u = UV.col(k).iter().copied().collect();
+        snapshot.v = UV.col(p + k).iter().copied().collect();
     }
 }
 
@@ -204,7 +194,7 @@ impl FullStep {
     /// The indicator of a reduced run's sampled steps.
     pub fn indicator(
         &self,
-        reduced: &ReducedModel,
+        static_modes: &StaticModes,
         basis: &Basis,
         full: &Structure,
         contact_state: &ContactState,
@@ -217,7 +207,7 @@ impl FullStep {
             let sample = &samples[k / 3];
             [&sample.u_old, &sample.v_old, &sample.v_new][k % 3][i]
         });
-        let lifted = reduced.static_modes.lift(basis, X.as_ref());
+        let lifted = static_modes.lift(basis, X.as_ref());
         let mut dv = Mat::<f64>::zeros(n, samples.len());
         let mut v_theta = Mat::<f64>::zeros(n, samples.len());
         let mut u_theta = Mat::<f64>::zeros(n, samples.len());
