@@ -102,11 +102,10 @@ pub(super) fn enrich(
     let mut rounds = Vec::new();
     for round in 1..=enrichment.max_rounds {
         let basis = reduction.basis("adaptive");
-        let (run, static_modes) = run_reduced(
+        let run = run_reduced(
             model,
             (&structure, &contact_state),
             &basis,
-            || Ok(probe.static_modes),
             &settings,
             start.clone(),
             &RunContext::detached(),
@@ -117,8 +116,7 @@ pub(super) fn enrich(
                 basis.vectors.len()
             ))
         })?;
-        let indicator =
-            full_step.indicator(static_modes, &basis, &structure, &contact_state, &run.samples);
+        let indicator = full_step.indicator(&basis, &structure, &contact_state, &run.samples);
         rounds.push(Round {
             n_vectors: basis.vectors.len(),
             n_reduced: basis.n_reduced(),

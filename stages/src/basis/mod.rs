@@ -82,7 +82,7 @@ use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::gram_schmidt::MSpan;
 use squeal_linalg::tall::transpose_times;
 
-use crate::artifact::basis::{StaticModes, interface_dofs};
+use crate::artifact::basis::{StaticBlock, StaticModes, interface_dofs};
 use crate::artifact::{Artifact, ArtifactType, Basis, CscMatrix, Equilibrium, Model, RealModes};
 use crate::complex_modes::ComplexModes;
 use crate::stage::{
@@ -126,13 +126,16 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 9: the static modes solved 64 right-hand sides at a time (the last bits of every
-        // basis), the adaptive basis's probe the transient of its version 17. 8:
+        // 10: the basis holds its static modes `Ψ_o` and its reduced matrices without their
+        // exact zeros, and the adaptive basis's probe lifts by
+        // them (the transient of its version 18). 9: the static modes solved 64 right-hand
+        // sides at a time (the last bits of every basis), the adaptive basis's probe the
+        // transient of its version 17. 8:
         // `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body, `K`'s
         // static blocks from `K S` (the same matrices to round-off). 6: the basis holds its
         // model's fingerprint. 5: the adaptive basis's probe is the transient of its version
         // 13. (Its probes' last bits follow the transient's.)
-        9
+        10
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"
@@ -1070,6 +1073,14 @@ impl Reduction {
 
     /// The basis of the vectors `V`, with these matrices.
     fn basis(&self, kind: &str) -> Basis {
+        // Both triangles, the exact zeros between separate bodies left out.
+        let compressed = |A: &Mat<f64>| {
+            let entries = (0..A.ncols())
+                .flat_map(|j| (0..A.nrows()).map(move |i| (i, j, A[(i, j)])))
+                .filter(|&(_, _, value)| value != 0.0)
+                .collect();
+            CscMatrix::from_triplets(A.nrows(), A.ncols(), entries)
+        };
         let column_major = |A: &Mat<f64>| -> Vec<f64> {
             (0..A.ncols())
                 .flat_map(|j| A.col(j).iter().copied().collect::<Vec<_>>())
@@ -1082,9 +1093,29 @@ impl Reduction {
             vectors: (0..self.V.ncols())
                 .map(|k| self.V.col(k).iter().copied().collect())
                 .collect(),
-            mass: column_major(&self.matrices[0]),
-            damping: column_major(&self.matrices[1]),
-            stiffness: column_major(&self.matrices[2]),
+            mass: compressed(&self.matrices[0]),
+            damping: compressed(&self.matrices[1]),
+            stiffness: compressed(&self.matrices[2]),
+            n_dofs: self.V.nrows(),
+            static_modes: self
+                .bodies
+                .iter()
+                .map(|body| {
+                    let (rows, dofs): (Vec<usize>, Vec<u32>) = body
+                        .dofs
+                        .iter()
+                        .enumerate()
+                        .filter(|&(_, &dof)| self.interface.binary_search(&dof).is_err())
+                        .map(|(r, &dof)| (r, dof as u32))
+                        .unzip();
+                    StaticBlock {
+                        values: column_major(&rows_of(body.S.as_ref(), &rows)),
+                        rows: dofs,
+                        columns: body.columns.iter().map(|&k| k as u32).collect(),
+                    }
+                })
+                .filter(|block| !block.rows.is_empty())
+                .collect(),
         }
     }
 }

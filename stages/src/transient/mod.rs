@@ -74,12 +74,9 @@ pub mod scheme;
 #[cfg(test)]
 pub(crate) mod tests;
 
-use std::borrow::Borrow;
-
 use faer::c64;
 use serde::Deserialize;
 
-use crate::artifact::basis::StaticModes;
 use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
 use crate::stage::{
     Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, RunContext, Stage, StageError,
@@ -171,15 +168,16 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 17: a reduced model of dense blocks (its bodies kept whole) solved by their
-        // inverses (16: the contact iterations pass over W in single precision, a step
+        // 18: a reduced run's snapshots lifted by the basis's static modes, not by solves
+        // with K_oo's factor (17: a reduced model of dense blocks (its bodies kept whole)
+        // solved by their inverses; 16: the contact iterations pass over W in single precision, a step
         // accepted on its own end-of-step velocities; 15: Gauss–Seidel sweeps a pad's pairs together; 14: a
         // reduced model's dense K streamed by its lower runs, the chord's LU solved by packed
         // sweeps; 13: the sweeps read each column of a supernode once, by the vector kernels;
         // 12: Anderson-accelerated Gauss–Seidel, the chord's Jacobian in single precision, the
         // snapshots lifted by products of blocks; 11: a reduced step corrects by the response
         // J⁻¹ Hᵀ); the last bits of every run.
-        17
+        18
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"
@@ -397,11 +395,9 @@ impl Stage for Transient {
                 None,
             ),
             Some(basis) => {
-                let interface: Vec<usize> =
-                    basis.interface.iter().map(|&dof| dof as usize).collect();
-                // The full J for the indicator is factorised on another core while the
-                // reduced model integrates, as are the static modes (inside `run_reduced`).
-                let (full_step, reduced) = rayon::join(
+                // The full J for the indicator is factorised on another core, when there is
+                // one, while the reduced model integrates.
+                let (full_step, run) = rayon::join(
                     || match samples {
                         0 => Ok(None),
                         _ => FullStep::new(&structure, settings.theta, settings.tau).map(Some),
@@ -411,22 +407,15 @@ impl Stage for Transient {
                             model,
                             (&structure, &contact_state),
                             basis,
-                            || StaticModes::new(model, &interface),
                             &settings,
                             (u0, v0),
                             context,
                         )
                     },
                 );
-                let (run, static_modes) = reduced?;
+                let run = run?;
                 let indicator = full_step?.map(|full_step| {
-                    full_step.indicator(
-                        &static_modes,
-                        basis,
-                        &structure,
-                        &contact_state,
-                        &run.samples,
-                    )
+                    full_step.indicator(basis, &structure, &contact_state, &run.samples)
                 });
                 (run, indicator)
             }
@@ -440,45 +429,27 @@ impl Stage for Transient {
     }
 }
 
-/// A run on a reduction basis, its snapshots lifted to the full DOFs by the static modes that
-/// `static_modes` returns (the model's, on the basis's interface). Building them factorises
-/// `K` off the interface, which the steps do not need: it runs on another core while the
-/// reduced model integrates.
-pub fn run_reduced<S: Borrow<StaticModes> + Send>(
+/// A run on a reduction basis, its snapshots lifted to the full DOFs.
+pub fn run_reduced(
     model: &Model,
     (structure, contact_state): (&Structure, &ContactState),
     basis: &Basis,
-    static_modes: impl FnOnce() -> Result<S, StageError> + Send,
     settings: &Settings,
     (u0, v0): (Vec<f64>, Vec<f64>),
     context: &RunContext,
-) -> Result<(Run, S), StageError> {
+) -> Result<Run, StageError> {
     let reduced = ReducedModel::new(model, basis, structure)?;
     let restrict = |u: &[f64]| basis.restrict(&model.M, u);
     let start = (restrict(&u0), restrict(&v0));
-    let (static_modes, run) = rayon::join(static_modes, || {
-        integrate(
-            &reduced.structure(),
-            contact_state,
-            settings,
-            start,
-            context,
-        )
-    });
-    let (static_modes, mut run) = (static_modes?, run?);
-    if !static_modes
-        .borrow()
-        .interface()
-        .iter()
-        .copied()
-        .eq(basis.interface.iter().map(|&dof| dof as usize))
-    {
-        return Err(StageError::new(
-            "transient: the basis does not belong to this model: its interface is not the static modes' one",
-        ));
-    }
-    reduced::lift_snapshots(basis, static_modes.borrow(), &mut run);
-    Ok((run, static_modes))
+    let mut run = integrate(
+        &reduced.structure(),
+        contact_state,
+        settings,
+        start,
+        context,
+    )?;
+    reduced::lift_snapshots(basis, &mut run);
+    Ok(run)
 }
 
 /// The start of a run from the sliding equilibrium plus the most unstable mode of the

@@ -32,7 +32,6 @@
 use faer::{Mat, Par};
 
 use super::scheme::{self, ContactState, Run, StepSample, Structure};
-use crate::artifact::basis::StaticModes;
 use crate::artifact::{Basis, CscMatrix, Model};
 use crate::stage::StageError;
 use squeal_linalg::cholesky::Cholesky;
@@ -47,66 +46,16 @@ pub struct ReducedModel {
     pub H_rows: Vec<Vec<(usize, f64)>>,
 }
 
-/// A dense column-major matrix as compressed columns, its exact zeros left out: the static
-/// modes of separate bodies (disc, pads) do not couple, so their blocks of the reduced
-/// matrices are exactly zero, and the products and the factorisation skip them.
-fn compressed(n: usize, values: &[f64]) -> CscMatrix {
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    let mut row_idx = Vec::new();
-    let mut kept = Vec::new();
-    col_ptr.push(0);
-    for column in values.chunks_exact(n) {
-        for (row, &value) in column.iter().enumerate() {
-            if value != 0.0 {
-                row_idx.push(row);
-                kept.push(value);
-            }
-        }
-        col_ptr.push(row_idx.len());
-    }
-    CscMatrix {
-        n_rows: n,
-        n_cols: n,
-        col_ptr,
-        row_idx,
-        values: kept,
-    }
-}
-
 impl ReducedModel {
     /// `full`: the full model's structure (its `H`).
-    pub fn new(
-        model: &Model,
-        basis: &Basis,
-        full: &Structure,
-    ) -> Result<ReducedModel, StageError> {
-        let n = model.n_dofs();
-        let n_r = basis.n_reduced();
+    pub fn new(model: &Model, basis: &Basis, full: &Structure) -> Result<ReducedModel, StageError> {
         let foreign = |what: String| {
             Err(StageError::new(format!(
                 "transient: the basis does not belong to this model: {what}"
             )))
         };
-        if let Some(vector) = basis.vectors.iter().find(|vector| vector.len() != n) {
-            return foreign(format!(
-                "a vector has {} entries, the model {n} DOFs",
-                vector.len()
-            ));
-        }
-        if basis.interface.iter().any(|&dof| dof as usize >= n)
-            || !basis.interface.is_sorted_by(|a, b| a < b)
-        {
-            return foreign(format!(
-                "its interface DOFs are not ascending DOFs below {n}"
-            ));
-        }
-        for matrix in [&basis.mass, &basis.damping, &basis.stiffness] {
-            if matrix.len() != n_r * n_r {
-                return foreign(format!(
-                    "a reduced matrix has {} entries for {n_r} coordinates",
-                    matrix.len()
-                ));
-            }
+        if let Err(what) = basis.check_fits(model.n_dofs()) {
+            return foreign(what);
         }
         let position = |dof: usize| basis.interface.binary_search(&(dof as u32)).ok();
         let H_rows = full
@@ -122,9 +71,9 @@ impl ReducedModel {
             return foreign("a contact DOF is not on its interface".to_string());
         };
         Ok(ReducedModel {
-            M: compressed(n_r, &basis.mass),
-            C: compressed(n_r, &basis.damping),
-            K: compressed(n_r, &basis.stiffness),
+            M: basis.mass.clone(),
+            C: basis.damping.clone(),
+            K: basis.stiffness.clone(),
             H_rows,
         })
     }
@@ -139,19 +88,17 @@ impl ReducedModel {
             H_rows: self.H_rows.clone(),
         }
     }
-
 }
 
-/// Every snapshot's `u` and `v` lifted to the full DOFs by `static_modes`, the model's
-/// on the basis's interface.
-pub fn lift_snapshots(basis: &Basis, static_modes: &StaticModes, run: &mut Run) {
+/// Every snapshot's `u` and `v` lifted to the full DOFs.
+pub fn lift_snapshots(basis: &Basis, run: &mut Run) {
     // The displacements and the velocities side by side: one pass over the vectors.
     let (n_r, p) = (basis.n_reduced(), run.snapshots.len());
     let X = Mat::from_fn(n_r, 2 * p, |i, k| {
         let snapshot = &run.snapshots[k % p];
         if k < p { snapshot.u[i] } else { snapshot.v[i] }
     });
-    let UV = static_modes.lift(basis, X.as_ref());
+    let UV = basis.lift(X.as_ref());
     for (k, snapshot) in run.snapshots.iter_mut().enumerate() {
         snapshot.u = UV.col(k).iter().copied().collect();
         snapshot.v = UV.col(p + k).iter().copied().collect();
@@ -194,7 +141,6 @@ impl FullStep {
     /// The indicator of a reduced run's sampled steps.
     pub fn indicator(
         &self,
-        static_modes: &StaticModes,
         basis: &Basis,
         full: &Structure,
         contact_state: &ContactState,
@@ -207,7 +153,7 @@ impl FullStep {
             let sample = &samples[k / 3];
             [&sample.u_old, &sample.v_old, &sample.v_new][k % 3][i]
         });
-        let lifted = static_modes.lift(basis, X.as_ref());
+        let lifted = basis.lift(X.as_ref());
         let mut dv = Mat::<f64>::zeros(n, samples.len());
         let mut v_theta = Mat::<f64>::zeros(n, samples.len());
         let mut u_theta = Mat::<f64>::zeros(n, samples.len());
