@@ -23,7 +23,6 @@ use squeal_linalg::matrix_market::write_matrix_market;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use squeal_stages::artifact::basis::StaticModes;
 use squeal_stages::artifact::{Artifact, Basis, Equilibrium, Model};
 use squeal_stages::assemble::with_default_materials;
 use squeal_stages::basis::ReductionBasis;
@@ -85,16 +84,9 @@ fn main() {
     }
     let n_modes: usize = env_or("BASIS", 0);
     let basis = (n_modes > 0).then(|| craig_bampton(&model, &equilibrium, n_modes));
-    let static_modes = basis.as_ref().map(|basis| {
-        let interface: Vec<usize> = basis.interface.iter().map(|&dof| dof as usize).collect();
-        StaticModes::new(&model, &interface).expect("static modes")
-    });
     let reduced = basis
         .as_ref()
-        .zip(static_modes.as_ref())
-        .map(|(basis, static_modes)| {
-            ReducedModel::new(&model, basis, static_modes, &full).expect("reduced model")
-        });
+        .map(|basis| ReducedModel::new(&model, basis, &full).expect("reduced model"));
     let reduced_structure = reduced.as_ref().map(ReducedModel::structure);
     let structure = reduced_structure.as_ref().unwrap_or(&full);
     let (u0, v0) = match &basis {
