@@ -522,6 +522,30 @@ fn a_transient_refuses_a_basis_built_on_another_model() {
             .contains("the basis was built on another model: its reduced matrices come from other"),
         "{message}"
     );
+    // A basis whose stored parts do not fit its own model (a damaged artifact) is refused by
+    // name, never indexed past an end.
+    let Artifact::Basis(whole) = &basis else {
+        panic!("not a basis")
+    };
+    let refused = |damage: fn(&mut Basis)| {
+        let mut damaged = whole.as_ref().clone();
+        damage(&mut damaged);
+        let mut inputs = inputs.clone();
+        insert(&mut inputs, "basis", Artifact::Basis(Box::new(damaged)));
+        Transient.run(&params, &inputs).unwrap_err().to_string()
+    };
+    let message = refused(|basis| {
+        basis.static_modes[0].values.pop();
+    });
+    assert!(
+        message.contains("does not belong to this model: a block of its static modes"),
+        "{message}"
+    );
+    let message = refused(|basis| basis.stiffness.row_idx[0] = basis.n_reduced());
+    assert!(
+        message.contains("does not belong to this model: a reduced matrix"),
+        "{message}"
+    );
 }
 
 #[test]
