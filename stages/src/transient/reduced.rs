@@ -38,17 +38,21 @@ use squeal_linalg::cholesky::Cholesky;
 use squeal_linalg::csc::symmetric_mul;
 
 /// The reduced matrices and `H` on the reduced coordinates.
-pub struct ReducedModel {
-    pub M: CscMatrix,
-    pub C: CscMatrix,
-    pub K: CscMatrix,
+pub struct ReducedModel<'a> {
+    pub M: &'a CscMatrix,
+    pub C: &'a CscMatrix,
+    pub K: &'a CscMatrix,
     /// `H` on the reduced coordinates.
     pub H_rows: Vec<Vec<(usize, f64)>>,
 }
 
-impl ReducedModel {
+impl<'a> ReducedModel<'a> {
     /// `full`: the full model's structure (its `H`).
-    pub fn new(model: &Model, basis: &Basis, full: &Structure) -> Result<ReducedModel, StageError> {
+    pub fn new(
+        model: &Model,
+        basis: &'a Basis,
+        full: &Structure,
+    ) -> Result<ReducedModel<'a>, StageError> {
         let foreign = |what: String| {
             Err(StageError::new(format!(
                 "transient: the basis does not belong to this model: {what}"
@@ -71,9 +75,9 @@ impl ReducedModel {
             return foreign("a contact DOF is not on its interface".to_string());
         };
         Ok(ReducedModel {
-            M: basis.mass.clone(),
-            C: basis.damping.clone(),
-            K: basis.stiffness.clone(),
+            M: &basis.mass,
+            C: &basis.damping,
+            K: &basis.stiffness,
             H_rows,
         })
     }
@@ -81,9 +85,9 @@ impl ReducedModel {
     /// The structure the scheme integrates.
     pub fn structure(&self) -> Structure<'_> {
         Structure {
-            M: &self.M,
-            C: &self.C,
-            K: &self.K,
+            M: self.M,
+            C: self.C,
+            K: self.K,
             dof_of_node: &[],
             H_rows: self.H_rows.clone(),
         }
