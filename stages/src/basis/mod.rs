@@ -126,14 +126,7 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 10: the basis holds its static modes `Ψ_o` and its reduced matrices without their
-        // exact zeros, and the adaptive basis's probe lifts by them (the transient of its
-        // version 18). 9: the static modes solved 64 right-hand sides at a time (the last
-        // bits of every basis), the adaptive basis's probe the transient of its version 17.
-        // 8: `keep_whole_up_to`, and `n_whole` in the summary. 7: `Tᵀ A T` body by body, `K`'s
-        // static blocks from `K S` (the same matrices to round-off). 6: the basis holds its
-        // model's fingerprint. 5: the adaptive basis's probe is the transient of its version
-        // 13. (Its probes' last bits follow the transient's.)
+        // 10: the basis holds its static modes `Ψ_o` (CHANGELOG.md, "basis")
         10
     }
     fn doc(&self) -> &'static str {

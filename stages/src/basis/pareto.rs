@@ -41,8 +41,7 @@ impl Stage for Pareto {
         "pareto"
     }
     fn version(&self) -> u32 {
-        // 3: series by every coordinate but the last. 2: labels in exponent form, error
-        // ticks at 1, 2 and 5.
+        // 3: a series by every coordinate but the last (CHANGELOG.md, "pareto")
         3
     }
     fn doc(&self) -> &'static str {

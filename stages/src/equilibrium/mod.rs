@@ -561,7 +561,7 @@ impl Stage for SlidingEquilibrium {
         "equilibrium"
     }
     fn version(&self) -> u32 {
-        // 4: the summary's max_strain_estimate.
+        // 4: the summary's max_strain_estimate (CHANGELOG.md, "equilibrium")
         4
     }
     fn doc(&self) -> &'static str {

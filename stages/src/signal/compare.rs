@@ -69,8 +69,7 @@ impl Stage for Compare {
         "compare"
     }
     fn version(&self) -> u32 {
-        // 2: runs over different time spans are refused (their comparisons cached by 1 were
-        // meaningless); the outputs of the others are the same bytes.
+        // 2: runs over different time spans are refused (CHANGELOG.md, "compare")
         2
     }
     fn doc(&self) -> &'static str {

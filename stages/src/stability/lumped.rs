@@ -128,7 +128,7 @@ impl Stage for StabilityMatrices {
         "stability.matrices"
     }
     fn version(&self) -> u32 {
-        // 2: condition numbers, kf_path, shapes
+        // 2: condition numbers, kf_path, shapes (CHANGELOG.md, "stability.matrices")
         2
     }
     fn doc(&self) -> &'static str {

@@ -447,12 +447,7 @@ impl Stage for Stability {
         "stability"
     }
     fn version(&self) -> u32 {
-        // 2: two-level (TOAR) Arnoldi basis; 3: blocks of eight, wide disks; 4: shifts that
-        // fall short are kept, Ritz checks placed by the radius's growth; 5: row-major
-        // triangular solves (FMA: round-off differs); 6: products with the Krylov basis by
-        // `tall`, M̃ and C̃ gathered by rows (round-off differs); 7: eigenvectors formed only
-        // for the band's eigenvalues (round-off may differ); 8: condition numbers; 9: an
-        // equilibrium of another model's DOFs is refused (8 could cache a solve about one)
+        // 9: an equilibrium of another model's DOFs is refused (CHANGELOG.md, "stability")
         9
     }
     fn doc(&self) -> &'static str {

@@ -168,15 +168,7 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 18: a reduced run's snapshots lifted by the basis's static modes, not by solves
-        // with K_oo's factor. 17: a reduced model of dense blocks (its bodies kept whole)
-        // solved by their inverses. 16: the contact iterations pass over W in single
-        // precision, a step accepted on its own end-of-step velocities. 15: Gauss–Seidel
-        // sweeps a pad's pairs together. 14: a reduced model's dense K streamed by its lower
-        // runs, the chord's LU solved by packed sweeps. 13: the sweeps read each column of a
-        // supernode once, by the vector kernels. 12: Anderson-accelerated Gauss–Seidel, the
-        // chord's Jacobian in single precision, the snapshots lifted by products of blocks.
-        // 11: a reduced step corrects by the response J⁻¹ Hᵀ. Each: the last bits of every run.
+        // 18: a reduced run's snapshots lifted by the static modes (CHANGELOG.md, "transient")
         18
     }
     fn doc(&self) -> &'static str {

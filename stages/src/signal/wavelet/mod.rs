@@ -77,7 +77,8 @@ impl Stage for Wavelet {
         "wavelet"
     }
     fn version(&self) -> u32 {
-        2 // 2: the power of narrow bands from their sampled envelope
+        // 2: the power of narrow bands from their sampled envelope (CHANGELOG.md, "wavelet")
+        2
     }
     fn doc(&self) -> &'static str {
         "Morlet wavelet power of one signal column on a log-spaced time-frequency grid, with its cone of influence"
