@@ -4,11 +4,12 @@ mod common;
 
 use std::path::Path;
 
-use arrow::array::{Array, Int64Array};
+use arrow_array::{Array, Int64Array};
 use common::{Workspace, booleans, floats, pipeline, read_parquet, strings};
 
+/// The default study: the coarse brake through every stage.
 #[test]
-fn targeted_runs_and_is_coarse() {
+fn the_quick_study_runs_the_whole_pipeline_on_a_coarse_brake() {
     let workspace = Workspace::new();
     let study = pipeline("quick.yaml");
     workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
@@ -93,6 +94,66 @@ fn targeted_runs_and_is_coarse() {
             "{file}"
         );
     }
+
+    // The transient grows from the most unstable mode until contact bounds it, and closes its
+    // energy balance.
+    let out = workspace.path().join("out");
+    let history = read_parquet(&out.join("transient/history.parquet"));
+    let kinetic = floats(&history, "kinetic");
+    let peak = kinetic.iter().copied().fold(0.0, f64::max);
+    assert!(
+        peak > 1e6 * kinetic[1],
+        "growth from {} to {peak} J",
+        kinetic[1]
+    );
+    // Bounded: the last quarter stays within a factor 3 of the peak, far below what the
+    // exponential growth would reach.
+    let last_quarter = &kinetic[3 * kinetic.len() / 4..];
+    assert!(last_quarter.iter().all(|k| *k <= peak && *k > 1e-6 * peak));
+    assert!(
+        floats(&history, "stick")
+            .iter()
+            .any(|fraction| *fraction > 0.0)
+    );
+    let summary = read_parquet(&out.join("transient/summary.parquet"));
+    let quantities = strings(&summary, "quantity");
+    let values = floats(&summary, "value");
+    let value = |name: &str| values[quantities.iter().position(|q| q == name).unwrap()];
+    assert!(
+        value("relative_balance_error") < 1e-8,
+        "{}",
+        value("relative_balance_error")
+    );
+    assert!(
+        value("peak_penetration") < 1e-9,
+        "{}",
+        value("peak_penetration")
+    );
+    // The signal stages read the transient's tables.
+    for output in [
+        "spectrum/peaks.parquet",
+        "wavelet/power.parquet",
+        "projection/projection.parquet",
+        "compare/spectra.png",
+    ] {
+        assert!(out.join(output).exists(), "{output}");
+    }
+    // The same run on the FC basis grows too, and its squeal peak is the full run's.
+    let reduced = read_parquet(&out.join("reduced/history.parquet"));
+    let reduced_peak = floats(&reduced, "kinetic")
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    assert!(reduced_peak > 1e6 * kinetic[1], "reduced: {reduced_peak} J");
+    let errors = read_parquet(&out.join("compare/errors.parquet"));
+    let freq_error = floats(&errors, "freq_error")[0];
+    let indicator = floats(&errors, "residual_indicator")[0];
+    // Measured: 3e-4 and 0.22.
+    assert!(freq_error < 5e-3, "squeal peak {freq_error} off");
+    assert!(
+        indicator > 0.0 && indicator < 0.5,
+        "residual indicator {indicator}"
+    );
 }
 
 #[test]
@@ -244,80 +305,16 @@ fn the_readme_example_is_a_valid_study() {
     );
 }
 
-#[test]
-fn the_transient_study_grows_saturates_and_closes_its_energy_balance() {
-    let workspace = Workspace::new();
-    let study = pipeline("transient.yaml");
-    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
-    let out = workspace.path().join("out");
-    let history = read_parquet(&out.join("transient/history.parquet"));
-    let kinetic = floats(&history, "kinetic");
-    let peak = kinetic.iter().copied().fold(0.0, f64::max);
-    assert!(
-        peak > 1e6 * kinetic[1],
-        "growth from {} to {peak} J",
-        kinetic[1]
-    );
-    // Bounded: the last quarter stays within a factor 3 of the peak, far below what the
-    // exponential growth would reach.
-    let last_quarter = &kinetic[3 * kinetic.len() / 4..];
-    assert!(last_quarter.iter().all(|k| *k <= peak && *k > 1e-6 * peak));
-    assert!(
-        floats(&history, "stick")
-            .iter()
-            .any(|fraction| *fraction > 0.0)
-    );
-    let summary = read_parquet(&out.join("transient/summary.parquet"));
-    let quantities = strings(&summary, "quantity");
-    let values = floats(&summary, "value");
-    let value = |name: &str| values[quantities.iter().position(|q| q == name).unwrap()];
-    assert!(
-        value("relative_balance_error") < 1e-8,
-        "{}",
-        value("relative_balance_error")
-    );
-    assert!(
-        value("peak_penetration") < 1e-9,
-        "{}",
-        value("peak_penetration")
-    );
-    // The signal stages read the transient's tables.
-    for output in [
-        "spectrum/peaks.parquet",
-        "wavelet/power.parquet",
-        "projection/projection.parquet",
-        "compare/spectra.png",
-    ] {
-        assert!(out.join(output).exists(), "{output}");
-    }
-    // The same run on the FC basis grows too, and its squeal peak is the full run's.
-    let reduced = read_parquet(&out.join("reduced/history.parquet"));
-    let reduced_peak = floats(&reduced, "kinetic")
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
-    assert!(reduced_peak > 1e6 * kinetic[1], "reduced: {reduced_peak} J");
-    let errors = read_parquet(&out.join("compare/errors.parquet"));
-    let freq_error = floats(&errors, "freq_error")[0];
-    let indicator = floats(&errors, "residual_indicator")[0];
-    // Measured: 3e-4 and 0.22.
-    assert!(freq_error < 5e-3, "squeal peak {freq_error} off");
-    assert!(
-        indicator > 0.0 && indicator < 0.5,
-        "residual indicator {indicator}"
-    );
-}
-
 /// The machinery of `pipelines/basis_study.yaml` (which takes 25 minutes on the default brake)
-/// on the coarse brake of `transient.yaml`: a sweep of bases gathered by `pareto` with each
+/// on the coarse brake of `quick.yaml`: a sweep of bases gathered by `pareto` with each
 /// run's compute time, and an adaptive basis with its defaults from the FC basis at the
 /// cut-off (measured: 3.1e-3, then 1.3e-4 after one round).
 #[test]
 fn a_basis_sweep_gathers_into_pareto_and_an_adaptive_basis_meets_its_default_target() {
     let workspace = Workspace::new();
-    let transient = std::fs::read_to_string(pipeline("transient.yaml")).unwrap();
-    let head =
-        &transient[transient.find("stages:").unwrap()..transient.find("  transient:").unwrap()];
+    let quick = std::fs::read_to_string(pipeline("quick.yaml")).unwrap();
+    // Mesh, model, equilibrium and stability: the stages before the real modes.
+    let head = &quick[quick.find("stages:").unwrap()..quick.find("  modes:").unwrap()];
     let study = format!(
         "study: basis_sweep
 {head}  modes:

@@ -336,6 +336,9 @@ impl Validator<'_> {
             if let (ParamType::Path, Value::Str(path)) = (&spec.ty, &converted) {
                 converted = Value::Str(self.resolve_path(path, &value.location));
             }
+            stage
+                .check_param(param, &converted)
+                .map_err(|message| value.error(&param_path, message))?;
             params.insert(param.clone(), converted);
         }
 
@@ -352,6 +355,11 @@ impl Validator<'_> {
             }
             let values = sweep_values(spec, &sweep.value)
                 .map_err(|message| sweep.error(&sweep_path, message))?;
+            for (idx, value) in values.iter().enumerate() {
+                stage.check_param(param, value).map_err(|message| {
+                    sweep.error(&sweep_path, format!("value {idx}: {message}"))
+                })?;
+            }
             matrix.push((param.clone(), values));
             let points = matrix.iter().fold(1usize, |points, (_, values)| {
                 points.saturating_mul(values.len())

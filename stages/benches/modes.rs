@@ -18,18 +18,20 @@ use std::time::Instant;
 
 use squeal_linalg::eigensolver::{Band, SolveOptions, solve};
 use squeal_linalg::ldlt::{FillOrdering, ShiftedPencil};
-use squeal_stages::Params;
 use squeal_stages::artifact::{CscMatrix, Model};
 use squeal_stages::assemble::{Assemble, assemble_model};
 use squeal_stages::mesh::structured;
+use squeal_stages::{Params, Value};
 
 /// A disc 0.15–0.32 m in radius, 45 mm thick, clamped at the hub (the inner cylinder).
 fn disc_model(counts: [usize; 3]) -> (Model, f64) {
     let mesh = structured::annulus(0.15, 0.32, 0.0, 0.045, counts, "disc");
-    let params = Params::defaults(&Assemble, &[]);
+    let params = Params::defaults(&Assemble, &[("clamped", Value::Str("inner".into()))])
+        .read::<Assemble>()
+        .expect("the default materials read");
     let started = Instant::now();
-    let (model, _) = assemble_model(&mesh, &params, &["inner".to_string()])
-        .unwrap_or_else(|err| panic!("assembly failed: {err}"));
+    let (model, _) =
+        assemble_model(&mesh, &params).unwrap_or_else(|err| panic!("assembly failed: {err}"));
     (model, started.elapsed().as_secs_f64())
 }
 

@@ -8,21 +8,26 @@
 //! passes: a figure that was not computed is not a pass.
 
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::{ColumnData, Table};
 
 /// `check`.
 pub struct Check;
 
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CheckParams {
-    case: String,
-    expected: String,
-    quantity: String,
-    /// `None`: no bound (the default, infinite, reads back as null).
-    at_least: Option<f64>,
-    at_most: Option<f64>,
+crate::stage_params! {
+    /// The parameters of `check`.
+    pub struct CheckParams {
+        /// what is tried, in a few words
+        case: String,
+        /// the behaviour expected, in a few words
+        expected: String,
+        /// a quantity of a summary table, or a column whose largest value is checked
+        quantity: String,
+        /// lowest accepted value
+        at_least: f64 = f64::NEG_INFINITY,
+        /// highest accepted value
+        at_most: f64 = f64::INFINITY,
+    }
 }
 
 /// The figure named `quantity`: a summary's quantity, else the largest of a numeric column.
@@ -57,6 +62,10 @@ fn observed(table: &Table, quantity: &str) -> Result<f64, StageError> {
     }
 }
 
+impl HasParams for Check {
+    type Params = CheckParams;
+}
+
 impl Stage for Check {
     fn kind(&self) -> &'static str {
         "check"
@@ -66,20 +75,6 @@ impl Stage for Check {
     }
     fn doc(&self) -> &'static str {
         "One figure of a table (a summary's quantity, or a column's largest value) against its acceptance range: a one-row verdict to gather into a stress table"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::string("case", "", "what is tried, in a few words").required(),
-            ParamSpec::string("expected", "", "the behaviour expected, in a few words").required(),
-            ParamSpec::string(
-                "quantity",
-                "",
-                "a quantity of a summary table, or a column whose largest value is checked",
-            )
-            .required(),
-            ParamSpec::float("at_least", f64::NEG_INFINITY, "", "lowest accepted value"),
-            ParamSpec::float("at_most", f64::INFINITY, "", "highest accepted value"),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -103,13 +98,9 @@ impl Stage for Check {
             "case, point (the sweep coordinates), expected, quantity, observed, at_least, at_most, holds: the previous check's rows, then one per point",
         )]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<CheckParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: CheckParams = params.typed()?;
-        let at_least = params.at_least.unwrap_or(f64::NEG_INFINITY);
-        let at_most = params.at_most.unwrap_or(f64::INFINITY);
+        let params: CheckParams = params.read::<Self>()?;
+        let (at_least, at_most) = (params.at_least, params.at_most);
         let mut rows = match inputs.get_optional::<Table>("previous")? {
             Some(previous) => Verdicts::read(previous)?,
             None => Verdicts::default(),

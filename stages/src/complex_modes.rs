@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 
 use faer::Mat;
 
-use crate::stage::StageError;
 use crate::table::{ColumnData, Table};
+use crate::value::StageError;
 
 /// The two columns of one mode in a wide table, as they are found.
 #[derive(Default)]

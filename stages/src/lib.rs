@@ -11,36 +11,49 @@
 // `!(x > 0.0)` is how numerical checks reject NaN together with x <= 0.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+// The stage contract, in layers: value → table → artifact → params → stage (a module imports
+// only from the layers before it).
 pub mod artifact;
+pub mod params;
+pub mod stage;
+pub mod table;
+pub mod value;
+
+// Shared kernels and formats.
+pub mod complex_modes;
+pub mod contact;
+pub mod fem;
+pub mod plot;
+pub mod vtu;
+
+// The stages: mesh → assemble → modes, equilibrium → stability → basis → transient → signal,
+// exports, and the stages that gather and check sweeps.
 pub mod assemble;
 pub mod basis;
 pub mod check;
-pub mod complex_modes;
-pub mod contact;
 pub mod equilibrium;
 pub mod export;
-pub mod fem;
+pub mod gather;
 pub mod mesh;
-
 pub mod modes;
-pub mod plot;
 pub mod signal;
 pub mod stability;
-pub mod stage;
-pub mod table;
-pub mod testing;
 pub mod transient;
-pub mod vtu;
+
+// Stage kinds for exercising the engine.
+pub mod test_kinds;
 
 use std::sync::Arc;
 
 pub use artifact::{Artifact, ArtifactType, Document, Figure};
+pub use params::{DeclaredParams, HasParams, ParamSpec, ParamType, Params};
 pub use squeal_linalg::{fix_global_parallelism, numeric_platform};
 pub use stage::{
-    Arity, Checkpoints, Coords, Input, Inputs, NoCheckpoints, Outputs, ParamSpec, ParamType,
-    Params, Placement, PortSpec, Progress, Resources, RunContext, Stage, StageError, Value,
+    Arity, Checkpoints, Input, Inputs, NoCheckpoints, Outputs, Placement, PortSpec, Progress,
+    Resources, RunContext, Stage,
 };
 pub use table::{Column, ColumnData, Table};
+pub use value::{Coords, StageError, Value};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
@@ -60,7 +73,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),
-        Arc::new(table::Gather),
+        Arc::new(gather::Gather),
         Arc::new(check::Check),
     ];
     kinds.extend(signal::kinds());
@@ -70,7 +83,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
 /// Stage kinds for exercising the engine (constant sources, arithmetic, sleeps, failures).
 /// They are registered only when a test asks for them.
 pub fn test_kinds() -> Vec<Arc<dyn Stage>> {
-    testing::kinds()
+    test_kinds::kinds()
 }
 
 #[cfg(test)]
@@ -90,21 +103,79 @@ mod tests {
         }
     }
 
+    /// Every declared parameter at its default, or at a placeholder of its type.
+    fn defaults_of(kind: &dyn Stage) -> Params {
+        Params(
+            kind.params()
+                .iter()
+                .map(|spec| {
+                    let value = spec.default.clone().unwrap_or_else(|| placeholder(spec));
+                    (spec.name.to_string(), value)
+                })
+                .collect(),
+        )
+    }
+
     #[test]
     fn every_stage_reads_its_declared_parameters_into_its_typed_struct() {
         for kind in all_kinds().into_iter().chain(test_kinds()) {
-            let params = Params(
-                kind.params()
-                    .iter()
-                    .map(|spec| {
-                        let value = spec.default.clone().unwrap_or_else(|| placeholder(spec));
-                        (spec.name.to_string(), value)
-                    })
-                    .collect(),
-            );
-            if let Err(err) = kind.check_params(&params) {
+            let params = defaults_of(kind.as_ref());
+            if let Err(err) = kind.read_params(&params) {
                 panic!("{}: {err}", kind.kind());
             }
         }
+    }
+
+    /// A choice is an enum the stage matches on without a catch-all arm, so a choice that reads
+    /// into its own variant reaches its own code. This walks every choice of every stage kind
+    /// and shows that no two names of one parameter read into the same typed parameters (no
+    /// choice is an alias of another, nor falls through to a default), and that every default
+    /// is one of its choices.
+    #[test]
+    fn every_declared_choice_reads_into_a_value_of_its_own() {
+        let mut n_choices = 0;
+        for kind in all_kinds().into_iter().chain(test_kinds()) {
+            let base = defaults_of(kind.as_ref());
+            for spec in kind.params() {
+                let ParamType::Choice(names) = spec.ty else {
+                    continue;
+                };
+                let default = spec.default.as_ref().map(ToString::to_string);
+                assert!(
+                    default.as_deref().is_none_or(|name| names.contains(&name)),
+                    "{}.{}: the default {default:?} is not a choice",
+                    kind.kind(),
+                    spec.name
+                );
+                let read: Vec<String> = names
+                    .iter()
+                    .map(|name| {
+                        let mut params = base.clone();
+                        params
+                            .0
+                            .insert(spec.name.into(), Value::Str(name.to_string()));
+                        let typed = kind.read_params(&params).unwrap_or_else(|err| {
+                            panic!("{}.{} = {name}: {err}", kind.kind(), spec.name)
+                        });
+                        format!("{typed:?}")
+                    })
+                    .collect();
+                for (a, b) in
+                    (0..names.len()).flat_map(|a| (a + 1..names.len()).map(move |b| (a, b)))
+                {
+                    assert_ne!(
+                        read[a],
+                        read[b],
+                        "{}.{}: `{}` and `{}` read the same",
+                        kind.kind(),
+                        spec.name,
+                        names[a],
+                        names[b]
+                    );
+                }
+                n_choices += names.len();
+            }
+        }
+        assert!(n_choices >= 20, "only {n_choices} choices found");
     }
 }

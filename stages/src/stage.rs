@@ -9,182 +9,9 @@ use std::fmt;
 use std::sync::Arc;
 
 use crate::artifact::{Artifact, ArtifactType, ArtifactValue};
-
-/// A parameter value after validation and unit conversion.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Value {
-    Bool(bool),
-    Int(i64),
-    Float(f64),
-    Str(String),
-}
-
-impl fmt::Display for Value {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Value::Bool(value) => write!(f, "{value}"),
-            Value::Int(value) => write!(f, "{value}"),
-            // `{}` prints the shortest representation that round-trips.
-            Value::Float(value) => write!(f, "{value}"),
-            Value::Str(value) => f.write_str(value),
-        }
-    }
-}
-
-/// The type of a declared parameter.
-#[derive(Debug, Clone, PartialEq)]
-pub enum ParamType {
-    Bool,
-    Int {
-        min: i64,
-    },
-    Float {
-        min: f64,
-    },
-    Str,
-    /// A list, kept as one string with its items comma-separated; written as a YAML list
-    /// (`[35, 36]`) or as that string (`"35, 36"`).
-    List,
-    /// A file path. The engine makes a relative path absolute: relative to the study's folder
-    /// when written in the study, to the working directory when given on the command line.
-    Path,
-    /// One of a fixed set of names (solver methods, window functions, ...).
-    Choice(&'static [&'static str]),
-}
-
-impl fmt::Display for ParamType {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ParamType::Bool => f.write_str("bool"),
-            ParamType::Int { min } if *min > i64::MIN => write!(f, "int >= {min}"),
-            ParamType::Int { .. } => f.write_str("int"),
-            ParamType::Float { min } if min.is_finite() => write!(f, "float >= {min}"),
-            ParamType::Float { .. } => f.write_str("float"),
-            ParamType::Str => f.write_str("string"),
-            ParamType::List => f.write_str("list"),
-            ParamType::Path => f.write_str("path"),
-            ParamType::Choice(names) => write!(f, "one of {}", names.join(" | ")),
-        }
-    }
-}
-
-/// A declared parameter: name, type, default, SI unit ("" if dimensionless), one-line doc.
-#[derive(Debug, Clone)]
-pub struct ParamSpec {
-    pub name: &'static str,
-    pub ty: ParamType,
-    /// `None` makes the parameter required.
-    pub default: Option<Value>,
-    pub unit: &'static str,
-    pub doc: &'static str,
-}
-
-impl ParamSpec {
-    pub fn float(name: &'static str, default: f64, unit: &'static str, doc: &'static str) -> Self {
-        let ty = ParamType::Float {
-            min: f64::NEG_INFINITY,
-        };
-        let default = Some(Value::Float(default));
-        ParamSpec {
-            name,
-            ty,
-            default,
-            unit,
-            doc,
-        }
-    }
-
-    pub fn int(name: &'static str, default: i64, doc: &'static str) -> Self {
-        let ty = ParamType::Int { min: i64::MIN };
-        ParamSpec {
-            name,
-            ty,
-            default: Some(Value::Int(default)),
-            unit: "",
-            doc,
-        }
-    }
-
-    /// A string; chain [`ParamSpec::required`] for one without a default.
-    pub fn string(name: &'static str, default: &str, doc: &'static str) -> Self {
-        let default = Some(Value::Str(default.to_string()));
-        ParamSpec {
-            name,
-            ty: ParamType::Str,
-            default,
-            unit: "",
-            doc,
-        }
-    }
-
-    /// A list (see [`ParamType::List`]); its default is written comma-separated.
-    pub fn list(name: &'static str, default: &str, doc: &'static str) -> Self {
-        ParamSpec {
-            ty: ParamType::List,
-            ..ParamSpec::string(name, default, doc)
-        }
-    }
-
-    /// A required file path (see [`ParamType::Path`]).
-    pub fn path(name: &'static str, doc: &'static str) -> Self {
-        ParamSpec {
-            name,
-            ty: ParamType::Path,
-            default: None,
-            unit: "",
-            doc,
-        }
-    }
-
-    /// A file path that may be left out (empty by default).
-    pub fn optional_path(name: &'static str, doc: &'static str) -> Self {
-        ParamSpec {
-            default: Some(Value::Str(String::new())),
-            ..ParamSpec::path(name, doc)
-        }
-    }
-
-    pub fn bool(name: &'static str, default: bool, doc: &'static str) -> Self {
-        ParamSpec {
-            name,
-            ty: ParamType::Bool,
-            default: Some(Value::Bool(default)),
-            unit: "",
-            doc,
-        }
-    }
-
-    pub fn choice(
-        name: &'static str,
-        choices: &'static [&'static str],
-        default: &'static str,
-        doc: &'static str,
-    ) -> Self {
-        let default = Some(Value::Str(default.to_string()));
-        ParamSpec {
-            name,
-            ty: ParamType::Choice(choices),
-            default,
-            unit: "",
-            doc,
-        }
-    }
-
-    /// Lower bound (inclusive) for a numeric parameter.
-    pub fn at_least(mut self, bound: f64) -> Self {
-        self.ty = match self.ty {
-            ParamType::Float { .. } => ParamType::Float { min: bound },
-            ParamType::Int { .. } => ParamType::Int { min: bound as i64 },
-            other => other,
-        };
-        self
-    }
-
-    pub fn required(mut self) -> Self {
-        self.default = None;
-        self
-    }
-}
+pub use crate::params::{DeclaredParams, HasParams, ParamSpec, ParamType, Params};
+use crate::table::Table;
+pub use crate::value::{Coords, StageError, Value};
 
 /// How many artifacts an input port takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -234,86 +61,6 @@ impl PortSpec {
     }
 }
 
-/// Sweep coordinates of a stage instance: swept parameter name and value, in sweep order.
-pub type Coords = Vec<(String, Value)>;
-
-/// Validated parameters of one stage instance: every declared parameter is present and typed.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Params(pub BTreeMap<String, Value>);
-
-impl Params {
-    /// The parameters of `stage` at their defaults, with `overrides` (for callers that run a
-    /// stage directly: tests and benchmarks).
-    pub fn defaults(stage: &dyn Stage, overrides: &[(&str, Value)]) -> Params {
-        let mut values: BTreeMap<String, Value> = stage
-            .params()
-            .into_iter()
-            .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
-            .collect();
-        for (name, value) in overrides {
-            values.insert(name.to_string(), value.clone());
-        }
-        Params(values)
-    }
-
-    fn get(&self, name: &str) -> &Value {
-        self.0
-            .get(name)
-            .unwrap_or_else(|| panic!("parameter `{name}` is not declared by this stage"))
-    }
-
-    pub fn float(&self, name: &str) -> f64 {
-        match self.get(name) {
-            Value::Float(value) => *value,
-            Value::Int(value) => *value as f64,
-            other => panic!("parameter `{name}` is not a number: {other}"),
-        }
-    }
-
-    pub fn int(&self, name: &str) -> i64 {
-        match self.get(name) {
-            Value::Int(value) => *value,
-            other => panic!("parameter `{name}` is not an integer: {other}"),
-        }
-    }
-
-    pub fn bool(&self, name: &str) -> bool {
-        match self.get(name) {
-            Value::Bool(value) => *value,
-            other => panic!("parameter `{name}` is not a bool: {other}"),
-        }
-    }
-
-    /// The parameters read into a stage's typed struct, whose field names are the declared
-    /// names. Declare the struct `#[serde(deny_unknown_fields)]`: a name spelt differently in
-    /// the struct and in [`Stage::params`] is then an error (missing or unknown field), which
-    /// the test of every kind's [`Stage::check_params`] catches before any study runs.
-    pub fn typed<T: serde::de::DeserializeOwned>(&self) -> Result<T, StageError> {
-        let fields = self
-            .0
-            .iter()
-            .map(|(name, value)| {
-                let value = match value {
-                    Value::Bool(value) => serde_json::Value::from(*value),
-                    Value::Int(value) => serde_json::Value::from(*value),
-                    Value::Float(value) => serde_json::Value::from(*value),
-                    Value::Str(value) => serde_json::Value::from(value.as_str()),
-                };
-                (name.clone(), value)
-            })
-            .collect();
-        serde_json::from_value(serde_json::Value::Object(fields))
-            .map_err(|err| StageError::new(format!("parameters: {err}")))
-    }
-
-    pub fn str(&self, name: &str) -> &str {
-        match self.get(name) {
-            Value::Str(value) => value,
-            other => panic!("parameter `{name}` is not a string: {other}"),
-        }
-    }
-}
-
 /// What an input port receives.
 #[derive(Debug, Clone)]
 pub enum Input {
@@ -354,7 +101,7 @@ impl Inputs {
         })
     }
 
-    pub fn table(&self, port: &str) -> Result<&crate::Table, StageError> {
+    pub fn table(&self, port: &str) -> Result<&Table, StageError> {
         self.get(port)
     }
 
@@ -371,26 +118,9 @@ impl Inputs {
 /// The outputs of one run, by port name.
 pub type Outputs = BTreeMap<String, Artifact>;
 
-/// Why a stage failed: a one-line message with the figures that matter
-/// (residual, iteration count, offending element).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{message}")]
-pub struct StageError {
-    pub message: String,
-}
-
-impl From<squeal_linalg::Error> for StageError {
-    fn from(err: squeal_linalg::Error) -> Self {
-        StageError::new(err.to_string())
-    }
-}
-
-impl StageError {
-    pub fn new(message: impl Into<String>) -> Self {
-        StageError {
-            message: message.into(),
-        }
-    }
+/// Wraps a table as the single output `name`, a common shape for stage results.
+pub fn single_output(name: &str, table: Table) -> Outputs {
+    Outputs::from([(name.to_string(), Artifact::Table(table))])
 }
 
 /// Where a long stage reports how far it is: a fraction in [0, 1] and a short message (the
@@ -519,14 +249,19 @@ impl Resources {
 /// A kind of stage. Implementations are pure: `run` is a deterministic function of the
 /// parameters and inputs. A stage that is not (reads the clock, a file outside the study)
 /// returns `false` from [`Stage::pure`] and is never cached.
-pub trait Stage: Send + Sync {
+///
+/// Its parameters come from the struct it names in [`HasParams`] (declared with
+/// [`stage_params!`](crate::stage_params)): the engine validates a study against that
+/// declaration ([`DeclaredParams::params`]), and `run` reads the same struct with
+/// `params.read::<Self>()?`.
+pub trait Stage: DeclaredParams + Send + Sync {
     /// The `kind:` written in a study, e.g. `mesh.brake`.
     fn kind(&self) -> &'static str;
-    /// Bumped whenever the implementation changes its results; part of the cache key.
+    /// Bumped whenever the implementation changes its results; part of the cache key. The
+    /// history of each kind's versions is in CHANGELOG.md.
     fn version(&self) -> u32;
     /// One line for `squeal stages`.
     fn doc(&self) -> &'static str;
-    fn params(&self) -> Vec<ParamSpec>;
     fn inputs(&self) -> Vec<PortSpec>;
     fn outputs(&self) -> Vec<PortSpec>;
     /// Outputs renamed since the last release, `(old, new)`: a study naming the old one still
@@ -541,13 +276,6 @@ pub trait Stage: Send + Sync {
     /// unless the stage takes minutes.
     fn resources(&self) -> Resources {
         Resources::LIGHT
-    }
-    /// Reads `params` into the stage's typed parameter struct ([`Params::typed`]), as `run`
-    /// does first. Stages that read their parameters that way override it, so that the test
-    /// of every kind catches a parameter the struct and the declaration name differently.
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        let _ = params;
-        Ok(())
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError>;
     /// [`Stage::run`] with progress reports and checkpoints; what the engine calls. Long

@@ -3,10 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{
-    Coords, Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError, Value,
-};
+use crate::value::{Coords, StageError, Value};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum ColumnData {
@@ -155,6 +152,43 @@ impl Table {
             .map(|column| &column.data)
     }
 
+    /// The f64 column `name`, or an error naming what is there instead.
+    pub fn f64(&self, name: &str) -> Result<&[f64], StageError> {
+        match self.column(name) {
+            Some(ColumnData::F64(values)) => Ok(values),
+            Some(other) => Err(StageError::new(format!(
+                "column `{name}` is {}, not f64",
+                other.type_name()
+            ))),
+            None => Err(StageError::new(format!(
+                "no column `{name}` (columns: {})",
+                self.column_names().join(", ")
+            ))),
+        }
+    }
+
+    /// The i64 column `name`, or an error naming what is there instead.
+    pub fn i64(&self, name: &str) -> Result<&[i64], StageError> {
+        match self.column(name) {
+            Some(ColumnData::I64(values)) => Ok(values),
+            Some(other) => Err(StageError::new(format!(
+                "column `{name}` is {}, not i64",
+                other.type_name()
+            ))),
+            None => Err(StageError::new(format!(
+                "no column `{name}` (columns: {})",
+                self.column_names().join(", ")
+            ))),
+        }
+    }
+
+    pub fn column_names(&self) -> Vec<&str> {
+        self.columns
+            .iter()
+            .map(|column| column.name.as_str())
+            .collect()
+    }
+
     pub fn n_rows(&self) -> usize {
         self.columns.first().map_or(0, |column| column.data.len())
     }
@@ -214,100 +248,9 @@ fn empty_like(data: &ColumnData) -> ColumnData {
     }
 }
 
-/// `table.gather`: every point of a sweep in one long table, swept parameters as columns.
-pub struct Gather;
-
-impl Stage for Gather {
-    fn kind(&self) -> &'static str {
-        "table.gather"
-    }
-    fn version(&self) -> u32 {
-        1
-    }
-    fn doc(&self) -> &'static str {
-        "Stack one table from every point of a sweep, with the swept parameters as columns"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        Vec::new()
-    }
-    fn inputs(&self) -> Vec<PortSpec> {
-        vec![PortSpec::many(
-            "tables",
-            ArtifactType::Table,
-            "the table of every sweep point",
-        )]
-    }
-    fn renamed_outputs(&self) -> &'static [(&'static str, &'static str)] {
-        &[("table", "gathered")]
-    }
-    fn outputs(&self) -> Vec<PortSpec> {
-        vec![PortSpec::one(
-            "gathered",
-            ArtifactType::Table,
-            "all points, coordinates first",
-        )]
-    }
-    fn run(&self, _params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let points = inputs.many("tables")?;
-        let tables: Vec<(Coords, &Table)> = points
-            .iter()
-            .map(|(coords, artifact)| {
-                let table = artifact
-                    .as_table()
-                    .ok_or_else(|| StageError::new("not a table"))?;
-                Ok((coords.clone(), table))
-            })
-            .collect::<Result<_, StageError>>()?;
-        let table = Table::gather(&tables)?;
-        Ok(Outputs::from([(
-            "gathered".to_string(),
-            Artifact::Table(table),
-        )]))
-    }
-}
-
-/// Wraps a table as the single output `name`, a common shape for stage results.
-pub fn single_output(name: &str, table: Table) -> Outputs {
-    Outputs::from([(name.to_string(), Artifact::Table(table))])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::collections::BTreeMap;
-    use std::sync::Arc;
-
-    use crate::stage::Input;
-
-    #[test]
-    fn gather_prepends_coordinates_and_stacks_rows() {
-        let a = Table::new().with("f", vec![1.0, 2.0]);
-        let b = Table::new().with("f", vec![3.0]);
-        let points = vec![
-            (
-                vec![("mu".to_string(), Value::Float(0.1))],
-                Arc::new(Artifact::Table(a)),
-            ),
-            (
-                vec![("mu".to_string(), Value::Float(0.2))],
-                Arc::new(Artifact::Table(b)),
-            ),
-        ];
-        let inputs = Inputs(BTreeMap::from([(
-            "tables".to_string(),
-            Input::Many(points),
-        )]));
-        let outputs = Gather.run(&Params::default(), &inputs).unwrap();
-        let table = outputs["gathered"].as_table().unwrap();
-        assert_eq!(
-            table.column("mu"),
-            Some(&ColumnData::F64(vec![0.1, 0.1, 0.2]))
-        );
-        assert_eq!(
-            table.column("f"),
-            Some(&ColumnData::F64(vec![1.0, 2.0, 3.0]))
-        );
-    }
 
     #[test]
     fn gather_rejects_tables_with_different_columns() {

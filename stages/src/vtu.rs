@@ -39,7 +39,7 @@ use std::fmt::Write;
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Equilibrium, Model, RealModes};
-use crate::stage::StageError;
+use crate::value::StageError;
 
 /// VTK's cell type for an 8-node hexahedron.
 const VTK_HEXAHEDRON: u8 = 12;

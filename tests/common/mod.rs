@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use arrow::array::{Array, BooleanArray, Float64Array, StringArray};
-use arrow::record_batch::RecordBatch;
+use arrow_array::RecordBatch;
+use arrow_array::{Array, BooleanArray, Float64Array, StringArray};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 /// `pareto` over a swept error with one reference time: inputs of both arities, declared in
@@ -114,7 +114,7 @@ pub fn read_parquet(path: &Path) -> RecordBatch {
         .build()
         .expect("reader");
     let batches: Vec<RecordBatch> = reader.map(|batch| batch.expect("batch")).collect();
-    arrow::compute::concat_batches(&batches[0].schema(), &batches).expect("same schema")
+    arrow_select::concat::concat_batches(&batches[0].schema(), &batches).expect("same schema")
 }
 
 /// The column `name` of `batch`, as the array type `A`.

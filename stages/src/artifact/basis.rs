@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use squeal_linalg::cholesky::Cholesky;
 
 use super::{CscMatrix, Model};
-use crate::stage::StageError;
+use crate::value::StageError;
 
 /// `u = T x` with `x = [u_i; q]`: the interface DOFs `u_i` (every free DOF of the contact
 /// pairs' nodes) kept as they are, with their static modes, and the weights `q` of vectors

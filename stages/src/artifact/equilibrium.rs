@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::Model;
-use crate::stage::StageError;
+use crate::value::StageError;
 
 /// The local frame and sliding speed of every contact pair.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

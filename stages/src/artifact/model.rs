@@ -4,8 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::mesh::Mesh;
-use crate::stage::StageError;
 use crate::table::Table;
+use crate::value::StageError;
 pub use squeal_linalg::CscMatrix;
 
 /// `M`, `K`, `C = α M + β K` (α, β per part) over the free DOFs.

@@ -7,15 +7,6 @@
 use crate::artifact::mesh::Mesh;
 use crate::stage::StageError;
 
-/// The node sets named in a comma-separated list (`"hub, pad_backs"`); empty names are skipped.
-pub fn parse_set_names(list: &str) -> Vec<String> {
-    list.split(',')
-        .map(str::trim)
-        .filter(|name| !name.is_empty())
-        .map(str::to_string)
-        .collect()
-}
-
 /// Free DOF index of each node's x, y, z displacement (`None` where clamped).
 pub type DofOfNode = Vec<[Option<u32>; 3]>;
 

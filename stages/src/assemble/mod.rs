@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use crate::artifact::Model;
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, Value};
 use crate::table::Table;
 
 use crate::fem::hex8::{self, Degenerate, ElementMatrices};
@@ -36,6 +36,85 @@ const ELEMENTS_NAMED_IN_ERRORS: usize = 5;
 
 /// `assemble`: mesh → model (`M`, `K`, `C`) and a summary table.
 pub struct Assemble;
+
+crate::stage_params! {
+    /// The parameters of `assemble`: the materials of the parts `disc` and `pad` (the paper's
+    /// Table 1 by default) and the clamped node sets.
+    pub struct AssembleParams {
+        /// Young's modulus of the disc
+        #[unit = "Pa"]
+        #[min = 0.0]
+        E_disc: f64 = 2.02e11,
+        /// Poisson's ratio of the disc
+        nu_disc: f64 = 0.29,
+        /// density of the disc
+        #[unit = "kg/m^3"]
+        #[min = 0.0]
+        rho_disc: f64 = 7850.0,
+        /// Rayleigh mass-proportional damping of the disc (C = alpha M + beta K)
+        #[unit = "1/s"]
+        #[min = 0.0]
+        alpha_disc: f64 = 3.75,
+        /// Rayleigh stiffness-proportional damping of the disc (C = alpha M + beta K)
+        #[unit = "s"]
+        #[min = 0.0]
+        beta_disc: f64 = 5e-8,
+        /// Young's modulus of the pads
+        #[unit = "Pa"]
+        #[min = 0.0]
+        E_pad: f64 = 3e8,
+        /// Poisson's ratio of the pads
+        nu_pad: f64 = 0.3,
+        /// density of the pads
+        #[unit = "kg/m^3"]
+        #[min = 0.0]
+        rho_pad: f64 = 5102.0,
+        /// Rayleigh mass-proportional damping of the pads (C = alpha M + beta K)
+        #[unit = "1/s"]
+        #[min = 0.0]
+        alpha_pad: f64 = 54.375,
+        /// Rayleigh stiffness-proportional damping of the pads (C = alpha M + beta K)
+        #[unit = "s"]
+        #[min = 0.0]
+        beta_pad: f64 = 72.5e-8,
+        /// node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body
+        clamped: Vec<String> = vec!["hub".into(), "pad_backs".into()],
+    }
+}
+
+impl AssembleParams {
+    /// The material of part `part`: `disc` or `pad` ([`MATERIAL_PARTS`]).
+    pub fn material(&self, part: &str) -> Result<Material, StageError> {
+        let material = match part {
+            "disc" => Material {
+                youngs_modulus: self.E_disc,
+                poisson_ratio: self.nu_disc,
+                density: self.rho_disc,
+                alpha: self.alpha_disc,
+                beta: self.beta_disc,
+            },
+            "pad" => Material {
+                youngs_modulus: self.E_pad,
+                poisson_ratio: self.nu_pad,
+                density: self.rho_pad,
+                alpha: self.alpha_pad,
+                beta: self.beta_pad,
+            },
+            other => {
+                return Err(StageError::new(format!(
+                    "part `{other}` has no material: parts must be named {}",
+                    MATERIAL_PARTS.join(" or ")
+                )));
+            }
+        };
+        material.check(part)?;
+        Ok(material)
+    }
+}
+
+impl HasParams for Assemble {
+    type Params = AssembleParams;
+}
 
 impl Stage for Assemble {
     fn kind(&self) -> &'static str {
@@ -48,17 +127,6 @@ impl Stage for Assemble {
 
     fn doc(&self) -> &'static str {
         "Assemble mass, stiffness and Rayleigh damping of a hexahedral mesh (incompatible-mode hexahedra), clamping node sets"
-    }
-
-    fn params(&self) -> Vec<ParamSpec> {
-        let mut params =
-            crate::fem::material::material_params("disc", [2.02e11, 0.29, 7850.0, 3.75, 5e-8]);
-        params.extend(crate::fem::material::material_params(
-            "pad",
-            [3e8, 0.3, 5102.0, 54.375, 72.5e-8],
-        ));
-        params.push(ParamSpec::list("clamped", "hub,pad_backs", "node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body"));
-        params
     }
 
     fn inputs(&self) -> Vec<PortSpec> {
@@ -82,8 +150,8 @@ impl Stage for Assemble {
 
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let mesh: &Mesh = inputs.get("mesh")?;
-        let clamped = dofs::parse_set_names(params.str("clamped"));
-        let (model, summary) = assemble_model(mesh, params, &clamped)?;
+        let params = params.read::<Self>()?;
+        let (model, summary) = assemble_model(mesh, &params)?;
         Ok(Outputs::from([
             ("model".to_string(), Artifact::Model(Box::new(model))),
             ("summary".to_string(), Artifact::Table(summary)),
@@ -140,19 +208,10 @@ fn check_mesh(mesh: &Mesh) -> Result<(), StageError> {
 }
 
 /// The material of every part, by part index.
-fn part_materials(mesh: &Mesh, params: &Params) -> Result<Vec<Material>, StageError> {
+fn part_materials(mesh: &Mesh, params: &AssembleParams) -> Result<Vec<Material>, StageError> {
     mesh.parts
         .iter()
-        .map(|part| {
-            if MATERIAL_PARTS.contains(&part.as_str()) {
-                Material::from_params(params, part)
-            } else {
-                Err(StageError::new(format!(
-                    "part `{part}` has no material: parts must be named {}",
-                    MATERIAL_PARTS.join(" or ")
-                )))
-            }
-        })
+        .map(|part| params.material(part))
         .collect()
 }
 
@@ -179,15 +238,11 @@ fn degenerate_error(failures: &[(usize, Degenerate)]) -> StageError {
     ))
 }
 
-/// The model of `mesh` with the node sets `clamped` fixed, and its summary table.
-pub fn assemble_model(
-    mesh: &Mesh,
-    params: &Params,
-    clamped: &[String],
-) -> Result<(Model, Table), StageError> {
+/// The model of `mesh` with the node sets `params.clamped` fixed, and its summary table.
+pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Table), StageError> {
     check_mesh(mesh)?;
     let materials = part_materials(mesh, params)?;
-    let (dof_of_node, n_dofs) = dofs::number_dofs(mesh, clamped)?;
+    let (dof_of_node, n_dofs) = dofs::number_dofs(mesh, &params.clamped)?;
     if n_dofs == 0 {
         return Err(StageError::new(
             "every node is clamped: the model has no free DOF",
@@ -291,28 +346,23 @@ pub fn with_default_materials(
     mesh: &Mesh,
     clamped: &str,
     overrides: &[(&str, f64)],
-) -> Result<(Model, Params), StageError> {
-    use crate::stage::Value;
-    let mut values: std::collections::BTreeMap<String, Value> = Assemble
-        .params()
-        .into_iter()
-        .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
+) -> Result<(Model, AssembleParams), StageError> {
+    let mut values: Vec<(&str, Value)> = overrides
+        .iter()
+        .map(|&(name, value)| (name, Value::Float(value)))
         .collect();
-    for (name, value) in overrides {
-        values.insert(name.to_string(), Value::Float(*value));
-    }
-    let clamped: Vec<String> = clamped
-        .split(',')
-        .map(|name| name.trim().to_string())
-        .filter(|name| !name.is_empty())
-        .collect();
-    let params = Params(values);
-    Ok((assemble_model(mesh, &params, &clamped)?.0, params))
+    values.push(("clamped", Value::Str(clamped.to_string())));
+    let params = Params::defaults(&Assemble, &values).read::<Assemble>()?;
+    Ok((assemble_model(mesh, &params)?.0, params))
 }
 
 /// [`with_default_materials`], for tests.
 #[cfg(test)]
-pub(crate) fn test_model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> (Model, Params) {
+pub(crate) fn test_model(
+    mesh: &Mesh,
+    clamped: &str,
+    overrides: &[(&str, f64)],
+) -> (Model, AssembleParams) {
     with_default_materials(mesh, clamped, overrides)
         .unwrap_or_else(|err| panic!("assembly failed: {err}"))
 }

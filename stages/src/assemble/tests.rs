@@ -214,7 +214,9 @@ fn non_physical_material_is_an_error() {
             ("clamped", Value::Str(String::new())),
             ("nu_disc", Value::Float(0.5)),
         ],
-    );
-    let err = super::assemble_model(&mesh, &params, &[]).unwrap_err();
+    )
+    .read::<Assemble>()
+    .unwrap();
+    let err = super::assemble_model(&mesh, &params).unwrap_err();
     assert!(err.message.contains("nu_disc = 0.5"), "{err}");
 }

@@ -76,7 +76,6 @@ mod tests;
 use std::f64::consts::PI;
 
 use faer::{Mat, MatRef};
-use serde::Deserialize;
 use squeal_linalg::csc::{components, symmetric_mul, symmetric_mul_rows};
 use squeal_linalg::eigensolver::{self, Band, SolveOptions};
 use squeal_linalg::gram_schmidt::MSpan;
@@ -86,7 +85,7 @@ use crate::artifact::basis::{StaticBlock, StaticModes, interface_dofs};
 use crate::artifact::{Artifact, ArtifactType, Basis, CscMatrix, Equilibrium, Model, RealModes};
 use crate::complex_modes::ComplexModes;
 use crate::stage::{
-    Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, RunContext, Stage, StageError,
+    HasParams, Inputs, Outputs, Params, PortSpec, Resources, RunContext, Stage, StageError,
 };
 use crate::table::{ColumnData, Table};
 
@@ -102,23 +101,77 @@ const NORM_BLOCK: usize = 64;
 
 pub struct ReductionBasis;
 
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct BasisParams {
-    kind: String,
-    n_modes: i64,
-    f_cutoff_hz: f64,
-    cutoff_factor: f64,
-    modes: String,
-    rank_tolerance: f64,
-    complete: bool,
-    target: f64,
-    max_rounds: i64,
-    probe_duration: f64,
-    probe_tau: f64,
-    probe_amplitude: f64,
-    probe_samples: i64,
-    keep_whole_up_to: i64,
+crate::choice! {
+    /// The family of vectors a basis is built from.
+    pub enum BasisKind {
+        Fc = "fc",
+        Real = "real",
+        CraigBampton = "craig_bampton",
+        Modes = "modes",
+        Adaptive = "adaptive",
+    }
+}
+
+crate::stage_params! {
+    /// The parameters of `basis`.
+    pub struct BasisParams {
+        /// vectors off the interface: complex modes and the equilibrium, real modes,
+        /// fixed-interface modes, the complex modes listed in `modes`, or fc enriched until the
+        /// residual indicator meets `target`
+        kind: BasisKind = BasisKind::Fc,
+        /// modes taken (0: every mode below the cut-off)
+        #[min = 0]
+        n_modes: usize = 0,
+        /// cut-off frequency (0: cutoff_factor times the highest unstable frequency)
+        #[unit = "Hz"]
+        #[min = 0.0]
+        f_cutoff_hz: f64 = 0.0,
+        /// cut-off over the highest unstable frequency, when f_cutoff_hz is 0
+        #[min = 0.0]
+        cutoff_factor: f64 = 1.5,
+        /// kind modes: complex mode numbers of the stability tables
+        modes: Vec<i64> = Vec::new(),
+        /// a vector is kept when this fraction of its reference M-norm lies outside the span of
+        /// those before
+        #[min = 0.0]
+        rank_tolerance: f64 = 1e-3,
+        /// fc: add the real modes below the cut-off that the complex modes found do not span (needs
+        /// the modes input)
+        complete: bool = true,
+        /// adaptive: the residual indicator to reach (see the transient's residual_indicator)
+        #[min = 0.0]
+        target: f64 = 1e-3,
+        /// adaptive: most enrichment rounds
+        #[min = 1]
+        max_rounds: usize = 8,
+        /// adaptive: length of the reduced probe run of each round
+        #[unit = "s"]
+        #[min = 0.0]
+        probe_duration: f64 = 2e-3,
+        /// adaptive: the probe run's time step
+        #[unit = "s"]
+        #[min = 0.0]
+        probe_tau: f64 = 1e-6,
+        /// adaptive: the probe starts from the most unstable mode at this amplitude (small: the
+        /// linear growth; a probe into the contact nonlinearity may not converge, docs/science.md
+        /// section 5)
+        #[unit = "m"]
+        #[min = 0.0]
+        probe_amplitude: f64 = 1e-9,
+        /// adaptive: steps of the probe checked against the full step equation; each gives a
+        /// residual vector and a correction
+        #[min = 1]
+        probe_samples: usize = 20,
+        /// bodies (DOF sets no matrix couples: the disc, each pad) of at most this many DOFs stay
+        /// physical whole, with the interface, and the vectors reduce the others (0: the interface
+        /// alone, the paper's bases)
+        #[min = 0]
+        keep_whole_up_to: usize = 0,
+    }
+}
+
+impl HasParams for ReductionBasis {
+    type Params = BasisParams;
 }
 
 impl Stage for ReductionBasis {
@@ -134,89 +187,6 @@ impl Stage for ReductionBasis {
     }
     fn resources(&self) -> Resources {
         Resources::job(2, 8192)
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::choice(
-                "kind",
-                &["fc", "real", "craig_bampton", "modes", "adaptive"],
-                "fc",
-                "vectors off the interface: complex modes and the equilibrium, real modes, fixed-interface modes, the complex modes listed in `modes`, or fc enriched until the residual indicator meets `target`",
-            ),
-            ParamSpec::int(
-                "n_modes",
-                0,
-                "modes taken (0: every mode below the cut-off)",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "f_cutoff_hz",
-                0.0,
-                "Hz",
-                "cut-off frequency (0: cutoff_factor times the highest unstable frequency)",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "cutoff_factor",
-                1.5,
-                "",
-                "cut-off over the highest unstable frequency, when f_cutoff_hz is 0",
-            )
-            .at_least(0.0),
-            ParamSpec::list(
-                "modes",
-                "",
-                "kind modes: complex mode numbers of the stability tables",
-            ),
-            ParamSpec::float(
-                "rank_tolerance",
-                1e-3,
-                "",
-                "a vector is kept when this fraction of its reference M-norm lies outside the span of those before",
-            )
-            .at_least(0.0),
-            ParamSpec::bool(
-                "complete",
-                true,
-                "fc: add the real modes below the cut-off that the complex modes found do not span (needs the modes input)",
-            ),
-            ParamSpec::float(
-                "target",
-                1e-3,
-                "",
-                "adaptive: the residual indicator to reach (see the transient's residual_indicator)",
-            )
-            .at_least(0.0),
-            ParamSpec::int("max_rounds", 8, "adaptive: most enrichment rounds").at_least(1.0),
-            ParamSpec::float(
-                "probe_duration",
-                2e-3,
-                "s",
-                "adaptive: length of the reduced probe run of each round",
-            )
-            .at_least(0.0),
-            ParamSpec::float("probe_tau", 1e-6, "s", "adaptive: the probe run's time step")
-                .at_least(0.0),
-            ParamSpec::float(
-                "probe_amplitude",
-                1e-9,
-                "m",
-                "adaptive: the probe starts from the most unstable mode at this amplitude (small: the linear growth; a probe into the contact nonlinearity may not converge, docs/science.md section 5)",
-            )
-            .at_least(0.0),
-            ParamSpec::int(
-                "probe_samples",
-                20,
-                "adaptive: steps of the probe checked against the full step equation; each gives a residual vector and a correction",
-            )
-            .at_least(1.0),
-            ParamSpec::int(
-                "keep_whole_up_to",
-                0,
-                "bodies (DOF sets no matrix couples: the disc, each pad) of at most this many DOFs stay physical whole, with the interface, and the vectors reduce the others (0: the interface alone, the paper's bases)",
-            )
-            .at_least(0.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -274,10 +244,6 @@ impl Stage for ReductionBasis {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        let params: BasisParams = params.typed()?;
-        list_of_modes(&params.modes).map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         self.run_with(params, inputs, &RunContext::detached())
     }
@@ -287,7 +253,7 @@ impl Stage for ReductionBasis {
         inputs: &Inputs,
         context: &RunContext,
     ) -> Result<Outputs, StageError> {
-        let params: BasisParams = params.typed()?;
+        let params: BasisParams = params.read::<Self>()?;
         if !(params.rank_tolerance > 0.0 && params.rank_tolerance < 1.0) {
             return Err(StageError::new(format!(
                 "basis: rank_tolerance = {}: a fraction of a vector's norm, between 0 and 1 (exclusive)",
@@ -307,12 +273,12 @@ impl Stage for ReductionBasis {
             ));
         }
         let bodies = components(&[&model.M, &model.C, &model.K]);
-        let interface = with_whole_bodies(&bodies, &contact_dofs, params.keep_whole_up_to as usize);
+        let interface = with_whole_bodies(&bodies, &contact_dofs, params.keep_whole_up_to);
         // The phases' shares of an fc build on the default brake; an adaptive basis reports
         // its rounds instead. `squeal run -v` logs them, timed.
         let phase = |fraction: f64, message: String| {
             tracing::info!("basis: {message}");
-            let fraction = if params.kind == "adaptive" {
+            let fraction = if params.kind == BasisKind::Adaptive {
                 0.0
             } else {
                 fraction
@@ -355,7 +321,7 @@ impl Stage for ReductionBasis {
         phase(0.7, format!("M, C, K on the {} vectors", span.len()));
         reduction.extend(model, span.vectors());
         let mut lists = vec![candidates, completion];
-        let rounds = if params.kind == "adaptive" {
+        let rounds = if params.kind == BasisKind::Adaptive {
             let probe = adaptive::Probe {
                 model,
                 equilibrium,
@@ -364,11 +330,11 @@ impl Stage for ReductionBasis {
                 duration: params.probe_duration,
                 tau: params.probe_tau,
                 amplitude: params.probe_amplitude,
-                samples: params.probe_samples as usize,
+                samples: params.probe_samples,
             };
             let enrichment = adaptive::Enrichment {
                 target: params.target,
-                max_rounds: params.max_rounds as usize,
+                max_rounds: params.max_rounds,
                 rank_tolerance: params.rank_tolerance,
             };
             adaptive::enrich(
@@ -381,7 +347,7 @@ impl Stage for ReductionBasis {
             Vec::new()
         };
         let orthonormality = orthonormality_error(&reduction);
-        let basis = reduction.basis(&params.kind);
+        let basis = reduction.basis(params.kind.name());
         let n_candidates: usize = lists.iter().map(Candidates::len).sum();
         let mut summary: Vec<(&str, f64)> = vec![
             ("n_dofs", model.n_dofs() as f64),
@@ -443,31 +409,31 @@ fn candidates_of(
 ) -> Result<(Candidates, Candidates), StageError> {
     let mut candidates = Candidates::new();
     let mut completion = Candidates::new();
-    match params.kind.as_str() {
-        "fc" | "modes" | "adaptive" => {
-            let wanted = if params.kind == "modes" {
+    match params.kind {
+        BasisKind::Fc | BasisKind::Modes | BasisKind::Adaptive => {
+            let wanted = if params.kind == BasisKind::Modes {
                 Wanted::Listed(list_of_modes(&params.modes)?)
             } else {
                 Wanted::Lowest {
-                    n_modes: params.n_modes as usize,
+                    n_modes: params.n_modes,
                     cutoff_hz,
                 }
             };
             candidates.complex_modes(sources, &wanted, model.n_dofs())?;
-            if params.kind != "modes" {
+            if params.kind != BasisKind::Modes {
                 candidates.push(&equilibrium.u, "equilibrium", -1, 0.0, None);
                 if params.complete
                     && let Some(real_modes) = sources.real_modes
                 {
-                    completion.real_modes(real_modes, params.n_modes as usize, cutoff_hz);
+                    completion.real_modes(real_modes, params.n_modes, cutoff_hz);
                 }
             }
         }
-        "real" => {
+        BasisKind::Real => {
             let real_modes = sources.real_modes.ok_or_else(|| {
                 StageError::new("basis: kind real needs the `modes` input (the modes stage)")
             })?;
-            let n_modes = params.n_modes as usize;
+            let n_modes = params.n_modes;
             if n_modes > real_modes.omega.len() {
                 return Err(StageError::new(format!(
                     "basis: n_modes = {n_modes}, the modes stage found {}",
@@ -482,12 +448,9 @@ fn candidates_of(
             }
             candidates.real_modes(real_modes, n_modes, cutoff_hz);
         }
-        _ => candidates.fixed_interface_modes(
-            model,
-            interface,
-            params.n_modes as usize,
-            cutoff_hz,
-        )?,
+        BasisKind::CraigBampton => {
+            candidates.fixed_interface_modes(model, interface, params.n_modes, cutoff_hz)?
+        }
     }
     // With every body kept whole there is nothing left to reduce, and no vector is right.
     if candidates.len() == 0 && interface.len() < model.n_dofs() {
@@ -516,19 +479,14 @@ enum Wanted {
     Listed(Vec<i64>),
 }
 
-fn list_of_modes(text: &str) -> Result<Vec<i64>, StageError> {
-    text.split(',')
-        .map(str::trim)
-        .filter(|item| !item.is_empty())
-        .map(|item| {
-            item.parse::<i64>()
-                .ok()
-                .filter(|&mode| mode >= 1)
-                .ok_or_else(|| {
-                    StageError::new(format!("modes: `{item}` is not a mode number (1, 2, …)"))
-                })
-        })
-        .collect()
+/// The listed mode numbers, each checked to be one (1, 2, …).
+fn list_of_modes(modes: &[i64]) -> Result<Vec<i64>, StageError> {
+    match modes.iter().find(|&&mode| mode < 1) {
+        Some(mode) => Err(StageError::new(format!(
+            "modes: `{mode}` is not a mode number (1, 2, …)"
+        ))),
+        None => Ok(modes.to_vec()),
+    }
 }
 
 /// The cut-off frequency (Hz): given, or `cutoff_factor` × the highest unstable frequency.
@@ -536,7 +494,7 @@ fn cutoff(params: &BasisParams, sources: &Sources) -> Result<f64, StageError> {
     if params.f_cutoff_hz > 0.0 {
         return Ok(params.f_cutoff_hz);
     }
-    if params.n_modes > 0 || params.kind == "modes" {
+    if params.n_modes > 0 || params.kind == BasisKind::Modes {
         return Ok(f64::INFINITY);
     }
     let eigenvalues = sources.eigenvalues.ok_or_else(|| {

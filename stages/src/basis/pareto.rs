@@ -24,16 +24,24 @@ use plotters::prelude::*;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{
-    Coords, Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError, Value,
+    Coords, HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, Value,
 };
 use crate::table::{ColumnData, Table};
 
 pub struct Pareto;
 
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ParetoParams {
-    errors: String,
+crate::stage_params! {
+    /// The parameters of `pareto`.
+    pub struct ParetoParams {
+        /// error columns plotted against run time
+        errors: Vec<String> = ["freq_error", "level_error_db", "time_advance", "rms", "mac_min"]
+            .map(String::from)
+            .to_vec(),
+    }
+}
+
+impl HasParams for Pareto {
+    type Params = ParetoParams;
 }
 
 impl Stage for Pareto {
@@ -46,13 +54,6 @@ impl Stage for Pareto {
     }
     fn doc(&self) -> &'static str {
         "Run time against error over a sweep of bases: one table with speed-ups and errors, the Pareto fronts, and their figure"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::list(
-            "errors",
-            "freq_error, level_error_db, time_advance, rms, mac_min",
-            "error columns plotted against run time",
-        )]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -96,17 +97,8 @@ impl Stage for Pareto {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<ParetoParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: ParetoParams = params.typed()?;
-        let names: Vec<String> = params
-            .errors
-            .split(',')
-            .map(|name| name.trim().to_string())
-            .filter(|name| !name.is_empty())
-            .collect();
+        let names = params.read::<Self>()?.errors;
         let reference_s = seconds(inputs.table("reference_time")?, "reference_time")?;
         let errors = inputs.many("errors")?;
         let run_times = inputs.many("run_times")?;

@@ -16,6 +16,7 @@ use super::*;
 use crate::artifact::basis::{StaticModes, interface_dofs};
 use crate::mesh::brake::BrakeGeometry;
 use crate::modes::Modes;
+use crate::params::DeclaredParams;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
 use crate::transient::Transient;
@@ -469,10 +470,7 @@ fn bad_requests_are_refused_with_what_is_missing() {
     let message = refuse(&[], &without_stability);
     assert!(message.contains("eigenvalues"), "{message}");
     let params = Params::defaults(&ReductionBasis, &[("modes", Value::Str("1, x".into()))]);
-    let message = ReductionBasis
-        .check_params(&params)
-        .unwrap_err()
-        .to_string();
+    let message = ReductionBasis.read_params(&params).unwrap_err().to_string();
     assert!(message.contains("`x`"), "{message}");
     // An adaptive basis names a probe without steps, and a target it cannot reach with the
     // indicator of every round.

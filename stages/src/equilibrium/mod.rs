@@ -68,17 +68,29 @@ use crate::artifact::{Artifact, ArtifactType, Equilibrium};
 use crate::artifact::{ContactFrames, CscMatrix, Model};
 use crate::contact;
 use crate::contact::lcp::{self, Balance, LcpSettings, LcpSolution};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::ldlt::{Factor, ShiftedPencil};
 
 /// The node set the pressure acts on.
 pub const PRESSURE_SET: &str = "pad_backs";
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Solver {
-    FixedPoint,
-    SemismoothNewton,
+crate::choice! {
+    /// The solver of the condensed contact problem.
+    pub enum Solver {
+        /// Semi-smooth Newton on the complementarity function.
+        SemismoothNewton = "newton",
+        /// The paper's projected fixed point.
+        FixedPoint = "fixed_point",
+    }
+}
+
+crate::choice! {
+    /// Which [`Load`] presses the pads, by the name a study gives it.
+    pub enum LoadKind {
+        Interference = "interference",
+        Pressure = "pressure",
+    }
 }
 
 /// What presses the pads onto the disc.
@@ -489,7 +501,7 @@ fn check_contact_holds(B: &Mat<f64>, bodies: &[floating::FloatingBody]) -> Resul
 /// an interference, the z reactions at the pad backs balance the contact forces.
 pub fn back_reactions(
     model: &Model,
-    params: &Params,
+    params: &crate::assemble::AssembleParams,
     u: &[f64],
     set: &str,
 ) -> Result<[f64; 3], StageError> {
@@ -507,8 +519,7 @@ pub fn back_reactions(
         if !hex.iter().any(|node| in_set[*node as usize]) {
             continue;
         }
-        let material =
-            crate::fem::material::Material::from_params(params, &mesh.parts[*part as usize])?;
+        let material = params.material(&mesh.parts[*part as usize])?;
         let coords = hex.map(|node| mesh.nodes[node as usize]);
         let element =
             crate::fem::hex8::element_matrices(&coords, &material.elasticity(), material.density)
@@ -538,23 +549,45 @@ pub fn back_reactions(
     Ok(total)
 }
 
-/// The parameters of `equilibrium`, as declared in [`SlidingEquilibrium::params`].
-#[derive(Debug, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct EquilibriumParams {
-    mu: f64,
-    omega: f64,
-    load: String,
-    interference: f64,
-    pressure: f64,
-    solver: String,
-    tolerance: f64,
-    max_iterations: i64,
-    relaxation: f64,
+crate::stage_params! {
+    /// The parameters of `equilibrium`.
+    pub struct EquilibriumParams {
+        /// friction coefficient
+        #[min = 0.0]
+        mu: f64 = 0.38,
+        /// disc speed (sets the sliding directions)
+        #[unit = "rad/s"]
+        omega: f64 = 4.0,
+        /// clamped backs pushed by `interference`, or `pressure` on backs clamped pad_backs:xy
+        load: LoadKind = LoadKind::Interference,
+        /// load: interference — pad backs pushed toward the disc by this
+        #[unit = "m"]
+        #[min = 0.0]
+        interference: f64 = 1e-4,
+        /// load: pressure — pressure on the pad back faces
+        #[unit = "Pa"]
+        #[min = 0.0]
+        pressure: f64 = 1e6,
+        /// semi-smooth Newton, or the paper's fixed point
+        solver: Solver = Solver::SemismoothNewton,
+        /// complementarity residual to reach
+        #[min = 0.0]
+        tolerance: f64 = LcpSettings::default().tolerance,
+        /// iteration limit
+        #[min = 1]
+        max_iterations: usize = LcpSettings::default().max_iterations,
+        /// fixed point: rho_i = relaxation / A_ii
+        #[min = 0.0]
+        relaxation: f64 = LcpSettings::default().relaxation,
+    }
 }
 
 /// The `equilibrium` stage.
 pub struct SlidingEquilibrium;
+
+impl HasParams for SlidingEquilibrium {
+    type Params = EquilibriumParams;
+}
 
 impl Stage for SlidingEquilibrium {
     fn kind(&self) -> &'static str {
@@ -566,64 +599,6 @@ impl Stage for SlidingEquilibrium {
     }
     fn doc(&self) -> &'static str {
         "Static sliding equilibrium: Signorini contact with Coulomb friction at constant mu, pads pressed by an interference or a back pressure"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        let defaults = LcpSettings::default();
-        vec![
-            ParamSpec::float("mu", 0.38, "", "friction coefficient").at_least(0.0),
-            ParamSpec::float(
-                "omega",
-                4.0,
-                "rad/s",
-                "disc speed (sets the sliding directions)",
-            ),
-            ParamSpec::choice(
-                "load",
-                &["interference", "pressure"],
-                "interference",
-                "clamped backs pushed by `interference`, or `pressure` on backs clamped pad_backs:xy",
-            ),
-            ParamSpec::float(
-                "interference",
-                1e-4,
-                "m",
-                "load: interference — pad backs pushed toward the disc by this",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "pressure",
-                1e6,
-                "Pa",
-                "load: pressure — pressure on the pad back faces",
-            )
-            .at_least(0.0),
-            ParamSpec::choice(
-                "solver",
-                &["newton", "fixed_point"],
-                "newton",
-                "semi-smooth Newton, or the paper's fixed point",
-            ),
-            ParamSpec::float(
-                "tolerance",
-                defaults.tolerance,
-                "",
-                "complementarity residual to reach",
-            )
-            .at_least(0.0),
-            ParamSpec::int(
-                "max_iterations",
-                defaults.max_iterations as i64,
-                "iteration limit",
-            )
-            .at_least(1.0),
-            ParamSpec::float(
-                "relaxation",
-                defaults.relaxation,
-                "",
-                "fixed point: rho_i = relaxation / A_ii",
-            )
-            .at_least(0.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
@@ -664,26 +639,26 @@ impl Stage for SlidingEquilibrium {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<EquilibriumParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
-        let params: EquilibriumParams = params.typed()?;
-        let solver = match params.solver.as_str() {
-            "fixed_point" => Solver::FixedPoint,
-            _ => Solver::SemismoothNewton,
-        };
+        let params: EquilibriumParams = params.read::<Self>()?;
         let settings = LcpSettings {
             tolerance: params.tolerance,
-            max_iterations: params.max_iterations as usize,
+            max_iterations: params.max_iterations,
             relaxation: params.relaxation,
         };
-        let load = match params.load.as_str() {
-            "pressure" => Load::Pressure(params.pressure),
-            _ => Load::Interference(params.interference),
+        let load = match params.load {
+            LoadKind::Interference => Load::Interference(params.interference),
+            LoadKind::Pressure => Load::Pressure(params.pressure),
         };
-        let (equilibrium, report) = solve(model, params.mu, params.omega, load, solver, &settings)?;
+        let (equilibrium, report) = solve(
+            model,
+            params.mu,
+            params.omega,
+            load,
+            params.solver,
+            &settings,
+        )?;
         let contact = contact_table(model, &equilibrium);
         let (strain, element) = largest_strain(model, &equilibrium.u);
         if strain > SMALL_STRAIN {
@@ -851,12 +826,11 @@ fn summary_table(
         ("friction_force_total_N", equilibrium.mu * total),
         ("max_strain_estimate", max_strain),
     ]);
-    let solver = match report.solver {
-        Solver::FixedPoint => "fixed_point",
-        Solver::SemismoothNewton => "newton",
-    };
     Table::quantities(&quantities)
-        .with("solver", vec![solver.to_string(); quantities.len()])
+        .with(
+            "solver",
+            vec![report.solver.name().to_string(); quantities.len()],
+        )
         .with("load", vec![load.to_string(); quantities.len()])
 }
 

@@ -23,12 +23,17 @@
 //! `dof = r - 1`. Clamped DOFs are not in the matrices.
 
 use crate::artifact::{Artifact, ArtifactType, Model};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::params::{HasParams, NoParams};
+use crate::stage::{Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::matrix_market::write_matrix_market;
 
 /// `matrix_market`: writes `M.mtx`, `K.mtx`, `C.mtx` and the `dofs` table.
 pub struct MatrixMarket;
+
+impl HasParams for MatrixMarket {
+    type Params = NoParams;
+}
 
 impl Stage for MatrixMarket {
     fn kind(&self) -> &'static str {
@@ -39,9 +44,6 @@ impl Stage for MatrixMarket {
     }
     fn doc(&self) -> &'static str {
         "Export M, K, C as Matrix Market files (scipy.io.mmread, MATLAB mmread) with the DOF-to-node table"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        Vec::new()
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(

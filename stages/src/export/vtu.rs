@@ -4,11 +4,16 @@
 
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{Mesh, Model, RealModes};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::params::{HasParams, NoParams};
+use crate::stage::{Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::vtu::{mesh_vtu, modes_vtu};
 
 /// `vtu.mesh`: the mesh with its parts, node sets and contact pairs.
 pub struct MeshVtu;
+
+impl HasParams for MeshVtu {
+    type Params = NoParams;
+}
 
 impl Stage for MeshVtu {
     fn kind(&self) -> &'static str {
@@ -19,9 +24,6 @@ impl Stage for MeshVtu {
     }
     fn doc(&self) -> &'static str {
         "Write the mesh as a VTU file for ParaView: parts, node sets, contact pairs"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        Vec::new()
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
@@ -53,11 +55,17 @@ impl Stage for MeshVtu {
 /// `vtu.modes`: the model's mesh with one displacement array per real mode.
 pub struct ModesVtu;
 
-/// The parameters of `vtu.modes`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ModesVtuParams {
-    max_modes: i64,
+crate::stage_params! {
+    /// The parameters of `vtu.modes`.
+    pub struct ModesVtuParams {
+        /// write at most this many modes, lowest first
+        #[min = 1]
+        max_modes: usize = 20,
+    }
+}
+
+impl HasParams for ModesVtu {
+    type Params = ModesVtuParams;
 }
 
 impl Stage for ModesVtu {
@@ -69,16 +77,6 @@ impl Stage for ModesVtu {
     }
     fn doc(&self) -> &'static str {
         "Write real mode shapes as a VTU file for ParaView: one point vector array per mode"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::int(
-                "max_modes",
-                20,
-                "write at most this many modes, lowest first",
-            )
-            .at_least(1.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -104,14 +102,10 @@ impl Stage for ModesVtu {
             "modes.vtu: point data `mode_0001_<f>Hz`, ... (vectors, zero at clamped DOFs)",
         )]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<ModesVtuParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model = inputs.get::<Model>("model")?;
         let modes = inputs.get::<RealModes>("modes")?;
-        let ModesVtuParams { max_modes } = params.typed()?;
-        let max_modes = usize::try_from(max_modes).unwrap_or(0);
+        let ModesVtuParams { max_modes } = params.read::<Self>()?;
         let text = modes_vtu(model, modes, max_modes)?;
         Ok(Outputs::from([(
             "modes".to_string(),

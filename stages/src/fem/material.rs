@@ -14,7 +14,7 @@
 //!
 //! Rayleigh damping of a part: `C_part = α M_part + β K_part`.
 
-use crate::stage::{ParamSpec, Params, StageError};
+use crate::value::StageError;
 
 /// The part names that carry a material, and the prefix of their parameters.
 pub const MATERIAL_PARTS: [&str; 2] = ["disc", "pad"];
@@ -34,20 +34,8 @@ pub struct Material {
 }
 
 impl Material {
-    /// The material of part `part` (`disc` or `pad`) from the stage parameters.
-    pub fn from_params(params: &Params, part: &str) -> Result<Material, StageError> {
-        let material = Material {
-            youngs_modulus: params.float(&format!("E_{part}")),
-            poisson_ratio: params.float(&format!("nu_{part}")),
-            density: params.float(&format!("rho_{part}")),
-            alpha: params.float(&format!("alpha_{part}")),
-            beta: params.float(&format!("beta_{part}")),
-        };
-        material.check(part)?;
-        Ok(material)
-    }
-
-    fn check(&self, part: &str) -> Result<(), StageError> {
+    /// Checks the constants of part `part`, named as its parameters are (`E_disc`, …).
+    pub fn check(&self, part: &str) -> Result<(), StageError> {
         if !(self.youngs_modulus > 0.0 && self.youngs_modulus.is_finite()) {
             return Err(StageError::new(format!(
                 "E_{part} = {} Pa: Young's modulus must be positive",
@@ -88,39 +76,6 @@ impl Material {
         }
         D
     }
-}
-
-/// The five material parameters of part `part`, with the given defaults.
-pub fn material_params(part: &'static str, defaults: [f64; 5]) -> Vec<ParamSpec> {
-    let [E, nu, rho, alpha, beta] = defaults;
-    // Parameter names must be 'static: the two parts are spelled out.
-    let names: [&'static str; 5] = match part {
-        "disc" => ["E_disc", "nu_disc", "rho_disc", "alpha_disc", "beta_disc"],
-        _ => ["E_pad", "nu_pad", "rho_pad", "alpha_pad", "beta_pad"],
-    };
-    let docs: [&'static str; 5] = match part {
-        "disc" => [
-            "Young's modulus of the disc",
-            "Poisson's ratio of the disc",
-            "density of the disc",
-            "Rayleigh mass-proportional damping of the disc (C = alpha M + beta K)",
-            "Rayleigh stiffness-proportional damping of the disc (C = alpha M + beta K)",
-        ],
-        _ => [
-            "Young's modulus of the pads",
-            "Poisson's ratio of the pads",
-            "density of the pads",
-            "Rayleigh mass-proportional damping of the pads (C = alpha M + beta K)",
-            "Rayleigh stiffness-proportional damping of the pads (C = alpha M + beta K)",
-        ],
-    };
-    vec![
-        ParamSpec::float(names[0], E, "Pa", docs[0]).at_least(0.0),
-        ParamSpec::float(names[1], nu, "", docs[1]),
-        ParamSpec::float(names[2], rho, "kg/m^3", docs[2]).at_least(0.0),
-        ParamSpec::float(names[3], alpha, "1/s", docs[3]).at_least(0.0),
-        ParamSpec::float(names[4], beta, "s", docs[4]).at_least(0.0),
-    ]
 }
 
 #[cfg(test)]

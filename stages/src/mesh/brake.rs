@@ -22,46 +22,63 @@ use super::contact_faces::FaceIntegrals;
 use super::structured::annulus;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{ContactPair, Mesh};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
-/// Geometry and resolution of the brake, in SI units.
-/// Its fields are the parameters of `mesh.brake`, read by [`Params::typed`].
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BrakeGeometry {
-    pub r_inner: f64,
-    pub r_outer: f64,
-    pub thickness: f64,
-    pub n_radial: usize,
-    pub n_theta: usize,
-    pub n_thick: usize,
-    pub pad_center_deg: f64,
-    pub pucks_radial: usize,
-    pub pucks_angular: usize,
-    pub puck_cells: usize,
-    pub puck_gap_cells: usize,
-    pub puck_height: f64,
-    pub puck_layers: usize,
+crate::stage_params! {
+    /// Geometry and resolution of the brake, in SI units: the parameters of `mesh.brake`.
+    pub struct BrakeGeometry {
+        /// disc inner radius (clamped hub)
+        #[unit = "m"]
+        #[min = 0.0]
+        r_inner: f64 = 0.18,
+        /// disc outer radius
+        #[unit = "m"]
+        #[min = 0.0]
+        r_outer: f64 = 0.32,
+        /// disc thickness
+        #[unit = "m"]
+        #[min = 0.0]
+        thickness: f64 = 0.045,
+        /// disc cells along the radius
+        #[min = 1]
+        n_radial: usize = 12,
+        /// disc cells around the circumference
+        #[min = 1]
+        n_theta: usize = 180,
+        /// disc cells through the thickness
+        #[min = 1]
+        n_thick: usize = 3,
+        /// angular position of the pads (degrees)
+        pad_center_deg: f64 = 90.0,
+        /// pucks per pad along the radius
+        #[min = 1]
+        pucks_radial: usize = 3,
+        /// pucks per pad around the circumference
+        #[min = 1]
+        pucks_angular: usize = 3,
+        /// disc face cells covered by a puck, per direction
+        #[min = 1]
+        puck_cells: usize = 3,
+        /// disc cells between pucks
+        #[min = 0]
+        puck_gap_cells: usize = 1,
+        /// height of a puck
+        #[unit = "m"]
+        #[min = 0.0]
+        puck_height: f64 = 0.02,
+        /// puck cells through its height
+        #[min = 1]
+        puck_layers: usize = 3,
+    }
 }
 
+/// The declared defaults.
 impl Default for BrakeGeometry {
     fn default() -> Self {
-        BrakeGeometry {
-            r_inner: 0.18,
-            r_outer: 0.32,
-            thickness: 0.045,
-            n_radial: 12,
-            n_theta: 180,
-            n_thick: 3,
-            pad_center_deg: 90.0,
-            pucks_radial: 3,
-            pucks_angular: 3,
-            puck_cells: 3,
-            puck_gap_cells: 1,
-            puck_height: 0.02,
-            puck_layers: 3,
-        }
+        Params::defaults(&MeshBrake, &[])
+            .read::<MeshBrake>()
+            .expect("the declared defaults read")
     }
 }
 
@@ -315,6 +332,10 @@ fn add_puck(
 /// The `mesh.brake` stage.
 pub struct MeshBrake;
 
+impl HasParams for MeshBrake {
+    type Params = BrakeGeometry;
+}
+
 impl Stage for MeshBrake {
     fn kind(&self) -> &'static str {
         "mesh.brake"
@@ -324,52 +345,6 @@ impl Stage for MeshBrake {
     }
     fn doc(&self) -> &'static str {
         "Parametric disc brake: annular disc with pad pucks on both faces, conforming contact pairs"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        let d = BrakeGeometry::default();
-        let int = |name, value: usize, doc| ParamSpec::int(name, value as i64, doc).at_least(1.0);
-        vec![
-            ParamSpec::float("r_inner", d.r_inner, "m", "disc inner radius (clamped hub)")
-                .at_least(0.0),
-            ParamSpec::float("r_outer", d.r_outer, "m", "disc outer radius").at_least(0.0),
-            ParamSpec::float("thickness", d.thickness, "m", "disc thickness").at_least(0.0),
-            int("n_radial", d.n_radial, "disc cells along the radius"),
-            int("n_theta", d.n_theta, "disc cells around the circumference"),
-            int("n_thick", d.n_thick, "disc cells through the thickness"),
-            ParamSpec::float(
-                "pad_center_deg",
-                d.pad_center_deg,
-                "",
-                "angular position of the pads (degrees)",
-            ),
-            int(
-                "pucks_radial",
-                d.pucks_radial,
-                "pucks per pad along the radius",
-            ),
-            int(
-                "pucks_angular",
-                d.pucks_angular,
-                "pucks per pad around the circumference",
-            ),
-            int(
-                "puck_cells",
-                d.puck_cells,
-                "disc face cells covered by a puck, per direction",
-            ),
-            ParamSpec::int(
-                "puck_gap_cells",
-                d.puck_gap_cells as i64,
-                "disc cells between pucks",
-            )
-            .at_least(0.0),
-            ParamSpec::float("puck_height", d.puck_height, "m", "height of a puck").at_least(0.0),
-            int(
-                "puck_layers",
-                d.puck_layers,
-                "puck cells through its height",
-            ),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -388,11 +363,8 @@ impl Stage for MeshBrake {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<BrakeGeometry>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let geometry: BrakeGeometry = params.typed()?;
+        let geometry = params.read::<Self>()?;
         let mesh = brake(&geometry).map_err(StageError::new)?;
         let summary = Table::new()
             .with(

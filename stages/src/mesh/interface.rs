@@ -10,23 +10,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::contact_faces::{FaceIntegrals, quad_tangents};
 use crate::artifact::mesh::{ContactPair, Mesh, dot, norm, sub};
-use crate::stage::{ParamSpec, StageError};
-
-/// The importers' contact parameters: the two sides (`side_docs`: what names each, the disc's
-/// then the pad's) and the pairing tolerance.
-pub fn contact_params(side_docs: [&'static str; 2]) -> [ParamSpec; 3] {
-    [
-        ParamSpec::string("contact_disc", "contact_disc", side_docs[0]),
-        ParamSpec::string("contact_pad", "contact_pad", side_docs[1]),
-        ParamSpec::float(
-            "contact_tolerance",
-            1e-3,
-            "",
-            "largest distance between paired nodes, relative to the shortest contact face edge",
-        )
-        .at_least(0.0),
-    ]
-}
+use crate::value::StageError;
 
 /// The two sides as given: both named, or both empty (no contact).
 pub fn contact_sides(disc: &str, pad: &str, what: &str) -> Result<Option<[String; 2]>, StageError> {

@@ -25,13 +25,17 @@ use faer::Mat;
 
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{Model, RealModes};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 use squeal_linalg::eigensolver::{self, Band, Eigensolution, SolveOptions};
 
 /// `modes`: model → real modes, a table per mode and the wide table of mode shapes.
 pub struct Modes;
+
+impl HasParams for Modes {
+    type Params = ModesParams;
+}
 
 impl Stage for Modes {
     fn kind(&self) -> &'static str {
@@ -44,31 +48,6 @@ impl Stage for Modes {
 
     fn doc(&self) -> &'static str {
         "Real modes K phi = omega^2 M phi by shift-invert block Lanczos, completeness proved by a Sturm count"
-    }
-
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::int(
-                "n_modes",
-                20,
-                "number of modes, lowest first; 0 means every mode up to f_max_hz",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "f_max_hz",
-                0.0,
-                "Hz",
-                "highest frequency wanted; 0 means no upper bound",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "shift_hz",
-                0.0,
-                "Hz",
-                "lowest frequency wanted (the spectral shift); 0 includes rigid-body modes",
-            )
-            .at_least(0.0),
-        ]
     }
 
     fn inputs(&self) -> Vec<PortSpec> {
@@ -102,9 +81,6 @@ impl Stage for Modes {
         ]
     }
 
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<ModesParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let band = band_from_params(params)?;
@@ -126,13 +102,21 @@ impl Stage for Modes {
     }
 }
 
-/// The parameters of `modes`, as declared in [`Modes::params`].
-#[derive(Debug, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ModesParams {
-    n_modes: i64,
-    f_max_hz: f64,
-    shift_hz: f64,
+crate::stage_params! {
+    /// The parameters of `modes`.
+    pub struct ModesParams {
+        /// number of modes, lowest first; 0 means every mode up to f_max_hz
+        #[min = 0]
+        n_modes: usize = 20,
+        /// highest frequency wanted; 0 means no upper bound
+        #[unit = "Hz"]
+        #[min = 0.0]
+        f_max_hz: f64 = 0.0,
+        /// lowest frequency wanted (the spectral shift); 0 includes rigid-body modes
+        #[unit = "Hz"]
+        #[min = 0.0]
+        shift_hz: f64 = 0.0,
+    }
 }
 
 /// The wanted band from the stage parameters, as eigenvalues λ = ω² = (2π f)².
@@ -141,10 +125,10 @@ pub fn band_from_params(params: &Params) -> Result<Band, StageError> {
         n_modes,
         f_max_hz,
         shift_hz,
-    } = params.typed()?;
-    if n_modes < 0 || !(f_max_hz >= 0.0) || !(shift_hz >= 0.0) {
+    } = params.read::<Modes>()?;
+    if !(f_max_hz >= 0.0) || !(shift_hz >= 0.0) {
         return Err(StageError::new(format!(
-            "n_modes = {n_modes}, f_max_hz = {f_max_hz}, shift_hz = {shift_hz}: none may be negative"
+            "f_max_hz = {f_max_hz}, shift_hz = {shift_hz}: neither may be negative"
         )));
     }
     if n_modes == 0 && f_max_hz == 0.0 {
@@ -159,7 +143,7 @@ pub fn band_from_params(params: &Params) -> Result<Band, StageError> {
     }
     let lambda = |frequency_hz: f64| (2.0 * std::f64::consts::PI * frequency_hz).powi(2);
     Ok(Band {
-        n_modes: n_modes as usize,
+        n_modes,
         lambda_lo: lambda(shift_hz),
         lambda_hi: if f_max_hz > 0.0 {
             lambda(f_max_hz)

@@ -42,7 +42,7 @@ use super::svd_projection::{MassMatrix, mass_svd, snapshot_matrix};
 use super::uniform_series;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 /// The contact-zone averages compared by RMS.
@@ -54,14 +54,29 @@ const CANDIDATE_PEAKS_PER_PEAK: usize = 3;
 
 pub struct Compare;
 
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CompareParams {
-    column: String,
-    window_s: f64,
-    n_peaks: i64,
-    threshold_db: f64,
-    n_shapes: i64,
+crate::stage_params! {
+    /// The parameters of `compare`.
+    pub struct CompareParams {
+        /// history column whose spectrum is compared
+        column: String = "kinetic".into(),
+        /// final window of the spectra and contact states (0: the last fifth of the reference)
+        #[unit = "s"]
+        #[min = 0.0]
+        window_s: f64 = 0.0,
+        /// reference peaks compared
+        #[min = 1]
+        n_peaks: usize = 3,
+        /// peaks at most this far below the highest
+        #[unit = "dB"]
+        threshold_db: f64 = -30.0,
+        /// principal shapes compared (with snapshots)
+        #[min = 1]
+        n_shapes: usize = 3,
+    }
+}
+
+impl HasParams for Compare {
+    type Params = CompareParams;
 }
 
 impl Stage for Compare {
@@ -74,35 +89,6 @@ impl Stage for Compare {
     }
     fn doc(&self) -> &'static str {
         "A transient run beside a reference: spectral peak frequencies and levels, time advance of the growth, RMS of the contact averages, contact states, MAC of the principal shapes"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::string(
-                "column",
-                "kinetic",
-                "history column whose spectrum is compared",
-            ),
-            ParamSpec::float(
-                "window_s",
-                0.0,
-                "s",
-                "final window of the spectra and contact states (0: the last fifth of the reference)",
-            )
-            .at_least(0.0),
-            ParamSpec::int("n_peaks", 3, "reference peaks compared").at_least(1.0),
-            ParamSpec::float(
-                "threshold_db",
-                -30.0,
-                "dB",
-                "peaks at most this far below the highest",
-            ),
-            ParamSpec::int(
-                "n_shapes",
-                3,
-                "principal shapes compared (with snapshots)",
-            )
-            .at_least(1.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -159,11 +145,8 @@ impl Stage for Compare {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<CompareParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: CompareParams = params.typed()?;
+        let params: CompareParams = params.read::<Self>()?;
         let reference = Run::read(inputs.table("reference")?, "reference")?;
         let candidate = Run::read(inputs.table("candidate")?, "candidate")?;
         same_time_span(&reference, &candidate)?;
@@ -178,7 +161,7 @@ impl Stage for Compare {
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
         let mut errors = Table::new();
-        let n_peaks = params.n_peaks as usize;
+        let n_peaks = params.n_peaks;
         let peaks = compare_peaks(&spectra[0], &spectra[1], n_peaks, params.threshold_db);
         let (mut freq_error, mut level_error) = (0.0_f64, 0.0_f64);
         for (k, peak) in peaks.iter().enumerate() {
@@ -223,7 +206,7 @@ impl Stage for Compare {
                 .with(state.to_string(), vec![means[1]])
                 .with(format!("{state}_error"), vec![(means[1] - means[0]).abs()]);
         }
-        if let Some(macs) = shape_macs(inputs, params.n_shapes as usize)? {
+        if let Some(macs) = shape_macs(inputs, params.n_shapes)? {
             let worst = macs.iter().copied().fold(1.0, f64::min);
             for (k, mac) in macs.iter().enumerate() {
                 errors = errors.with(format!("mac_{}", k + 1), vec![*mac]);

@@ -18,31 +18,53 @@
 //! number for CSV, as an editor shows it).
 
 use std::fs::File;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use arrow::array::{Array, Float64Array};
-use arrow::compute::cast;
-use arrow::datatypes::DataType;
+use arrow_array::Array;
+use arrow_array::cast::AsArray;
+use arrow_array::types::{
+    ArrowPrimitiveType, Float16Type, Float32Type, Float64Type, Int8Type, Int16Type, Int32Type,
+    Int64Type, UInt8Type, UInt16Type, UInt32Type, UInt64Type,
+};
+use arrow_schema::DataType;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 use super::TIME_COLUMN;
 use crate::artifact::ArtifactType;
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
-use crate::table::{Table, single_output};
+use crate::stage::{
+    HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, single_output,
+};
+use crate::table::Table;
 
-const FORMATS: &[&str] = &["auto", "csv", "parquet"];
+crate::choice! {
+    /// The format of the file to read, as a study names it.
+    pub enum FileFormat {
+        /// By the file's extension: `.parquet`, `.pq` or `.csv`.
+        Auto = "auto",
+        Csv = "csv",
+        Parquet = "parquet",
+    }
+}
 
 /// `signal.read`: a signal table from a Parquet or CSV file (impure, never cached).
 pub struct Read;
 
-/// The parameters of `signal.read`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ReadParams {
-    path: String,
-    time_column: String,
-    columns: String,
-    format: String,
+crate::stage_params! {
+    /// The parameters of `signal.read`.
+    pub struct ReadParams {
+        /// the CSV or Parquet file (relative to the study's folder)
+        path: PathBuf,
+        /// the time column (s, strictly increasing); named `t` in the output
+        time_column: String = TIME_COLUMN.into(),
+        /// signal columns to keep (empty: every other column)
+        columns: Vec<String> = Vec::new(),
+        /// file format; auto: by extension (.parquet, .pq or .csv)
+        format: FileFormat = FileFormat::Auto,
+    }
+}
+
+impl HasParams for Read {
+    type Params = ReadParams;
 }
 
 impl Stage for Read {
@@ -54,30 +76,6 @@ impl Stage for Read {
     }
     fn doc(&self) -> &'static str {
         "Read a time series (time column + signal columns) from a Parquet or CSV file; never cached"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::path(
-                "path",
-                "the CSV or Parquet file (relative to the study's folder)",
-            ),
-            ParamSpec::string(
-                "time_column",
-                TIME_COLUMN,
-                "the time column (s, strictly increasing); named `t` in the output",
-            ),
-            ParamSpec::list(
-                "columns",
-                "",
-                "signal columns to keep (empty: every other column)",
-            ),
-            ParamSpec::choice(
-                "format",
-                FORMATS,
-                "auto",
-                "file format; auto: by extension (.parquet, .pq or .csv)",
-            ),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -92,25 +90,17 @@ impl Stage for Read {
     fn pure(&self) -> bool {
         false
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<ReadParams>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: ReadParams = params.typed()?;
+        let params = params.read::<Self>()?;
         let request = ReadRequest {
-            path: Path::new(&params.path),
+            path: &params.path,
             time_column: &params.time_column,
-            columns: params
-                .columns
-                .split(',')
-                .map(str::trim)
-                .filter(|name| !name.is_empty())
-                .collect(),
+            columns: params.columns.iter().map(String::as_str).collect(),
         };
-        let format = match params.format.as_str() {
-            "auto" => Format::from_extension(request.path)?,
-            "csv" => Format::Csv,
-            _ => Format::Parquet,
+        let format = match params.format {
+            FileFormat::Auto => Format::from_extension(request.path)?,
+            FileFormat::Csv => Format::Csv,
+            FileFormat::Parquet => Format::Parquet,
         };
         let table = match format {
             Format::Csv => read_csv(&request)?,
@@ -280,6 +270,35 @@ fn read_csv(request: &ReadRequest) -> Result<Table, StageError> {
     })
 }
 
+/// A numeric column's values as f64 (`None` where null), as a cast would give them; `None`
+/// for a column that is not numeric.
+fn numbers_of(array: &dyn Array) -> Option<Vec<Option<f64>>> {
+    fn widened<T: ArrowPrimitiveType>(
+        array: &dyn Array,
+        to_f64: impl Fn(T::Native) -> f64,
+    ) -> Vec<Option<f64>> {
+        array
+            .as_primitive::<T>()
+            .iter()
+            .map(|value| value.map(&to_f64))
+            .collect()
+    }
+    Some(match array.data_type() {
+        DataType::Int8 => widened::<Int8Type>(array, f64::from),
+        DataType::Int16 => widened::<Int16Type>(array, f64::from),
+        DataType::Int32 => widened::<Int32Type>(array, f64::from),
+        DataType::Int64 => widened::<Int64Type>(array, |value| value as f64),
+        DataType::UInt8 => widened::<UInt8Type>(array, f64::from),
+        DataType::UInt16 => widened::<UInt16Type>(array, f64::from),
+        DataType::UInt32 => widened::<UInt32Type>(array, f64::from),
+        DataType::UInt64 => widened::<UInt64Type>(array, |value| value as f64),
+        DataType::Float16 => widened::<Float16Type>(array, f64::from),
+        DataType::Float32 => widened::<Float32Type>(array, f64::from),
+        DataType::Float64 => widened::<Float64Type>(array, |value| value),
+        _ => return None,
+    })
+}
+
 fn read_parquet(request: &ReadRequest) -> Result<Table, StageError> {
     let file = File::open(request.path).map_err(|err| request.error(err))?;
     let builder =
@@ -310,26 +329,21 @@ fn read_parquet(request: &ReadRequest) -> Result<Table, StageError> {
     for batch in reader {
         let batch = batch.map_err(|err| request.error(err))?;
         let append = |idx: usize, out: &mut Vec<f64>| -> Result<(), StageError> {
-            let as_f64 =
-                cast(batch.column(idx), &DataType::Float64).map_err(|err| request.error(err))?;
-            let values = as_f64
-                .as_any()
-                .downcast_ref::<Float64Array>()
-                .expect("cast to Float64 gives a Float64Array");
-            for row in 0..values.len() {
-                if values.is_null(row) || !values.value(row).is_finite() {
-                    let shown = if values.is_null(row) {
-                        "null".to_string()
-                    } else {
-                        values.value(row).to_string()
-                    };
-                    return Err(request.error(format_args!(
-                        "column `{}` row {} is {shown}, not a finite number",
-                        available[idx],
-                        rows_before + row
-                    )));
+            let values = numbers_of(batch.column(idx)).ok_or_else(|| {
+                request.error(format_args!("column `{}` is not numeric", available[idx]))
+            })?;
+            for (row, value) in values.into_iter().enumerate() {
+                match value {
+                    Some(value) if value.is_finite() => out.push(value),
+                    _ => {
+                        let shown = value.map_or("null".to_string(), |value| value.to_string());
+                        return Err(request.error(format_args!(
+                            "column `{}` row {} is {shown}, not a finite number",
+                            available[idx],
+                            rows_before + row
+                        )));
+                    }
                 }
-                out.push(values.value(row));
             }
             Ok(())
         };
@@ -369,9 +383,8 @@ mod tests {
     use std::collections::BTreeMap;
     use std::sync::Arc;
 
-    use arrow::array::{ArrayRef, Int32Array, StringArray};
-    use arrow::datatypes::{Field, Schema};
-    use arrow::record_batch::RecordBatch;
+    use arrow_array::{ArrayRef, Float64Array, Int32Array, RecordBatch, StringArray};
+    use arrow_schema::{Field, Schema};
     use parquet::arrow::ArrowWriter;
 
     use super::*;

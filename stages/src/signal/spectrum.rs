@@ -36,32 +36,20 @@ use realfft::RealFftPlanner;
 use super::uniform_series;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
-const WINDOWS: &[&str] = &["hann", "rect", "hamming", "blackman"];
-const DETRENDS: &[&str] = &["mean", "none", "linear"];
-
-/// A tapering window, periodic form.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Window {
-    Rect,
-    Hann,
-    Hamming,
-    Blackman,
+crate::choice! {
+    /// A tapering window, periodic form.
+    pub enum Window {
+        Hann = "hann",
+        Rect = "rect",
+        Hamming = "hamming",
+        Blackman = "blackman",
+    }
 }
 
 impl Window {
-    pub fn from_name(name: &str) -> Option<Window> {
-        match name {
-            "rect" => Some(Window::Rect),
-            "hann" => Some(Window::Hann),
-            "hamming" => Some(Window::Hamming),
-            "blackman" => Some(Window::Blackman),
-            _ => None,
-        }
-    }
-
     pub fn samples(self, n: usize) -> Vec<f64> {
         (0..n)
             .map(|idx| {
@@ -77,24 +65,16 @@ impl Window {
     }
 }
 
-/// What is removed from the samples before windowing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Detrend {
-    None,
-    Mean,
-    Linear,
+crate::choice! {
+    /// What is removed from the samples before windowing.
+    pub enum Detrend {
+        Mean = "mean",
+        None = "none",
+        Linear = "linear",
+    }
 }
 
 impl Detrend {
-    pub fn from_name(name: &str) -> Option<Detrend> {
-        match name {
-            "none" => Some(Detrend::None),
-            "mean" => Some(Detrend::Mean),
-            "linear" => Some(Detrend::Linear),
-            _ => None,
-        }
-    }
-
     fn apply(self, values: &[f64]) -> Vec<f64> {
         let n = values.len() as f64;
         match self {
@@ -180,16 +160,30 @@ pub fn find_peaks(power: &[f64], threshold_db: f64, n_peaks: usize) -> Vec<usize
 /// `spectrum`: power spectrum, peaks and a figure of one column.
 pub struct Spectrum;
 
-/// The parameters of `spectrum`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SpectrumParams {
-    column: String,
-    window_s: f64,
-    window: String,
-    detrend: String,
-    n_peaks: i64,
-    threshold_db: f64,
+crate::stage_params! {
+    /// The parameters of `spectrum`.
+    pub struct SpectrumParams {
+        /// the signal column to analyse
+        column: String,
+        /// length of the analysed window, ending at the last sample (0: the whole record)
+        #[unit = "s"]
+        #[min = 0.0]
+        window_s: f64 = 0.0,
+        /// tapering window
+        window: Window = Window::Hann,
+        /// removed before windowing
+        detrend: Detrend = Detrend::Mean,
+        /// most peaks reported
+        #[min = 0]
+        n_peaks: usize = 10,
+        /// peaks at most this far below the highest one (<= 0)
+        #[unit = "dB"]
+        threshold_db: f64 = -40.0,
+    }
+}
+
+impl HasParams for Spectrum {
+    type Params = SpectrumParams;
 }
 
 impl Stage for Spectrum {
@@ -201,27 +195,6 @@ impl Stage for Spectrum {
     }
     fn doc(&self) -> &'static str {
         "FFT power spectrum of one signal column over its last window_s seconds, with its peaks"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::string("column", "", "the signal column to analyse").required(),
-            ParamSpec::float(
-                "window_s",
-                0.0,
-                "s",
-                "length of the analysed window, ending at the last sample (0: the whole record)",
-            )
-            .at_least(0.0),
-            ParamSpec::choice("window", WINDOWS, "hann", "tapering window"),
-            ParamSpec::choice("detrend", DETRENDS, "mean", "removed before windowing"),
-            ParamSpec::int("n_peaks", 10, "most peaks reported").at_least(0.0),
-            ParamSpec::float(
-                "threshold_db",
-                -40.0,
-                "dB",
-                "peaks at most this far below the highest one (<= 0)",
-            ),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
@@ -252,11 +225,8 @@ impl Stage for Spectrum {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<SpectrumParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: SpectrumParams = params.typed()?;
+        let params: SpectrumParams = params.read::<Self>()?;
         let column = params.column.as_str();
         let series = uniform_series(inputs.table("signal")?, column)?;
         let threshold_db = params.threshold_db;
@@ -284,15 +254,14 @@ impl Stage for Spectrum {
                 series.dt
             )));
         }
-        let window = Window::from_name(&params.window).expect("validated choice");
-        let detrend = Detrend::from_name(&params.detrend).expect("validated choice");
+        let (window, detrend) = (params.window, params.detrend);
         let samples = &series.values[series.len() - n_window..];
         let spectrum = power_spectrum(samples, series.dt, window, detrend);
-        let peaks = find_peaks(&spectrum.power, threshold_db, params.n_peaks as usize);
+        let peaks = find_peaks(&spectrum.power, threshold_db, params.n_peaks);
 
         let plot = SpectrumPlot {
             column,
-            window_name: &params.window,
+            window_name: window.name(),
             window_s: n_window as f64 * series.dt,
             spectrum: &spectrum,
             peaks: &peaks,

@@ -52,7 +52,7 @@ use plotters::prelude::*;
 use crate::artifact::{Artifact, ArtifactType};
 pub use crate::complex_modes::ComplexModes;
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::{ColumnData, Table};
 
 /// Relative asymmetry of `M` tolerated (to the largest entry): values read back from text
@@ -380,12 +380,20 @@ impl ComplexModes {
 /// `svd_projection`: principal shapes of the last snapshots, projected on the complex modes.
 pub struct SvdProjection;
 
-/// The parameters of `svd_projection`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ProjectionParams {
-    n_last_snapshots: i64,
-    n_shapes: i64,
+crate::stage_params! {
+    /// The parameters of `svd_projection`.
+    pub struct ProjectionParams {
+        /// snapshots used, the last ones (0: all)
+        #[min = 0]
+        n_last_snapshots: usize = 0,
+        /// principal shapes projected and plotted
+        #[min = 1]
+        n_shapes: usize = 4,
+    }
+}
+
+impl HasParams for SvdProjection {
+    type Params = ProjectionParams;
 }
 
 impl Stage for SvdProjection {
@@ -397,17 +405,6 @@ impl Stage for SvdProjection {
     }
     fn doc(&self) -> &'static str {
         "Principal shapes of snapshots in the mass inner product, projected on the complex modes"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::int(
-                "n_last_snapshots",
-                0,
-                "snapshots used, the last ones (0: all)",
-            )
-            .at_least(0.0),
-            ParamSpec::int("n_shapes", 4, "principal shapes projected and plotted").at_least(1.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -460,13 +457,10 @@ impl Stage for SvdProjection {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<ProjectionParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: ProjectionParams = params.typed()?;
+        let params: ProjectionParams = params.read::<Self>()?;
         let snapshot_table = inputs.table("snapshots")?;
-        let x = snapshot_matrix(snapshot_table, params.n_last_snapshots as usize)?;
+        let x = snapshot_matrix(snapshot_table, params.n_last_snapshots)?;
         let (n_dofs, n_snapshots) = (x.nrows(), x.ncols());
         let modes_table = inputs.table("modes")?;
         if modes_table.n_rows() != n_dofs {
@@ -479,7 +473,7 @@ impl Stage for SvdProjection {
         let modes = ComplexModes::from_tables(modes_table, inputs.table("frequencies")?)?;
 
         let svd = mass_svd(&x, &mass)?;
-        let n_shapes = (params.n_shapes as usize).min(n_snapshots);
+        let n_shapes = params.n_shapes.min(n_snapshots);
         let shapes = svd.shapes.subcols(0, n_shapes).to_owned();
         let coefficients = modes.coefficients(&shapes, &mass)?;
 

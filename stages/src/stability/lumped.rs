@@ -7,6 +7,7 @@
 //! make the stage impure: it reruns every time, and stages below it still cut off early.
 
 use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
 
 use faer::c64;
 
@@ -15,7 +16,7 @@ use super::sliding::{mul_complex, norm};
 use super::{EigenPair, conditioning, eigenvalue_table, mode_name};
 use crate::artifact::CscMatrix;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::matrix_market::read_matrix_market;
 
@@ -111,16 +112,32 @@ fn dense_pairs(
 /// `stability.matrices`.
 pub struct StabilityMatrices;
 
-/// The parameters of `stability.matrices`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MatricesParams {
-    m_path: String,
-    c_path: String,
-    k_path: String,
-    kf_path: String,
-    f_max_hz: f64,
-    mu: f64,
+crate::stage_params! {
+    /// The parameters of `stability.matrices`.
+    pub struct MatricesParams {
+        /// mass matrix, Matrix Market
+        m_path: PathBuf,
+        /// damping matrix, Matrix Market (may have no entries)
+        c_path: PathBuf,
+        /// stiffness matrix (with the friction coupling, or without it when kf_path is given),
+        /// Matrix Market
+        k_path: PathBuf,
+        /// friction coupling per unit mu, Matrix Market: the stiffness is K + mu Kf (sweep mu
+        /// through a mode coupling)
+        kf_path: Option<PathBuf> = None,
+        /// top of the band; 0 keeps every mode
+        #[unit = "Hz"]
+        #[min = 0.0]
+        f_max_hz: f64 = 0.0,
+        /// friction coefficient: multiplies kf_path; without it, the one the matrices were built
+        /// with (labels only)
+        #[min = 0.0]
+        mu: f64 = 0.0,
+    }
+}
+
+impl HasParams for StabilityMatrices {
+    type Params = MatricesParams;
 }
 
 impl Stage for StabilityMatrices {
@@ -133,32 +150,6 @@ impl Stage for StabilityMatrices {
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of a small model from Matrix Market M, C, K (dense; lumped friction models)"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::path("m_path", "mass matrix, Matrix Market"),
-            ParamSpec::path(
-                "c_path",
-                "damping matrix, Matrix Market (may have no entries)",
-            ),
-            ParamSpec::path(
-                "k_path",
-                "stiffness matrix (with the friction coupling, or without it when kf_path is given), Matrix Market",
-            ),
-            ParamSpec::optional_path(
-                "kf_path",
-                "friction coupling per unit mu, Matrix Market: the stiffness is K + mu Kf (sweep mu through a mode coupling)",
-            ),
-            ParamSpec::float("f_max_hz", 0.0, "Hz", "top of the band; 0 keeps every mode")
-                .at_least(0.0),
-            ParamSpec::float(
-                "mu",
-                0.0,
-                "",
-                "friction coefficient: multiplies kf_path; without it, the one the matrices were built with (labels only)",
-            )
-            .at_least(0.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -185,27 +176,29 @@ impl Stage for StabilityMatrices {
     fn pure(&self) -> bool {
         false
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<MatricesParams>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: MatricesParams = params.typed()?;
-        let read = |path: &str| -> Result<CscMatrix, StageError> {
-            let text = std::fs::read_to_string(path)
-                .map_err(|err| StageError::new(format!("{path}: {err}")))?;
-            read_matrix_market(&text).map_err(|err| StageError::new(format!("{path}: {err}")))
+        let params = params.read::<Self>()?;
+        let read = |path: &Path| -> Result<CscMatrix, StageError> {
+            let failed =
+                |err: &dyn std::fmt::Display| StageError::new(format!("{}: {err}", path.display()));
+            let text = std::fs::read_to_string(path).map_err(|err| failed(&err))?;
+            read_matrix_market(&text).map_err(|err| failed(&err))
         };
         let (M, C, mut K) = (
             read(&params.m_path)?,
             read(&params.c_path)?,
             read(&params.k_path)?,
         );
-        if !params.kf_path.is_empty() {
-            let friction = read(&params.kf_path)?;
+        if let Some(kf_path) = &params.kf_path {
+            let friction = read(kf_path)?;
             if (friction.n_rows, friction.n_cols) != (K.n_rows, K.n_cols) {
                 return Err(StageError::new(format!(
                     "{}: {} x {}, K is {} x {}: the matrices must be of one size",
-                    params.kf_path, friction.n_rows, friction.n_cols, K.n_rows, K.n_cols
+                    kf_path.display(),
+                    friction.n_rows,
+                    friction.n_cols,
+                    K.n_rows,
+                    K.n_cols
                 )));
             }
             K = CscMatrix::from_triplets(

@@ -55,7 +55,7 @@ use crate::artifact::Equilibrium;
 use crate::artifact::Model;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{
-    Inputs, Outputs, ParamSpec, Params, PortSpec, Progress, Resources, RunContext, Stage,
+    HasParams, Inputs, Outputs, Params, PortSpec, Progress, Resources, RunContext, Stage,
     StageError,
 };
 use crate::table::Table;
@@ -71,6 +71,24 @@ pub const DENSE_LIMIT: usize = 300;
 pub const UNSTABLE_FLOOR: f64 = 1e-8;
 /// With `n_real_modes = 0`, the projection keeps every real mode below this multiple of f_max.
 pub const PROJECTION_BAND_FACTOR: f64 = 1.5;
+
+crate::choice! {
+    /// Which [`Method`] solves the band, by the name a study gives it.
+    pub enum MethodKind {
+        /// Shift-invert Arnoldi over the band (the reference).
+        Krylov = "krylov",
+        /// Projection on real modes (fast, approximate).
+        RealModeProjection = "real_mode_projection",
+    }
+}
+
+crate::choice! {
+    /// Which mode shapes go to the shapes table.
+    pub enum ShapesKept {
+        All = "all",
+        Unstable = "unstable",
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Method {
@@ -427,19 +445,43 @@ pub fn eigenvalue_table(pairs: &[EigenPair]) -> Table {
 /// The `stability` stage.
 pub struct Stability;
 
-/// The parameters of `stability`, as declared in [`Stability::params`].
-#[derive(Debug, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct StabilityParams {
-    method: String,
-    f_max_hz: f64,
-    max_divergence_rate: f64,
-    friction_damping: bool,
-    n_real_modes: i64,
-    max_basis: i64,
-    shapes: String,
-    check_dense: bool,
-    condition_numbers: bool,
+crate::stage_params! {
+    /// The parameters of `stability`.
+    pub struct StabilityParams {
+        /// shift-invert Arnoldi (reference), or projection on real modes (fast, approximate)
+        method: MethodKind = MethodKind::Krylov,
+        /// top of the band
+        #[unit = "Hz"]
+        #[min = 0.0]
+        f_max_hz: f64 = Settings::default().f_max_hz,
+        /// modes with |2 Re/Im| beyond this are not sought (squeal modes lie within a few %; a
+        /// wider band needs wider disks, so a larger max_basis, at high frequency: 0.2 on the
+        /// default brake to 17 kHz does not fit 960 vectors)
+        #[min = 0.0]
+        max_divergence_rate: f64 = Settings::default().max_divergence_rate,
+        /// include the damping mu r_n / |v_g| of the friction direction
+        friction_damping: bool = true,
+        /// real_mode_projection: real modes in the basis (0: all below 1.5 f_max_hz)
+        #[min = 0]
+        n_real_modes: usize = 0,
+        /// krylov: largest Arnoldi basis per shift (memory and time grow with it)
+        #[min = 8]
+        max_basis: usize = Settings::default().krylov.max_basis,
+        /// which mode shapes go to the shapes table
+        shapes: ShapesKept = ShapesKept::All,
+        /// krylov: also solve densely (small models: a dense eigenproblem of twice the sliding
+        /// DOFs, at most 6,000) and report in the summary how far each solve's eigenvalues are from
+        /// the other's
+        check_dense: bool = false,
+        /// krylov: also solve the transposed problem (its eigenvectors are the left ones) for each
+        /// eigenvalue's condition number and error bound, at twice the run time; systems solved
+        /// densely always have them
+        condition_numbers: bool = false,
+    }
+}
+
+impl HasParams for Stability {
+    type Params = StabilityParams;
 }
 
 impl Stage for Stability {
@@ -455,58 +497,6 @@ impl Stage for Stability {
     }
     fn resources(&self) -> Resources {
         Resources::job(4, 4096)
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        let defaults = Settings::default();
-        vec![
-            ParamSpec::choice(
-                "method",
-                &["krylov", "real_mode_projection"],
-                "krylov",
-                "shift-invert Arnoldi (reference), or projection on real modes (fast, approximate)",
-            ),
-            ParamSpec::float("f_max_hz", defaults.f_max_hz, "Hz", "top of the band").at_least(0.0),
-            ParamSpec::float(
-                "max_divergence_rate",
-                defaults.max_divergence_rate,
-                "",
-                "modes with |2 Re/Im| beyond this are not sought (squeal modes lie within a few %; a wider band needs wider disks, so a larger max_basis, at high frequency: 0.2 on the default brake to 17 kHz does not fit 960 vectors)",
-            )
-            .at_least(0.0),
-            ParamSpec::bool(
-                "friction_damping",
-                true,
-                "include the damping mu r_n / |v_g| of the friction direction",
-            ),
-            ParamSpec::int(
-                "n_real_modes",
-                0,
-                "real_mode_projection: real modes in the basis (0: all below 1.5 f_max_hz)",
-            )
-            .at_least(0.0),
-            ParamSpec::int(
-                "max_basis",
-                defaults.krylov.max_basis as i64,
-                "krylov: largest Arnoldi basis per shift (memory and time grow with it)",
-            )
-            .at_least(8.0),
-            ParamSpec::choice(
-                "shapes",
-                &["all", "unstable"],
-                "all",
-                "which mode shapes go to the shapes table",
-            ),
-            ParamSpec::bool(
-                "check_dense",
-                false,
-                "krylov: also solve densely (small models: a dense eigenproblem of twice the sliding DOFs, at most 6,000) and report in the summary how far each solve's eigenvalues are from the other's",
-            ),
-            ParamSpec::bool(
-                "condition_numbers",
-                false,
-                "krylov: also solve the transposed problem (its eigenvectors are the left ones) for each eigenvalue's condition number and error bound, at twice the run time; systems solved densely always have them",
-            ),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -554,9 +544,6 @@ impl Stage for Stability {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<StabilityParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         self.run_with(params, inputs, &RunContext::detached())
     }
@@ -568,12 +555,12 @@ impl Stage for Stability {
     ) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
-        let params: StabilityParams = params.typed()?;
-        let method = match params.method.as_str() {
-            "real_mode_projection" => Method::RealModeProjection {
-                n_real_modes: params.n_real_modes as usize,
+        let params = params.read::<Self>()?;
+        let method = match params.method {
+            MethodKind::Krylov => Method::Krylov,
+            MethodKind::RealModeProjection => Method::RealModeProjection {
+                n_real_modes: params.n_real_modes,
             },
-            _ => Method::Krylov,
         };
         let settings = Settings {
             method,
@@ -581,7 +568,7 @@ impl Stage for Stability {
             max_divergence_rate: params.max_divergence_rate,
             friction_damping: params.friction_damping,
             krylov: KrylovOptions {
-                max_basis: params.max_basis as usize,
+                max_basis: params.max_basis,
                 ..KrylovOptions::default()
             },
             dense_limit: DENSE_LIMIT,
@@ -598,7 +585,7 @@ impl Stage for Stability {
             .iter()
             .map(|pair| mode_shape(&solution.system, &pair.q))
             .collect();
-        let only_unstable = params.shapes == "unstable";
+        let only_unstable = params.shapes == ShapesKept::Unstable;
         let mut fields = Vec::new();
         let mut unstable_fields = Vec::new();
         for (mode, (pair, shape)) in solution.pairs.iter().zip(&shapes).enumerate() {

@@ -14,6 +14,7 @@ use crate::assemble::test_model;
 use crate::contact::lcp::LcpSettings;
 use crate::equilibrium::{self, Load, Solver};
 use crate::mesh::brake::{BrakeGeometry, brake};
+use crate::params::DeclaredParams;
 use crate::stability::sliding::Part;
 use crate::stage::{Input, Value};
 

@@ -21,7 +21,7 @@ use faer::{Mat, c64};
 use super::figure::{Branch, coalescence_figure};
 use super::shapes_from_table;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError, Value};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, Value};
 use crate::table::{ColumnData, Table};
 
 /// A row of the tracked table: axis value, branch, mode, freq_hz, re, im, unstable, residual,
@@ -271,12 +271,19 @@ pub fn pair_modes(mac: &Mat<f64>, min_mac: f64) -> Vec<Option<(usize, f64)>> {
 /// `stability.track`.
 pub struct Track;
 
-/// The parameters of `stability.track`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TrackParams {
-    axis: String,
-    min_mac: f64,
+crate::stage_params! {
+    /// The parameters of `stability.track`.
+    pub struct TrackParams {
+        /// the swept parameter to order the points by
+        axis: String = "mu".into(),
+        /// smallest MAC for a mode to continue a branch
+        #[min = 0.0]
+        min_mac: f64 = 0.5,
+    }
+}
+
+impl HasParams for Track {
+    type Params = TrackParams;
 }
 
 impl Stage for Track {
@@ -288,18 +295,6 @@ impl Stage for Track {
     }
     fn doc(&self) -> &'static str {
         "Follow the complex modes of a sweep (e.g. over mu) by MAC; one table and a coalescence figure"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::string("axis", "mu", "the swept parameter to order the points by"),
-            ParamSpec::float(
-                "min_mac",
-                0.5,
-                "",
-                "smallest MAC for a mode to continue a branch",
-            )
-            .at_least(0.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -329,11 +324,8 @@ impl Stage for Track {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<TrackParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let TrackParams { axis, min_mac } = params.typed()?;
+        let TrackParams { axis, min_mac } = params.read::<Self>()?;
         let eigenvalues = inputs.many("eigenvalues")?;
         let shapes = inputs.many("shapes")?;
         let points = sweep_points(&axis, eigenvalues, shapes)?;

@@ -108,21 +108,12 @@ const SINGLE_PRECISION_TOLERANCE: f64 = 1e-9;
 /// Residuals kept for an error message.
 const HISTORY_KEPT: usize = 12;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Solver {
-    ActiveSet,
-    GaussSeidel,
-    FixedPoint,
-}
-
-impl Solver {
-    /// The name the transient's `solver` parameter gives it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Solver::ActiveSet => "active_set",
-            Solver::GaussSeidel => "gauss_seidel",
-            Solver::FixedPoint => "fixed_point",
-        }
+crate::choice! {
+    /// The contact solver, by the name the transient's `solver` parameter gives it.
+    pub enum Solver {
+        ActiveSet = "active_set",
+        GaussSeidel = "gauss_seidel",
+        FixedPoint = "fixed_point",
     }
 }
 

@@ -75,11 +75,10 @@ pub mod scheme;
 pub(crate) mod tests;
 
 use faer::c64;
-use serde::Deserialize;
 
 use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
 use crate::stage::{
-    Inputs, Outputs, ParamSpec, Params, PortSpec, Resources, RunContext, Stage, StageError,
+    HasParams, Inputs, Outputs, Params, PortSpec, Resources, RunContext, Stage, StageError,
 };
 use crate::table::{ColumnData, Table};
 use contact::Solver;
@@ -94,24 +93,70 @@ pub const MAX_STEPS: usize = 10_000_000;
 
 pub struct Transient;
 
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TransientParams {
-    theta: f64,
-    tau: f64,
-    duration: f64,
-    initial: String,
-    mode: i64,
-    amplitude: f64,
-    kick_velocity: f64,
-    solver: String,
-    tolerance: f64,
-    max_iterations: i64,
-    output_every: i64,
-    record_pairs: String,
-    snapshot_window: f64,
-    n_snapshots: i64,
-    indicator_samples: i64,
+crate::choice! {
+    /// How a run starts from the sliding equilibrium.
+    pub enum Initial {
+        /// Plus a complex mode of the stability tables.
+        Mode = "mode",
+        /// Plus a normal velocity of the pads' contact nodes.
+        Kick = "kick",
+    }
+}
+
+crate::stage_params! {
+    /// The parameters of `transient`.
+    pub struct TransientParams {
+        /// theta of the scheme, in [0.5, 1] (0.5: second order, conservative)
+        theta: f64 = 0.5,
+        /// time step
+        #[unit = "s"]
+        #[min = 0.0]
+        tau: f64 = 1e-6,
+        /// simulated time
+        #[unit = "s"]
+        #[min = 0.0]
+        duration: f64 = 2e-3,
+        /// start: equilibrium plus a complex mode, or plus a normal velocity of the pads' contact
+        /// nodes
+        initial: Initial = Initial::Mode,
+        /// initial: mode, the mode number of the stability tables (0: the most unstable)
+        #[min = 0]
+        mode: i64 = 0,
+        /// initial: mode, the largest displacement component of the mode
+        #[unit = "m"]
+        #[min = 0.0]
+        amplitude: f64 = 1e-8,
+        /// initial: kick, the normal velocity given to every pad contact node
+        #[unit = "m/s"]
+        kick_velocity: f64 = 1e-3,
+        /// contact solver: a chord Newton on the pairs' active set with a kept factorisation,
+        /// falling back to projected Gauss-Seidel; projected Gauss-Seidel alone; or the Jacobi
+        /// fixed point of the projection laws
+        solver: Solver = Solver::ActiveSet,
+        /// contact solver tolerance (natural residual over the force scale)
+        #[min = 0.0]
+        tolerance: f64 = 1e-10,
+        /// contact solver iteration limit per step
+        #[min = 1]
+        max_iterations: usize = 2000,
+        /// steps between rows of history, points and energy
+        #[min = 1]
+        output_every: usize = 1,
+        /// contact pairs recorded in points (empty: four spread over the pairs)
+        record_pairs: Vec<usize> = Vec::new(),
+        /// length of the final window kept as snapshots (0: the last fifth of the run)
+        #[unit = "s"]
+        #[min = 0.0]
+        snapshot_window: f64 = 0.0,
+        /// snapshots kept over the final window
+        #[min = 1]
+        n_snapshots: usize = 100,
+        /// with a basis: steps, spread over the run, at which the full step equation is checked on
+        /// the lifted reduced solution (the residual indicator); 0: no indicator (the full J is not
+        /// factorised, the summary's residual_indicator is NaN)
+        #[min = 0]
+        indicator_samples: usize = 20,
+    }
 }
 
 impl TransientParams {
@@ -153,14 +198,10 @@ impl TransientParams {
     fn n_steps(&self) -> usize {
         (self.duration / self.tau).round() as usize
     }
+}
 
-    fn solver(&self) -> Solver {
-        match self.solver.as_str() {
-            "fixed_point" => Solver::FixedPoint,
-            "gauss_seidel" => Solver::GaussSeidel,
-            _ => Solver::ActiveSet,
-        }
-    }
+impl HasParams for Transient {
+    type Params = TransientParams;
 }
 
 impl Stage for Transient {
@@ -176,88 +217,6 @@ impl Stage for Transient {
     }
     fn resources(&self) -> Resources {
         Resources::job(2, 2048)
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::float(
-                "theta",
-                0.5,
-                "",
-                "theta of the scheme, in [0.5, 1] (0.5: second order, conservative)",
-            ),
-            ParamSpec::float("tau", 1e-6, "s", "time step").at_least(0.0),
-            ParamSpec::float("duration", 2e-3, "s", "simulated time").at_least(0.0),
-            ParamSpec::choice(
-                "initial",
-                &["mode", "kick"],
-                "mode",
-                "start: equilibrium plus a complex mode, or plus a normal velocity of the pads' contact nodes",
-            ),
-            ParamSpec::int(
-                "mode",
-                0,
-                "initial: mode, the mode number of the stability tables (0: the most unstable)",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "amplitude",
-                1e-8,
-                "m",
-                "initial: mode, the largest displacement component of the mode",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "kick_velocity",
-                1e-3,
-                "m/s",
-                "initial: kick, the normal velocity given to every pad contact node",
-            ),
-            ParamSpec::choice(
-                "solver",
-                &["active_set", "gauss_seidel", "fixed_point"],
-                "active_set",
-                "contact solver: a chord Newton on the pairs' active set with a kept factorisation, falling back to projected Gauss-Seidel; projected Gauss-Seidel alone; or the Jacobi fixed point of the projection laws",
-            ),
-            ParamSpec::float(
-                "tolerance",
-                1e-10,
-                "",
-                "contact solver tolerance (natural residual over the force scale)",
-            )
-            .at_least(0.0),
-            ParamSpec::int(
-                "max_iterations",
-                2000,
-                "contact solver iteration limit per step",
-            )
-            .at_least(1.0),
-            ParamSpec::int(
-                "output_every",
-                1,
-                "steps between rows of history, points and energy",
-            )
-            .at_least(1.0),
-            ParamSpec::list(
-                "record_pairs",
-                "",
-                "contact pairs recorded in points (empty: four spread over the pairs)",
-            ),
-            ParamSpec::float(
-                "snapshot_window",
-                0.0,
-                "s",
-                "length of the final window kept as snapshots (0: the last fifth of the run)",
-            )
-            .at_least(0.0),
-            ParamSpec::int("n_snapshots", 100, "snapshots kept over the final window")
-                .at_least(1.0),
-            ParamSpec::int(
-                "indicator_samples",
-                20,
-                "with a basis: steps, spread over the run, at which the full step equation is checked on the lifted reduced solution (the residual indicator); 0: no indicator (the full J is not factorised, the summary's residual_indicator is NaN)",
-            )
-            .at_least(0.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![
@@ -341,9 +300,6 @@ impl Stage for Transient {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<TransientParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         self.run_with(params, inputs, &RunContext::detached())
     }
@@ -357,13 +313,13 @@ impl Stage for Transient {
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         let eigenvalues = inputs.table("eigenvalues")?;
         let shapes = inputs.table("shapes")?;
-        let params: TransientParams = params.typed()?;
+        let params = params.read::<Self>()?;
         params.check()?;
         model.check_dof_map()?;
         let (structure, contact_state) = structure_of(model, equilibrium)?;
-        let (u0, v0) = match params.initial.as_str() {
-            "kick" => kick(model, equilibrium, params.kick_velocity),
-            _ => {
+        let (u0, v0) = match params.initial {
+            Initial::Kick => kick(model, equilibrium, params.kick_velocity),
+            Initial::Mode => {
                 let (lambda, shape) =
                     chosen_mode(eigenvalues, shapes, params.mode, model.n_dofs())?;
                 mode_start(lambda, &shape, params.amplitude)
@@ -376,7 +332,7 @@ impl Stage for Transient {
                 .map_err(|err| StageError::new(format!("transient: {}", err.message)))?;
         }
         let samples = if basis.is_some() {
-            params.indicator_samples as usize
+            params.indicator_samples
         } else {
             0
         };
@@ -605,26 +561,17 @@ fn settings_of(
     n_samples: usize,
 ) -> Result<Settings, StageError> {
     let n_steps = params.n_steps();
-    let record_pairs: Vec<usize> = if params.record_pairs.trim().is_empty() {
+    if let Some(pair) = params.record_pairs.iter().find(|&&pair| pair >= n_pairs) {
+        return Err(StageError::new(format!(
+            "record_pairs: `{pair}` is not a pair number (0 to {})",
+            n_pairs.saturating_sub(1)
+        )));
+    }
+    let record_pairs: Vec<usize> = if params.record_pairs.is_empty() {
         let count = n_pairs.min(4);
         (0..count).map(|k| k * n_pairs / count.max(1)).collect()
     } else {
-        params
-            .record_pairs
-            .split(',')
-            .map(|item| {
-                let item = item.trim();
-                item.parse::<usize>()
-                    .ok()
-                    .filter(|&p| p < n_pairs)
-                    .ok_or_else(|| {
-                        StageError::new(format!(
-                            "record_pairs: `{item}` is not a pair number (0 to {})",
-                            n_pairs.saturating_sub(1)
-                        ))
-                    })
-            })
-            .collect::<Result<_, _>>()?
+        params.record_pairs.clone()
     };
     let window = if params.snapshot_window > 0.0 {
         params.snapshot_window
@@ -632,7 +579,7 @@ fn settings_of(
         0.2 * params.duration
     };
     let window_steps = ((window / params.tau).round() as usize).clamp(1, n_steps);
-    let n_snapshots = (params.n_snapshots as usize).min(window_steps);
+    let n_snapshots = params.n_snapshots.min(window_steps);
     let stride = window_steps / n_snapshots;
     let snapshot_steps: Vec<usize> = (0..n_snapshots)
         .map(|k| n_steps - (n_snapshots - 1 - k) * stride)
@@ -641,10 +588,10 @@ fn settings_of(
         theta: params.theta,
         tau: params.tau,
         n_steps,
-        solver: params.solver(),
+        solver: params.solver,
         tolerance: params.tolerance,
-        max_iterations: params.max_iterations as usize,
-        output_every: params.output_every as usize,
+        max_iterations: params.max_iterations,
+        output_every: params.output_every,
         record_pairs,
         snapshot_steps,
         sample_steps: spread_steps(n_steps, n_samples),

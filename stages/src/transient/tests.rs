@@ -11,6 +11,7 @@ use crate::assemble::test_model;
 use crate::contact::lcp::LcpSettings;
 use crate::equilibrium::{self, Load};
 use crate::mesh::brake::{BrakeGeometry, brake};
+use crate::params::DeclaredParams;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
 

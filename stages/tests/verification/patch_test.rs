@@ -5,7 +5,6 @@ use faer::{Mat, Side};
 use serde::Deserialize;
 use squeal_stages::assemble::with_default_materials;
 use squeal_stages::fem::hex8;
-use squeal_stages::fem::material::Material;
 use squeal_stages::mesh::structured;
 
 use crate::reference;
@@ -98,7 +97,8 @@ fn constant_strain_patch_test_on_a_distorted_mesh() {
         gradient[1][2] + gradient[2][1],
         gradient[2][0] + gradient[0][2],
     ];
-    let D = Material::from_params(&params, "disc")
+    let D = params
+        .material("disc")
         .expect("default material")
         .elasticity();
     let stress = |strain: &[f64; 6]| -> [f64; 6] {

@@ -36,12 +36,12 @@
 //!   surfaces or node sets named by `contact_disc` and `contact_pad`. The disc's faces are a
 //!   surface's own faces, or every boundary face whose four nodes are in the node set.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::mesh::interface;
-use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 
 mod deck;
 mod model;
@@ -85,14 +85,25 @@ pub fn read_inp_text(
 /// still gives identical bytes, which leaves downstream stages cached).
 pub struct AbaqusImport;
 
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AbaqusParams {
-    path: String,
-    parts: String,
-    contact_disc: String,
-    contact_pad: String,
-    contact_tolerance: f64,
+crate::stage_params! {
+    /// The parameters of `mesh.abaqus`.
+    pub struct AbaqusParams {
+        /// the .inp file (relative to the study's folder)
+        path: PathBuf,
+        /// element sets (or instances) that are the parts; every element in exactly one
+        parts: Vec<String> = vec!["disc".into(), "pad".into()],
+        /// surface or node set of the disc side of the contact interface ("" = no contact)
+        contact_disc: String = "contact_disc".into(),
+        /// surface or node set of the pad side of the contact interface ("" = no contact)
+        contact_pad: String = "contact_pad".into(),
+        /// largest distance between paired nodes, relative to the shortest contact face edge
+        #[min = 0.0]
+        contact_tolerance: f64 = 1e-3,
+    }
+}
+
+impl HasParams for AbaqusImport {
+    type Params = AbaqusParams;
 }
 
 impl Stage for AbaqusImport {
@@ -104,28 +115,6 @@ impl Stage for AbaqusImport {
     }
     fn doc(&self) -> &'static str {
         "Import a hexahedral Abaqus input file (.inp: C3D8/C3D8I/C3D8R, sets, surfaces, includes, parts and instances flattened) with contact pairs; reads a file, so never cached"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec {
-                name: "path",
-                ty: ParamType::Path,
-                default: None,
-                unit: "",
-                doc: "the .inp file (relative to the study's folder)",
-            },
-            ParamSpec::list(
-                "parts",
-                "disc, pad",
-                "element sets (or instances) that are the parts; every element in exactly one",
-            ),
-        ]
-        .into_iter()
-        .chain(interface::contact_params([
-            "surface or node set of the disc side of the contact interface (\"\" = no contact)",
-            "surface or node set of the pad side of the contact interface (\"\" = no contact)",
-        ]))
-        .collect()
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -140,20 +129,13 @@ impl Stage for AbaqusImport {
     fn pure(&self) -> bool {
         false
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<AbaqusParams>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: AbaqusParams = params.typed()?;
-        let path = params.path.as_str();
-        if path.is_empty() {
-            return Err(StageError::new("path is empty: name the .inp file to read"));
-        }
+        let params = params.read::<Self>()?;
+        let path = params.path.display();
         let parts: Vec<String> = params
             .parts
-            .split(',')
-            .map(|part| part.trim().to_lowercase())
-            .filter(|part| !part.is_empty())
+            .iter()
+            .map(|part| part.to_lowercase())
             .collect();
         if parts.is_empty() {
             return Err(StageError::new(
@@ -170,7 +152,7 @@ impl Stage for AbaqusImport {
             pad: pad.to_lowercase(),
             relative_tolerance: params.contact_tolerance,
         });
-        let mesh = read_inp(Path::new(path), &ReadOptions { parts, contact }).map_err(|err| {
+        let mesh = read_inp(&params.path, &ReadOptions { parts, contact }).map_err(|err| {
             StageError::new(if err.at.is_empty() {
                 format!("{path}: {}", err.message)
             } else {

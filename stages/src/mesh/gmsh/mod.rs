@@ -45,11 +45,12 @@
 
 use std::collections::HashMap;
 use std::fmt;
+use std::path::PathBuf;
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::mesh::interface;
-use crate::stage::{Inputs, Outputs, ParamSpec, ParamType, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 
 mod build;
 mod parse;
@@ -114,14 +115,23 @@ impl fmt::Display for MshError {
 /// gives identical bytes, which leaves downstream stages cached).
 pub struct GmshImport;
 
-/// The parameters of `mesh.gmsh`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct GmshParams {
-    path: String,
-    contact_disc: String,
-    contact_pad: String,
-    contact_tolerance: f64,
+crate::stage_params! {
+    /// The parameters of `mesh.gmsh`.
+    pub struct GmshParams {
+        /// the .msh file (relative to the study's folder)
+        path: PathBuf,
+        /// physical surface of the disc side of the contact interface ("" = no contact)
+        contact_disc: String = "contact_disc".into(),
+        /// physical surface of the pad side of the contact interface ("" = no contact)
+        contact_pad: String = "contact_pad".into(),
+        /// largest distance between paired nodes, relative to the shortest contact face edge
+        #[min = 0.0]
+        contact_tolerance: f64 = 1e-3,
+    }
+}
+
+impl HasParams for GmshImport {
+    type Params = GmshParams;
 }
 
 impl Stage for GmshImport {
@@ -133,21 +143,6 @@ impl Stage for GmshImport {
     }
     fn doc(&self) -> &'static str {
         "Import a hexahedral Gmsh mesh (MSH 4.1 ASCII) with parts, node sets and contact pairs; reads a file, so never cached"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec {
-            name: "path",
-            ty: ParamType::Path,
-            default: None,
-            unit: "",
-            doc: "the .msh file (relative to the study's folder)",
-        }]
-        .into_iter()
-        .chain(interface::contact_params([
-            "physical surface of the disc side of the contact interface (\"\" = no contact)",
-            "physical surface of the pad side of the contact interface (\"\" = no contact)",
-        ]))
-        .collect()
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -162,15 +157,9 @@ impl Stage for GmshImport {
     fn pure(&self) -> bool {
         false
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<GmshParams>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: GmshParams = params.typed()?;
-        let path = params.path.as_str();
-        if path.is_empty() {
-            return Err(StageError::new("path is empty: name the .msh file to read"));
-        }
+        let params = params.read::<Self>()?;
+        let path = params.path.display();
         let contact = interface::contact_sides(
             &params.contact_disc,
             &params.contact_pad,
@@ -181,7 +170,8 @@ impl Stage for GmshImport {
             pad,
             relative_tolerance: params.contact_tolerance,
         });
-        let bytes = std::fs::read(path).map_err(|err| StageError::new(format!("{path}: {err}")))?;
+        let bytes =
+            std::fs::read(&params.path).map_err(|err| StageError::new(format!("{path}: {err}")))?;
         let mesh = read_msh_bytes(&bytes, &ReadOptions { contact }).map_err(|err| {
             StageError::new(match err.line {
                 Some(line) => format!("{path}:{line}: {}", err.message),

@@ -35,7 +35,7 @@ use std::f64::consts::PI;
 use super::{UniformSeries, log_spaced, uniform_series};
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot;
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
+use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
 pub use cwt::{MorletCwt, next_fast_len};
@@ -59,17 +59,38 @@ pub fn e_folding_time(scale: f64) -> f64 {
 /// `wavelet`: Morlet CWT power of one column on a log-spaced frequency grid.
 pub struct Wavelet;
 
-/// The parameters of `wavelet`, as declared.
-#[derive(Debug, Clone, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct WaveletParams {
-    column: String,
-    k0: f64,
-    f_min_hz: f64,
-    f_max_hz: f64,
-    n_freqs: i64,
-    dt_out_s: f64,
-    map_range_db: f64,
+crate::stage_params! {
+    /// The parameters of `wavelet`.
+    pub struct WaveletParams {
+        /// the signal column to transform
+        column: String,
+        /// Morlet central wavenumber k₀ (rad)
+        #[min = 0.0]
+        k0: f64 = 6.0,
+        /// lowest frequency of the grid
+        #[unit = "Hz"]
+        #[min = 0.0]
+        f_min_hz: f64,
+        /// highest frequency, at most Nyquist
+        #[unit = "Hz"]
+        #[min = 0.0]
+        f_max_hz: f64,
+        /// number of frequencies, log-spaced
+        #[min = 1]
+        n_freqs: usize = 100,
+        /// output time step, rounded to a multiple of the sample step (0: every sample)
+        #[unit = "s"]
+        #[min = 0.0]
+        dt_out_s: f64 = 0.0,
+        /// colour range of the map below its maximum
+        #[unit = "dB"]
+        #[min = 1.0]
+        map_range_db: f64 = 60.0,
+    }
+}
+
+impl HasParams for Wavelet {
+    type Params = WaveletParams;
 }
 
 impl Stage for Wavelet {
@@ -82,33 +103,6 @@ impl Stage for Wavelet {
     }
     fn doc(&self) -> &'static str {
         "Morlet wavelet power of one signal column on a log-spaced time-frequency grid, with its cone of influence"
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::string("column", "", "the signal column to transform").required(),
-            ParamSpec::float("k0", 6.0, "", "Morlet central wavenumber k₀ (rad)").at_least(0.0),
-            ParamSpec::float("f_min_hz", 0.0, "Hz", "lowest frequency of the grid")
-                .at_least(0.0)
-                .required(),
-            ParamSpec::float("f_max_hz", 0.0, "Hz", "highest frequency, at most Nyquist")
-                .at_least(0.0)
-                .required(),
-            ParamSpec::int("n_freqs", 100, "number of frequencies, log-spaced").at_least(1.0),
-            ParamSpec::float(
-                "dt_out_s",
-                0.0,
-                "s",
-                "output time step, rounded to a multiple of the sample step (0: every sample)",
-            )
-            .at_least(0.0),
-            ParamSpec::float(
-                "map_range_db",
-                60.0,
-                "dB",
-                "colour range of the map below its maximum",
-            )
-            .at_least(1.0),
-        ]
     }
     fn inputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
@@ -131,11 +125,8 @@ impl Stage for Wavelet {
             ),
         ]
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<WaveletParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let params: WaveletParams = params.typed()?;
+        let params: WaveletParams = params.read::<Self>()?;
         let column = params.column.as_str();
         let series = uniform_series(inputs.table("signal")?, column)?;
         let grid = TransformGrid::from_params(&params, &series)?;
@@ -179,7 +170,7 @@ impl TransformGrid {
     fn from_params(params: &WaveletParams, series: &UniformSeries) -> Result<Self, StageError> {
         let k0 = params.k0;
         let (f_min, f_max) = (params.f_min_hz, params.f_max_hz);
-        let n_freqs = params.n_freqs as usize;
+        let n_freqs = params.n_freqs;
         let nyquist = 0.5 / series.dt;
         if k0 <= 0.0 {
             return Err(StageError::new(format!("k0 = {k0} must be positive")));

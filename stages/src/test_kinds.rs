@@ -6,8 +6,10 @@
 use std::sync::Arc;
 
 use crate::artifact::ArtifactType;
-use crate::stage::{Inputs, Outputs, ParamSpec, Params, PortSpec, Stage, StageError};
-use crate::table::{ColumnData, Table, single_output};
+use crate::stage::{
+    HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, single_output,
+};
+use crate::table::{ColumnData, Table};
 
 pub fn kinds() -> Vec<Arc<dyn Stage>> {
     vec![
@@ -49,6 +51,10 @@ fn x_table(values: Vec<f64>) -> Outputs {
 
 pub struct Constant;
 
+impl HasParams for Constant {
+    type Params = ConstantParams;
+}
+
 impl Stage for Constant {
     fn kind(&self) -> &'static str {
         "test.constant"
@@ -59,28 +65,23 @@ impl Stage for Constant {
     fn doc(&self) -> &'static str {
         "Test source: a column `x` holding `value` in every row"
     }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::float("value", 1.0, "", "the value of every row"),
-            ParamSpec::int("rows", 1, "number of rows").at_least(1.0),
-        ]
-    }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
     }
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<ConstantParams>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let ConstantParams { value, rows } = params.typed()?;
-        Ok(x_table(vec![value; rows as usize]))
+        let ConstantParams { value, rows } = params.read::<Self>()?;
+        Ok(x_table(vec![value; rows]))
     }
 }
 
 pub struct Affine;
+
+impl HasParams for Affine {
+    type Params = AffineParams;
+}
 
 impl Stage for Affine {
     fn kind(&self) -> &'static str {
@@ -92,23 +93,14 @@ impl Stage for Affine {
     fn doc(&self) -> &'static str {
         "Test arithmetic: x -> scale x + offset"
     }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::float("scale", 1.0, "", "multiplier"),
-            ParamSpec::float("offset", 0.0, "", "added after scaling"),
-        ]
-    }
     fn inputs(&self) -> Vec<PortSpec> {
         input_port()
     }
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<AffineParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let AffineParams { scale, offset } = params.typed()?;
+        let AffineParams { scale, offset } = params.read::<Self>()?;
         Ok(x_table(
             column_x(inputs)?
                 .iter()
@@ -120,6 +112,10 @@ impl Stage for Affine {
 
 pub struct Sum;
 
+impl HasParams for Sum {
+    type Params = SumParams;
+}
+
 impl Stage for Sum {
     fn kind(&self) -> &'static str {
         "test.sum"
@@ -130,9 +126,6 @@ impl Stage for Sum {
     fn doc(&self) -> &'static str {
         "Test join: x -> a.x + b.x + offset, row by row"
     }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::float("offset", 0.0, "", "added to the sum")]
-    }
     fn inputs(&self) -> Vec<PortSpec> {
         ["a", "b"]
             .map(|name| PortSpec::one(name, ArtifactType::Table, "a table with an f64 column `x`"))
@@ -141,11 +134,8 @@ impl Stage for Sum {
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<SumParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let SumParams { offset } = params.typed()?;
+        let SumParams { offset } = params.read::<Self>()?;
         let column = |port: &str| match inputs.table(port)?.column("x") {
             Some(ColumnData::F64(values)) => Ok(values.clone()),
             _ => Err(StageError::new(format!(
@@ -161,6 +151,10 @@ impl Stage for Sum {
 
 pub struct Round;
 
+impl HasParams for Round {
+    type Params = RoundParams;
+}
+
 impl Stage for Round {
     fn kind(&self) -> &'static str {
         "test.round"
@@ -171,20 +165,14 @@ impl Stage for Round {
     fn doc(&self) -> &'static str {
         "Test rounding: x rounded to `decimals` decimals"
     }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::int("decimals", 0, "decimal places kept").at_least(0.0)]
-    }
     fn inputs(&self) -> Vec<PortSpec> {
         input_port()
     }
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<RoundParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let RoundParams { decimals } = params.typed()?;
+        let RoundParams { decimals } = params.read::<Self>()?;
         let factor = 10f64.powi(decimals as i32);
         Ok(x_table(
             column_x(inputs)?
@@ -197,6 +185,10 @@ impl Stage for Round {
 
 pub struct Sleep;
 
+impl HasParams for Sleep {
+    type Params = SleepParams;
+}
+
 impl Stage for Sleep {
     fn kind(&self) -> &'static str {
         "test.sleep"
@@ -207,26 +199,24 @@ impl Stage for Sleep {
     fn doc(&self) -> &'static str {
         "Test delay: passes its input through after `seconds`"
     }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::float("seconds", 0.1, "s", "how long to sleep").at_least(0.0)]
-    }
     fn inputs(&self) -> Vec<PortSpec> {
         input_port()
     }
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<SleepParams>().map(drop)
-    }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
-        let SleepParams { seconds } = params.typed()?;
+        let SleepParams { seconds } = params.read::<Self>()?;
         std::thread::sleep(std::time::Duration::from_secs_f64(seconds));
         Ok(single_output("table", inputs.table("table")?.clone()))
     }
 }
 
 pub struct Fail;
+
+impl HasParams for Fail {
+    type Params = FailParams;
+}
 
 impl Stage for Fail {
     fn kind(&self) -> &'static str {
@@ -238,63 +228,66 @@ impl Stage for Fail {
     fn doc(&self) -> &'static str {
         "Test failure: always fails with `message`"
     }
-    fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::string(
-            "message",
-            "failed on purpose",
-            "the error message",
-        )]
-    }
     fn inputs(&self) -> Vec<PortSpec> {
         input_port()
     }
     fn outputs(&self) -> Vec<PortSpec> {
         output_port()
     }
-    fn check_params(&self, params: &Params) -> Result<(), StageError> {
-        params.typed::<FailParams>().map(drop)
-    }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
-        let FailParams { message } = params.typed()?;
+        let FailParams { message } = params.read::<Self>()?;
         Err(StageError::new(message))
     }
 }
 
-/// The parameters of the test kinds, as declared.
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ConstantParams {
-    value: f64,
-    rows: i64,
+// The parameters of the test kinds.
+
+crate::stage_params! {
+    pub struct ConstantParams {
+        /// the value of every row
+        value: f64 = 1.0,
+        /// number of rows
+        #[min = 1]
+        rows: usize = 1,
+    }
 }
 
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AffineParams {
-    scale: f64,
-    offset: f64,
+crate::stage_params! {
+    pub struct AffineParams {
+        /// multiplier
+        scale: f64 = 1.0,
+        /// added after scaling
+        offset: f64 = 0.0,
+    }
 }
 
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SumParams {
-    offset: f64,
+crate::stage_params! {
+    pub struct SumParams {
+        /// added to the sum
+        offset: f64 = 0.0,
+    }
 }
 
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RoundParams {
-    decimals: i64,
+crate::stage_params! {
+    pub struct RoundParams {
+        /// decimal places kept
+        #[min = 0]
+        decimals: i64 = 0,
+    }
 }
 
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SleepParams {
-    seconds: f64,
+crate::stage_params! {
+    pub struct SleepParams {
+        /// how long to sleep
+        #[unit = "s"]
+        #[min = 0.0]
+        seconds: f64 = 0.1,
+    }
 }
 
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FailParams {
-    message: String,
+crate::stage_params! {
+    pub struct FailParams {
+        /// the error message
+        message: String = "failed on purpose".into(),
+    }
 }
