@@ -65,6 +65,13 @@ fn the_report_of_the_quick_study_holds_every_figure_status_and_its_provenance() 
         "mode_shapes",
         "equilibrium",
         "stability",
+        "basis",
+        "transient",
+        "reduced",
+        "compare",
+        "spectrum",
+        "wavelet",
+        "projection",
     ] {
         assert!(html.contains(&format!("id=\"stage-{stage}\"")), "{stage}");
         assert!(
@@ -72,7 +79,7 @@ fn the_report_of_the_quick_study_holds_every_figure_status_and_its_provenance() 
             "{stage}"
         );
     }
-    assert!(html.contains("6 instances: 6 ran, 0 cached, 0 failed, 0 skipped"));
+    assert!(html.contains("13 instances: 13 ran, 0 cached, 0 failed, 0 skipped"));
     // Key tables: the unstable modes only, the summaries; per-DOF fields by their size.
     assert!(html.contains("22 unstable of 97"), "the unstable modes");
     assert!(html.contains("<td>worst_residual</td>"));

@@ -22,7 +22,7 @@ use faer::Mat;
 
 use crate::artifact::Model;
 use crate::artifact::mesh::{cross, dot, sub};
-use crate::mesh::interface::{Side, faces_within};
+use crate::fem::faces::{Side, faces_within};
 use crate::stage::StageError;
 
 /// The pressure load on a node set's faces.

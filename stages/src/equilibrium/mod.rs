@@ -68,6 +68,7 @@ use crate::artifact::{Artifact, ArtifactType, Equilibrium};
 use crate::artifact::{ContactFrames, CscMatrix, Model};
 use crate::contact;
 use crate::contact::lcp::{self, Balance, LcpSettings, LcpSolution};
+use crate::fem::material::Material;
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::ldlt::{Factor, ShiftedPencil};
@@ -496,12 +497,13 @@ fn check_contact_holds(B: &Mat<f64>, bodies: &[floating::FloatingBody]) -> Resul
     Ok(())
 }
 
-/// Support reactions at clamped nodes, summed per node set: the force the supports exert,
-/// from the element stiffnesses (which still hold the clamped DOFs). With the pads pressed by
-/// an interference, the z reactions at the pad backs balance the contact forces.
+/// Support reactions at clamped nodes, summed per node set: the force the supports exert, from
+/// the element stiffnesses (which still hold the clamped DOFs; `materials` by part index). With
+/// the pads pressed by an interference, the z reactions at the pad backs balance the contact
+/// forces.
 pub fn back_reactions(
     model: &Model,
-    params: &crate::assemble::AssembleParams,
+    materials: &[Material],
     u: &[f64],
     set: &str,
 ) -> Result<[f64; 3], StageError> {
@@ -519,7 +521,12 @@ pub fn back_reactions(
         if !hex.iter().any(|node| in_set[*node as usize]) {
             continue;
         }
-        let material = params.material(&mesh.parts[*part as usize])?;
+        let material = materials.get(*part as usize).ok_or_else(|| {
+            StageError::new(format!(
+                "part {part} has no material: {} given",
+                materials.len()
+            ))
+        })?;
         let coords = hex.map(|node| mesh.nodes[node as usize]);
         let element =
             crate::fem::hex8::element_matrices(&coords, &material.elasticity(), material.density)
@@ -881,6 +888,9 @@ mod tests {
     fn contact_forces_balance_the_support_reactions_of_each_pad() {
         let mesh = coarse_brake();
         let (model, params) = crate::assemble::test_model(&mesh, "hub, pad_backs", &[]);
+        let materials: Vec<Material> = (model.mesh.parts.iter())
+            .map(|part| params.material(part).unwrap())
+            .collect();
         let (equilibrium, report) = solve(
             &model,
             0.38,
@@ -892,9 +902,9 @@ mod tests {
         .unwrap();
         let side = |upper: bool| side_force(&mesh, &equilibrium.r_n, upper);
         let upper_back =
-            back_reactions(&model, &params, &equilibrium.u, "pad_backs_upper").unwrap();
+            back_reactions(&model, &materials, &equilibrium.u, "pad_backs_upper").unwrap();
         let lower_back =
-            back_reactions(&model, &params, &equilibrium.u, "pad_backs_lower").unwrap();
+            back_reactions(&model, &materials, &equilibrium.u, "pad_backs_lower").unwrap();
         // Each pad: contact pushes it away from the disc, its back support pushes it back.
         assert!(
             (upper_back[2] + side(true)).abs() <= 1e-10 * side(true),

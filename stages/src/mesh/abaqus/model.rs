@@ -6,8 +6,9 @@ use std::collections::{BTreeMap, HashMap};
 use super::deck::{Block, DataLine, InpError, Source, label, number};
 use super::{ContactSets, ReadOptions};
 use crate::artifact::mesh::{ContactPair, Mesh, cross, dot, norm, sub};
+use crate::fem::faces::{HEX_FACES, Side, faces_within};
 use crate::fem::hex8::first_inverted_corner;
-use crate::mesh::interface::{self, HEX_FACES, Side};
+use crate::mesh::interface;
 
 /// Element types read as 8-node hexahedra (squeal's own incompatible-mode element).
 const HEXAHEDRA: [&str; 6] = ["C3D8", "C3D8I", "C3D8R", "C3D8H", "C3D8IH", "C3D8RH"];
@@ -948,7 +949,7 @@ fn contact_pairs(
                 interface::outward(mesh, *element, quad)
             })
             .collect(),
-        _ => interface::faces_within(mesh, &disc)
+        _ => faces_within(mesh, &disc)
             .into_values()
             .filter_map(|owners| match owners[..] {
                 [(hex_idx, quad)] => Some(interface::outward(mesh, hex_idx, quad)),

@@ -6,8 +6,9 @@ use std::collections::{BTreeMap, HashMap};
 use super::parse::{BoundaryGroup, Elements, GroupKey, Nodes, element_type_name};
 use super::{ContactGroups, MshError, ReadOptions};
 use crate::artifact::mesh::{ContactPair, Mesh};
+use crate::fem::faces::{Side, faces_within};
 use crate::fem::hex8::first_inverted_corner;
-use crate::mesh::interface::{self, Side};
+use crate::mesh::interface;
 
 pub(super) fn build_mesh(
     nodes: &Nodes,
@@ -190,7 +191,7 @@ fn disc_faces(
     disc: &Side,
     index_of_tag: &HashMap<u64, u32>,
 ) -> Result<Vec<[u32; 4]>, MshError> {
-    let faces = interface::faces_within(mesh, disc);
+    let faces = faces_within(mesh, disc);
     disc_group
         .quads
         .iter()
