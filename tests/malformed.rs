@@ -122,6 +122,19 @@ fn parameter_types_units_and_ranges() {
     );
 }
 
+/// A list parameter's items are read as the stage reads them, before anything runs.
+#[test]
+fn list_items_of_the_wrong_type() {
+    check_file(
+        "list_item_wrong_type.yaml",
+        "4:35: stages.basis.params.modes: `two` is not an integer",
+    );
+    check_file(
+        "sweep_list_item_wrong_type.yaml",
+        "6:14: stages.basis.matrix.modes: value 1: `x` is not an integer",
+    );
+}
+
 #[test]
 fn references() {
     check_file(

@@ -6,7 +6,7 @@
 //! on either side finds exactly one partner within `relative_tolerance` × the shortest edge of
 //! the disc's contact faces, and no node is on both sides.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
 use crate::fem::faces::Side;
 

@@ -36,7 +36,6 @@ use faer::Mat;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::f64_column;
 use super::spectrum::{Detrend, PowerSpectrum, Window, find_peaks, power_spectrum};
 use super::svd_projection::{MassMatrix, mass_svd, snapshot_matrix};
 use super::uniform_series;
@@ -282,7 +281,7 @@ impl<'a> Run<'a> {
         }
         Ok(Run {
             table,
-            t: f64_column(table, "t").map_err(named)?,
+            t: table.f64("t").map_err(named)?,
             kinetic: series.values,
         })
     }
@@ -309,7 +308,7 @@ impl<'a> Run<'a> {
     }
 
     fn final_mean(&self, column: &str, window_s: f64) -> Result<f64, StageError> {
-        let values = &f64_column(self.table, column)?[self.window_start(window_s)..];
+        let values = &self.table.f64(column)?[self.window_start(window_s)..];
         Ok(values.iter().sum::<f64>() / values.len() as f64)
     }
 
@@ -412,8 +411,8 @@ fn time_advance(reference: &Run, candidate: &Run, window_s: f64) -> (f64, usize)
 /// `‖c − r‖ / ‖r‖` (RMS over the reference's times inside the candidate's span), `c`
 /// interpolated linearly.
 fn relative_rms(reference: &Run, candidate: &Run, field: &str) -> Result<f64, StageError> {
-    let r = f64_column(reference.table, field)?;
-    let c = f64_column(candidate.table, field)?;
+    let r = reference.table.f64(field)?;
+    let c = candidate.table.f64(field)?;
     let (t_c, dt_c) = (candidate.t, candidate.t[1] - candidate.t[0]);
     let (mut difference, mut norm) = (0.0, 0.0);
     for (&t, &r) in reference.t.iter().zip(r) {
@@ -706,7 +705,7 @@ mod tests {
             "reference".to_string(),
             Input::One(Arc::new(Artifact::Table(reference.clone()))),
         )]));
-        let t = f64_column(&reference, "t").unwrap();
+        let t = reference.f64("t").unwrap();
         let keep = t.len() / 2;
         let mut shorter = Table::new();
         for column in reference.columns() {

@@ -15,7 +15,7 @@ pub mod wavelet;
 use std::sync::Arc;
 
 use crate::stage::{Stage, StageError};
-use crate::table::{ColumnData, Table};
+use crate::table::Table;
 
 /// The name of the time column of a signal table.
 pub const TIME_COLUMN: &str = "t";
@@ -57,21 +57,6 @@ impl UniformSeries<'_> {
     }
 }
 
-/// The f64 column `name` of `table`, or an error naming what is there instead.
-pub fn f64_column<'a>(table: &'a Table, name: &str) -> Result<&'a [f64], StageError> {
-    match table.column(name) {
-        Some(ColumnData::F64(values)) => Ok(values),
-        Some(_) => Err(StageError::new(format!("column `{name}` is not f64"))),
-        None => {
-            let names: Vec<&str> = table.columns().iter().map(|c| c.name.as_str()).collect();
-            Err(StageError::new(format!(
-                "no column `{name}` (columns: {})",
-                names.join(", ")
-            )))
-        }
-    }
-}
-
 /// Column `column` of a signal table with its time step, after checking that `t` is uniformly
 /// sampled and every value is finite.
 pub fn uniform_series<'a>(table: &'a Table, column: &str) -> Result<UniformSeries<'a>, StageError> {
@@ -80,8 +65,8 @@ pub fn uniform_series<'a>(table: &'a Table, column: &str) -> Result<UniformSerie
             "`column` names the time column `t`: choose a signal column",
         ));
     }
-    let time = f64_column(table, TIME_COLUMN)?;
-    let values = f64_column(table, column)?;
+    let time = table.f64(TIME_COLUMN)?;
+    let values = table.f64(column)?;
     if time.len() < 2 {
         return Err(StageError::new(format!(
             "the signal has {} sample(s): at least 2 are needed",

@@ -40,15 +40,6 @@ struct Point {
     shapes: Mat<c64>,
 }
 
-fn f64_column<'a>(table: &'a Table, name: &str) -> Result<&'a [f64], StageError> {
-    match table.column(name) {
-        Some(ColumnData::F64(values)) => Ok(values),
-        _ => Err(StageError::new(format!(
-            "eigenvalues: no f64 column `{name}`"
-        ))),
-    }
-}
-
 /// The sweep's points (eigenvalues and shapes at each value of `axis`), in increasing `axis`.
 fn sweep_points(
     axis: &str,
@@ -226,11 +217,11 @@ fn point(axis_value: f64, eigenvalues: &Table, shapes: &Table) -> Result<Point, 
     Ok(Point {
         axis: axis_value,
         mode: mode.clone(),
-        freq_hz: f64_column(eigenvalues, "freq_hz")?.to_vec(),
-        re: f64_column(eigenvalues, "re")?.to_vec(),
-        im: f64_column(eigenvalues, "im")?.to_vec(),
+        freq_hz: eigenvalues.f64("freq_hz")?.to_vec(),
+        re: eigenvalues.f64("re")?.to_vec(),
+        im: eigenvalues.f64("im")?.to_vec(),
         unstable: unstable.clone(),
-        residual: f64_column(eigenvalues, "residual")?.to_vec(),
+        residual: eigenvalues.f64("residual")?.to_vec(),
         shapes,
     })
 }
