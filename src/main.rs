@@ -756,7 +756,7 @@ fn referenced_keys(
 }
 
 fn print_stages(registry: &Registry) {
-    let compute_time = squeal_engine::run::compute_time_port();
+    let compute_time = squeal_engine::ports::compute_time_port();
     println!(
         "Every stage also has the output `{}` (table): {}.\n",
         compute_time.name, compute_time.doc

@@ -11,6 +11,7 @@ pub mod key;
 pub mod manifest;
 pub mod output;
 pub mod plan;
+pub mod ports;
 pub mod record;
 pub mod report;
 pub mod run;

@@ -46,7 +46,7 @@ pub fn table(report: &RunReport) -> Table {
                 let outputs: serde_json::Map<String, serde_json::Value> = row
                     .outputs
                     .iter()
-                    .filter(|(name, _)| name.as_str() != crate::run::COMPUTE_TIME_OUTPUT)
+                    .filter(|(name, _)| !crate::ports::is_implicit(name))
                     .map(|(name, digest)| (name.clone(), digest.hex().into()))
                     .collect();
                 serde_json::Value::Object(outputs).to_string()

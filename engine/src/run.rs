@@ -15,14 +15,13 @@ use std::time::Instant;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_cache::{ActionRecord, Digest};
 use squeal_stages::{
-    Artifact, ArtifactType, Input, Inputs, Outputs, Params, PortSpec, Progress, RunContext,
-    StageError, Table,
+    Artifact, Input, Inputs, Outputs, Params, Progress, RunContext, StageError, Table,
 };
 
 use crate::checkpoint::CacheCheckpoints;
-
 use crate::output;
 use crate::plan::{Context, Decision, ResolvedInputs};
+use crate::ports::{self, COMPUTE_TIME_OUTPUT};
 
 #[derive(Debug, Clone)]
 pub struct RunOptions {
@@ -140,20 +139,6 @@ struct Executor<'a> {
 
 const EXPORTS_FILE: &str = ".squeal-exports.json";
 
-/// The output every stage has besides those it declares: a one-row table, column
-/// `compute_s`, of the seconds the instance took to compute its outputs (in this run, or when
-/// the cached outputs were computed). A study wires it like any output to put run time beside
-/// results (run time against error); downstream reruns only when the instance reruns.
-pub const COMPUTE_TIME_OUTPUT: &str = "compute_s";
-
-/// [`COMPUTE_TIME_OUTPUT`] as a port.
-pub fn compute_time_port() -> PortSpec {
-    PortSpec::one(
-        COMPUTE_TIME_OUTPUT,
-        ArtifactType::Table,
-        "seconds the instance took to compute its outputs",
-    )
-}
 /// Resolution of a stage's progress bar.
 const STAGE_BAR_STEPS: u64 = 1000;
 
@@ -608,7 +593,7 @@ impl Executor<'_> {
             dir.push(segment);
         }
         for (name, digest) in outputs {
-            if name == COMPUTE_TIME_OUTPUT {
+            if ports::is_implicit(name) {
                 // In the manifest already.
                 continue;
             }

@@ -454,10 +454,7 @@ impl Validator<'_> {
                     tracing::warn!("{}", reference.error(&input_path, message));
                     output = new;
                 }
-                let out = upstream
-                    .outputs()
-                    .into_iter()
-                    .chain([crate::run::compute_time_port()])
+                let out = crate::ports::outputs_of(upstream.as_ref())
                     .find(|out| out.name == output)
                     .ok_or_else(|| {
                         let known: Vec<&str> =
