@@ -450,12 +450,12 @@ fn run_slurm(
     slurm: &SlurmArgs,
     registry: &Registry,
 ) -> Result<ExitCode> {
-    use squeal_engine::slurm::{self, requests};
+    use squeal_engine::{resources, slurm};
     if let Some(time) = &slurm.time {
-        requests::check_time(time).map_err(|message| usage("--time", &message))?;
+        resources::check_time(time).map_err(|message| usage("--time", &message))?;
     }
     if let Some(mem) = &slurm.mem {
-        requests::check_mem(mem).map_err(|message| usage("--mem", &message))?;
+        resources::check_mem(mem).map_err(|message| usage("--mem", &message))?;
     }
     if slurm.cpus_per_task == Some(0) {
         return Err(usage("--cpus-per-task", "a job needs at least one CPU").into());
@@ -505,7 +505,7 @@ fn run_slurm(
         .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
     let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let options = slurm::SlurmOptions {
-        defaults: requests::JobDefaults {
+        defaults: resources::JobDefaults {
             partition: slurm.partition.clone(),
             account: slurm.account.clone(),
             time: slurm.time.clone(),

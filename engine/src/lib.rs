@@ -14,6 +14,7 @@ pub mod plan;
 pub mod ports;
 pub mod record;
 pub mod report;
+pub mod resources;
 pub mod run;
 pub mod slurm;
 pub mod spec;

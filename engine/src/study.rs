@@ -9,7 +9,7 @@ use petgraph::graph::{DiGraph, NodeIndex};
 use serde_saphyr::Spanned;
 use squeal_stages::{Arity, ParamSpec, ParamType, Stage, Value};
 
-use crate::slurm::requests::{JobDefaults, StageResources};
+use crate::resources::{JobDefaults, StageResources};
 use crate::spec::{self, Located, Location, RawStage, RawSweep, RawValue, SpecError};
 use crate::units;
 

@@ -44,9 +44,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_stages::Placement;
 
 use crate::plan::{self, Context, Decision};
+use crate::resources::JobDefaults;
 use crate::run::{self, Elsewhere, RunOptions, RunReport, Status};
 use client::JobState;
-use requests::{JobDefaults, JobRequest};
+use requests::JobRequest;
 use submit::{Files, Submission};
 use worker::TaskStatus;
 
