@@ -396,7 +396,7 @@ fn run(
 }
 
 /// One line per instance that did not come from the cache, then the totals.
-fn print_summary(study: &Study, report: &squeal_engine::RunReport, out_dir: &Path) {
+fn print_summary(study: &Study, report: &squeal_engine::RunOutcome, out_dir: &Path) {
     for instance in &report.instances {
         match &instance.status {
             Status::Ran => eprintln!(
@@ -425,7 +425,7 @@ fn print_summary(study: &Study, report: &squeal_engine::RunReport, out_dir: &Pat
     );
 }
 
-fn exit_code(report: &squeal_engine::RunReport) -> ExitCode {
+fn exit_code(report: &squeal_engine::RunOutcome) -> ExitCode {
     if report.succeeded() {
         ExitCode::SUCCESS
     } else {

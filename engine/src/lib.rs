@@ -9,6 +9,7 @@ pub mod dag;
 pub mod instances;
 pub mod key;
 pub mod manifest;
+pub mod outcome;
 pub mod output;
 pub mod plan;
 pub mod ports;
@@ -22,7 +23,8 @@ pub mod study;
 pub mod units;
 
 pub use instances::Instances;
+pub use outcome::{InstanceOutcome, RunOutcome, Status};
 pub use plan::{Context, Decision, PlanLine};
-pub use run::{RunOptions, RunReport, Status};
+pub use run::RunOptions;
 pub use spec::SpecError;
 pub use study::{Override, Registry, Study};

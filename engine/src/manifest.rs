@@ -5,13 +5,12 @@ use std::path::Path;
 
 use squeal_stages::Table;
 
-use crate::run::RunReport;
+use crate::outcome::{InstanceOutcome, RunOutcome, Status};
 
-pub fn table(report: &RunReport) -> Table {
+pub fn table(report: &RunOutcome) -> Table {
     let rows = &report.instances;
-    let column = |get: &dyn Fn(&crate::run::InstanceReport) -> String| {
-        rows.iter().map(get).collect::<Vec<String>>()
-    };
+    let column =
+        |get: &dyn Fn(&InstanceOutcome) -> String| rows.iter().map(get).collect::<Vec<String>>();
     Table::new()
         .with("stage", column(&|row| row.name.clone()))
         .with("stage_name", column(&|row| row.stage.clone()))
@@ -24,8 +23,8 @@ pub fn table(report: &RunReport) -> Table {
         .with(
             "reason",
             column(&|row| match &row.status {
-                crate::run::Status::Failed(message) => format!("failed: {message}"),
-                crate::run::Status::Skipped(upstream) => {
+                Status::Failed(message) => format!("failed: {message}"),
+                Status::Skipped(upstream) => {
                     format!("skipped: `{upstream}` did not complete")
                 }
                 _ => row.reasons.join("; "),
@@ -54,6 +53,6 @@ pub fn table(report: &RunReport) -> Table {
         )
 }
 
-pub fn write(path: &Path, report: &RunReport) -> std::io::Result<()> {
+pub fn write(path: &Path, report: &RunOutcome) -> std::io::Result<()> {
     crate::output::write_parquet_if_changed(path, &table(report))
 }

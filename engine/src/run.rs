@@ -19,6 +19,7 @@ use squeal_stages::{
 };
 
 use crate::checkpoint::CacheCheckpoints;
+use crate::outcome::{Elsewhere, InstanceOutcome, RunOutcome, Status};
 use crate::output;
 use crate::plan::{Context, Decision, ResolvedInputs};
 use crate::ports::{self, COMPUTE_TIME_OUTPUT};
@@ -51,74 +52,8 @@ impl RunOptions {
     }
 }
 
-/// How an instance ended that another executor (a Slurm job) ran.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Elsewhere {
-    /// Its outputs should be in the cache; `why` says where it ran.
-    Ran {
-        wall_s: f64,
-        why: String,
-    },
-    Failed(String),
-}
-
-#[derive(Debug, Clone, PartialEq)]
-pub enum Status {
-    Ran,
-    Cached,
-    Failed(String),
-    /// Not run because this upstream instance failed or was skipped.
-    Skipped(String),
-}
-
-impl Status {
-    pub fn label(&self) -> &'static str {
-        match self {
-            Status::Ran => "ran",
-            Status::Cached => "cached",
-            Status::Failed(_) => "failed",
-            Status::Skipped(_) => "skipped",
-        }
-    }
-}
-
-#[derive(Debug, Clone)]
-pub struct InstanceReport {
-    pub name: String,
-    pub stage: String,
-    pub kind: String,
-    pub key: Option<Digest>,
-    pub status: Status,
-    pub reasons: Vec<String>,
-    pub wall_s: f64,
-    /// Seconds the stage took to compute its outputs: in this run, or when the cached outputs
-    /// were computed.
-    pub compute_s: f64,
-    pub params_json: String,
-    pub outputs: BTreeMap<String, Digest>,
-}
-
-#[derive(Debug, Clone)]
-pub struct RunReport {
-    pub instances: Vec<InstanceReport>,
-    pub wall_s: f64,
-}
-
-impl RunReport {
-    pub fn count(&self, label: &str) -> usize {
-        self.instances
-            .iter()
-            .filter(|report| report.status.label() == label)
-            .count()
-    }
-
-    pub fn succeeded(&self) -> bool {
-        self.count("failed") + self.count("skipped") == 0
-    }
-}
-
 struct Shared {
-    reports: Vec<Option<InstanceReport>>,
+    reports: Vec<Option<InstanceOutcome>>,
     inputs: Vec<Option<ResolvedInputs>>,
     pending: Vec<usize>,
     running: Vec<String>,
@@ -149,7 +84,7 @@ pub fn run(
     context: &Context,
     options: &RunOptions,
     record_path: Option<&Path>,
-) -> std::io::Result<RunReport> {
+) -> std::io::Result<RunOutcome> {
     let started = Instant::now();
     // Results must not depend on the thread count: the cache keys downstream work by them.
     squeal_stages::fix_global_parallelism();
@@ -232,7 +167,7 @@ pub fn run(
         .shared
         .into_inner()
         .expect("no worker panics while holding the lock");
-    let settled: Vec<(usize, InstanceReport)> = shared
+    let settled: Vec<(usize, InstanceOutcome)> = shared
         .reports
         .into_iter()
         .enumerate()
@@ -254,7 +189,7 @@ pub fn run(
         }
         record.save(record_path)?;
     }
-    let report = RunReport {
+    let report = RunOutcome {
         instances: settled.into_iter().map(|(_, report)| report).collect(),
         wall_s: started.elapsed().as_secs_f64(),
     };
@@ -297,7 +232,7 @@ impl Executor<'_> {
     }
 
     /// Records the outcome and returns the dependents that became ready.
-    fn settle(&self, idx: usize, report: InstanceReport) -> Vec<usize> {
+    fn settle(&self, idx: usize, report: InstanceOutcome) -> Vec<usize> {
         let mut shared = self.lock();
         shared.running.retain(|name| *name != report.name);
         shared.reports[idx] = Some(report);
@@ -313,11 +248,11 @@ impl Executor<'_> {
         ready
     }
 
-    fn process(&self, idx: usize) -> InstanceReport {
+    fn process(&self, idx: usize) -> InstanceOutcome {
         let context = self.context;
         let instance = &context.instances.list[idx];
         let decl = &context.study.stages[instance.stage];
-        let mut report = InstanceReport {
+        let mut report = InstanceOutcome {
             name: instance.name.clone(),
             stage: decl.name.clone(),
             kind: decl.stage.kind().into(),

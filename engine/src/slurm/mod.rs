@@ -43,9 +43,10 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_stages::Placement;
 
+use crate::outcome::{Elsewhere, RunOutcome, Status};
 use crate::plan::{self, Context, Decision};
 use crate::resources::JobDefaults;
-use crate::run::{self, Elsewhere, RunOptions, RunReport, Status};
+use crate::run::{self, RunOptions};
 use client::JobState;
 use requests::JobRequest;
 use submit::{Files, Submission};
@@ -134,7 +135,7 @@ pub fn run(
     context: &Context,
     options: &SlurmOptions,
     record_path: &Path,
-) -> Result<(RunReport, Submitted), String> {
+) -> Result<(RunOutcome, Submitted), String> {
     let started = Instant::now();
     let requests = stage_requests(context, &options.defaults);
     let n = context.instances.list.len();

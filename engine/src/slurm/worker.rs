@@ -9,8 +9,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::outcome::{InstanceOutcome, Status};
 use crate::plan::Context;
-use crate::run::{self, InstanceReport, RunOptions, Status};
+use crate::run::{self, RunOptions};
 
 /// What a task leaves for the driver: its instance's outcome.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -99,7 +100,7 @@ pub fn run_instance(
 }
 
 impl TaskStatus {
-    pub fn of(report: &InstanceReport) -> TaskStatus {
+    pub fn of(report: &InstanceOutcome) -> TaskStatus {
         let message = match &report.status {
             Status::Ran | Status::Cached => String::new(),
             Status::Failed(message) => message.clone(),
