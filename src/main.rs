@@ -644,8 +644,7 @@ fn report(
             args.study.display()
         );
     }
-    let manifest =
-        squeal_engine::output::read_parquet(&manifest_path).map_err(anyhow::Error::msg)?;
+    let manifest = squeal_engine::manifest::read(&manifest_path).map_err(anyhow::Error::msg)?;
     let study_bytes =
         std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
     let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
@@ -657,8 +656,7 @@ fn report(
         study_bytes: &study_bytes,
         version: env!("CARGO_PKG_VERSION"),
         out_dir: &out_dir,
-    })
-    .map_err(anyhow::Error::msg)?;
+    });
     let path = output.unwrap_or_else(|| out_dir.join("report.html"));
     squeal_engine::output::write_atomic(&path, page.as_bytes())
         .with_context(|| format!("writing {}", path.display()))?;
