@@ -6,12 +6,13 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{Context as _, Result};
+use anyhow::Result;
 use clap::{Parser, Subcommand, ValueEnum};
 use squeal_cache::{Cache, GcPolicy};
-use squeal_engine::plan::{self, Context, Decision};
-use squeal_engine::record::RunRecord;
-use squeal_engine::{Instances, Override, Registry, RunOptions, SpecError, Status, Study, dag};
+use squeal_engine::{
+    DagFormat as EngineDagFormat, Decision, Error, JobDefaults, Registry, RunOutcome,
+    SlurmArgs as SlurmSettings, Status, Study, Workbench, WorkerInvocation,
+};
 
 /// Declarative, cached, parallel pipelines for brake squeal studies.
 #[derive(Parser)]
@@ -66,27 +67,7 @@ enum Command {
         slurm: SlurmArgs,
     },
     /// Run one stage instance inside a Slurm job: what `run --executor slurm` submits.
-    Worker {
-        /// The study file (YAML).
-        study: PathBuf,
-        #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
-        set: Vec<String>,
-        /// The instance's stage.
-        #[arg(long)]
-        stage: String,
-        /// The submission's instance names; the task runs line SLURM_ARRAY_TASK_ID + 1.
-        #[arg(long)]
-        instances: PathBuf,
-        /// Where to write the outcome; `{task}` stands for the task index.
-        #[arg(long)]
-        status: String,
-        /// The blake3 of the study file when the job was submitted: a job refuses an edited study.
-        #[arg(long)]
-        study_digest: String,
-        /// Threads [default: the job's CPUs].
-        #[arg(long, short, env = "SLURM_CPUS_PER_TASK")]
-        jobs: Option<usize>,
-    },
+    Worker(WorkerArgs),
     /// Print the DAG of stage instances.
     Dag {
         #[command(flatten)]
@@ -109,6 +90,45 @@ enum Command {
     /// Inspect and maintain the cache.
     #[command(subcommand)]
     Cache(CacheCommand),
+}
+
+/// `squeal worker`'s arguments: [`WorkerInvocation`]'s fields, which the driver writes into
+/// each job's script, and the job's threads.
+#[derive(clap::Args)]
+struct WorkerArgs {
+    /// The study file (YAML).
+    study: PathBuf,
+    #[arg(id = "set", long = "set", value_name = "STAGE.PARAM=VALUE")]
+    sets: Vec<String>,
+    /// The instance's stage.
+    #[arg(long)]
+    stage: String,
+    /// The submission's instance names; the task runs line SLURM_ARRAY_TASK_ID + 1.
+    #[arg(long)]
+    instances: PathBuf,
+    /// Where to write the outcome; `{task}` stands for the task index.
+    #[arg(long)]
+    status: String,
+    /// The blake3 of the study file when the job was submitted: a job refuses an edited study.
+    #[arg(long)]
+    study_digest: String,
+    /// Threads [default: the job's CPUs].
+    #[arg(long, short, env = "SLURM_CPUS_PER_TASK")]
+    jobs: Option<usize>,
+}
+
+impl WorkerArgs {
+    fn invocation(&self, cache: Option<PathBuf>) -> WorkerInvocation {
+        WorkerInvocation {
+            cache,
+            study: self.study.clone(),
+            sets: self.sets.clone(),
+            study_digest: self.study_digest.clone(),
+            stage: self.stage.clone(),
+            instances: self.instances.clone(),
+            status: self.status.clone(),
+        }
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -173,11 +193,6 @@ enum CacheCommand {
     },
 }
 
-/// A user error in the study or the arguments: exit code 2.
-#[derive(Debug, thiserror::Error)]
-#[error(transparent)]
-struct UsageError(#[from] SpecError);
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let level = match cli.verbose {
@@ -197,7 +212,7 @@ fn main() -> ExitCode {
     std::panic::set_hook(Box::new(|info| tracing::error!("internal error: {info}")));
     match execute(cli) {
         Ok(code) => code,
-        Err(err) if err.is::<UsageError>() => {
+        Err(err) if err.downcast_ref::<Error>().is_some_and(Error::is_usage) => {
             eprintln!("error: {err}");
             ExitCode::from(2)
         }
@@ -216,76 +231,31 @@ fn registry() -> Registry {
     Registry::new(kinds)
 }
 
-/// The folder beside the study where squeal keeps its cache and run records.
-fn state_dir(study: &Path) -> PathBuf {
-    study.parent().unwrap_or(Path::new(".")).join(".squeal")
-}
-
-fn cache_dir(cli_cache: &Option<PathBuf>, study: Option<&Path>) -> PathBuf {
-    match (cli_cache, study) {
-        (Some(dir), _) => dir.clone(),
-        (None, Some(study)) => state_dir(study).join("cache"),
-        (None, None) => PathBuf::from(".squeal/cache"),
-    }
-}
-
-fn load_study(args: &StudyArgs, registry: &Registry) -> Result<(Study, Vec<usize>)> {
-    let overrides: Vec<Override> = args
-        .set
-        .iter()
-        .map(|arg| arg.parse())
-        .collect::<Result<_, SpecError>>()
-        .map_err(UsageError)?;
-    let study = Study::load(&args.study, registry, &overrides).map_err(UsageError)?;
-    let mut targets = study.targets.clone();
-    if !args.targets.is_empty() {
-        targets = args
-            .targets
-            .iter()
-            .map(|name| {
-                study.index_of(name).ok_or_else(|| SpecError {
-                    location: squeal_engine::spec::Location::CommandLine(format!(
-                        "--target {name}"
-                    )),
-                    path: "--target".into(),
-                    message: format!("no stage named `{name}`"),
-                })
-            })
-            .collect::<Result<_, _>>()
-            .map_err(UsageError)?;
-    }
-    Ok((study, targets))
+fn open(cli: &Cli, args: &StudyArgs, registry: &Registry) -> Result<Workbench, Error> {
+    Workbench::open(
+        registry,
+        &args.study,
+        &args.set,
+        &args.targets,
+        cli.cache.as_deref(),
+    )
 }
 
 fn execute(cli: Cli) -> Result<ExitCode> {
     let registry = registry();
     match &cli.command {
         Command::Validate(args) => {
-            let (study, targets) = load_study(args, &registry)?;
-            let instances = Instances::expand(&study, &targets);
+            let bench = open(&cli, args, &registry)?;
             println!(
                 "{}: ok ({} stages, {} instances for the targets)",
-                study.file,
-                study.stages.len(),
-                instances.list.len()
+                bench.study().file,
+                bench.study().stages.len(),
+                bench.instances().list.len()
             );
         }
         Command::Stages => print_stages(&registry),
         Command::Plan(args) => {
-            let (study, targets) = load_study(args, &registry)?;
-            let instances = Instances::expand(&study, &targets);
-            let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
-            let record = RunRecord::load(&RunRecord::path_for(
-                &args.study,
-                &state_dir(&args.study).join("record"),
-            ));
-            let context = Context {
-                study: &study,
-                instances: &instances,
-                cache: &cache,
-                record: &record,
-            };
-            let lines = plan::plan(&context);
+            let lines = open(&cli, args, &registry)?.plan()?;
             let width = lines
                 .iter()
                 .map(|line| line.instance.len())
@@ -315,55 +285,33 @@ fn execute(cli: Cli) -> Result<ExitCode> {
             return match executor {
                 Executor::Local => {
                     if slurm.dry_run {
-                        return Err(usage("--dry-run", "needs --executor slurm").into());
+                        return Err(Error::usage("--dry-run", "needs --executor slurm").into());
                     }
                     run(&cli, args, out.clone(), *jobs, &registry)
                 }
                 Executor::Slurm => run_slurm(&cli, args, out.clone(), *jobs, slurm, &registry),
             };
         }
-        Command::Worker {
-            study,
-            set,
-            stage,
-            instances,
-            status,
-            study_digest,
-            jobs,
-        } => {
-            let args = StudyArgs {
-                study: study.clone(),
-                set: set.clone(),
-                targets: Vec::new(),
-            };
-            return worker(
-                &cli,
-                &args,
-                stage,
-                instances,
-                status,
-                study_digest,
-                *jobs,
-                &registry,
-            );
-        }
+        Command::Worker(args) => return worker(&cli, args, &registry),
         Command::Dag {
             study: args,
             format,
         } => {
-            let (study, targets) = load_study(args, &registry)?;
-            let instances = Instances::expand(&study, &targets);
             let format = match format {
-                DagFormat::Dot => dag::Format::Dot,
-                DagFormat::Mermaid => dag::Format::Mermaid,
+                DagFormat::Dot => EngineDagFormat::Dot,
+                DagFormat::Mermaid => EngineDagFormat::Mermaid,
             };
-            print!("{}", dag::render(&study, &instances, format));
+            print!("{}", open(&cli, args, &registry)?.dag(format));
         }
         Command::Report {
             study: args,
             out,
             output,
-        } => report(&cli, args, out.clone(), output.clone(), &registry)?,
+        } => {
+            let bench = open(&cli, args, &registry)?;
+            let page = bench.report(out.clone(), output.clone(), env!("CARGO_PKG_VERSION"))?;
+            println!("{}", page.display());
+        }
         Command::Cache(command) => return cache_command(&cli, command, &registry),
     }
     Ok(ExitCode::SUCCESS)
@@ -376,28 +324,16 @@ fn run(
     jobs: Option<usize>,
     registry: &Registry,
 ) -> Result<ExitCode> {
-    let (study, targets) = load_study(args, registry)?;
-    let out_dir = out_dir_of(out, &args.study)?;
-    let instances = Instances::expand(&study, &targets);
-    let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
-    let record_path = RunRecord::path_for(&args.study, &state_dir(&args.study).join("record"));
-    let record = RunRecord::load(&record_path);
-    let context = Context {
-        study: &study,
-        instances: &instances,
-        cache: &cache,
-        record: &record,
-    };
-    let options = RunOptions::local(jobs, out_dir.clone(), true);
-    let report = squeal_engine::run::run(&context, &options, Some(&record_path))
-        .with_context(|| format!("writing outputs to {}", out_dir.display()))?;
-    print_summary(&study, &report, &out_dir);
-    Ok(exit_code(&report))
+    let bench = open(cli, args, registry)?;
+    let out_dir = bench.out_dir(out)?;
+    let outcome = bench.run(&out_dir, jobs)?;
+    print_summary(bench.study(), &outcome, &out_dir);
+    Ok(exit_code(&outcome))
 }
 
 /// One line per instance that did not come from the cache, then the totals.
-fn print_summary(study: &Study, report: &squeal_engine::RunOutcome, out_dir: &Path) {
-    for instance in &report.instances {
+fn print_summary(study: &Study, outcome: &RunOutcome, out_dir: &Path) {
+    for instance in &outcome.instances {
         match &instance.status {
             Status::Ran => eprintln!(
                 "ran     {} ({}) in {:.3} s",
@@ -415,31 +351,22 @@ fn print_summary(study: &Study, report: &squeal_engine::RunOutcome, out_dir: &Pa
     eprintln!(
         "{}: {} instances in {:.2} s: {} ran, {} cached, {} failed, {} skipped; outputs in {}",
         study.name,
-        report.instances.len(),
-        report.wall_s,
-        report.count("ran"),
-        report.count("cached"),
-        report.count("failed"),
-        report.count("skipped"),
+        outcome.instances.len(),
+        outcome.wall_s,
+        outcome.count("ran"),
+        outcome.count("cached"),
+        outcome.count("failed"),
+        outcome.count("skipped"),
         out_dir.display()
     );
 }
 
-fn exit_code(report: &squeal_engine::RunOutcome) -> ExitCode {
-    if report.succeeded() {
+fn exit_code(outcome: &RunOutcome) -> ExitCode {
+    if outcome.succeeded() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     }
-}
-
-/// A usage error on the command line.
-fn usage(arg: &str, message: &str) -> UsageError {
-    UsageError(SpecError {
-        location: squeal_engine::spec::Location::CommandLine(arg.into()),
-        path: arg.into(),
-        message: message.into(),
-    })
 }
 
 fn run_slurm(
@@ -450,62 +377,8 @@ fn run_slurm(
     slurm: &SlurmArgs,
     registry: &Registry,
 ) -> Result<ExitCode> {
-    use squeal_engine::{resources, slurm};
-    if let Some(time) = &slurm.time {
-        resources::check_time(time).map_err(|message| usage("--time", &message))?;
-    }
-    if let Some(mem) = &slurm.mem {
-        resources::check_mem(mem).map_err(|message| usage("--mem", &message))?;
-    }
-    if slurm.cpus_per_task == Some(0) {
-        return Err(usage("--cpus-per-task", "a job needs at least one CPU").into());
-    }
-    if !(slurm.poll.is_finite() && slurm.poll > 0.0) {
-        return Err(usage("--poll", "give a positive number of seconds").into());
-    }
-    let (study, targets) = load_study(args, registry)?;
-    let out_dir = out_dir_of(out, &args.study)?;
-    let instances = Instances::expand(&study, &targets);
-    let absolute = |path: &Path| std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let study_path = absolute(&args.study);
-    let cache_path = absolute(&cache_dir(&cli.cache, Some(&args.study)));
-    let cache = Cache::open(&cache_path)?;
-    let record_path = RunRecord::path_for(&args.study, &state_dir(&args.study).join("record"));
-    let record = RunRecord::load(&record_path);
-    let context = Context {
-        study: &study,
-        instances: &instances,
-        cache: &cache,
-        record: &record,
-    };
-    let study_bytes =
-        std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
-    let mut worker = vec![
-        std::env::current_exe()
-            .context("locating the squeal binary for the jobs")?
-            .to_string_lossy()
-            .into_owned(),
-        "--cache".into(),
-        cache_path.to_string_lossy().into_owned(),
-        "worker".into(),
-        study_path.to_string_lossy().into_owned(),
-    ];
-    for set in &args.set {
-        worker.extend(["--set".to_string(), set.clone()]);
-    }
-    worker.extend([
-        "--study-digest".to_string(),
-        blake3::hash(&study_bytes).to_hex().to_string(),
-    ]);
-    let stamp = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |elapsed| elapsed.as_secs());
-    let stem = study_path
-        .file_stem()
-        .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
-    let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let options = slurm::SlurmOptions {
-        defaults: resources::JobDefaults {
+    let settings = SlurmSettings {
+        requests: JobDefaults {
             partition: slurm.partition.clone(),
             account: slurm.account.clone(),
             time: slurm.time.clone(),
@@ -513,161 +386,53 @@ fn run_slurm(
             cpus_per_task: slurm.cpus_per_task,
             sbatch_args: slurm.sbatch_args.clone(),
         },
-        worker,
-        dir: absolute(&state_dir(&args.study))
-            .join("slurm")
-            .join(format!("{stem}-{stamp}-{}", std::process::id())),
-        jobs,
-        out_dir: out_dir.clone(),
-        progress: true,
-        poll: std::time::Duration::from_secs_f64(slurm.poll),
-        interrupted: interrupted.clone(),
+        poll_s: slurm.poll,
     };
+    settings.check()?;
+    let bench = open(cli, args, registry)?;
+    let out_dir = bench.out_dir(out)?;
     if slurm.dry_run {
-        print!("{}", slurm::dry_run(&context, &options));
+        print!("{}", bench.slurm_dry_run(&out_dir, jobs, &settings)?);
         return Ok(ExitCode::SUCCESS);
     }
     // A first Ctrl-C (or SIGTERM) cancels the jobs and writes what finished; a second one
     // exits at once.
+    let interrupted = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register_conditional_shutdown(signal, 130, interrupted.clone())?;
         signal_hook::flag::register(signal, interrupted.clone())?;
     }
-    let (report, submitted) =
-        slurm::run(&context, &options, &record_path).map_err(anyhow::Error::msg)?;
+    let run = bench.run_slurm(&out_dir, jobs, &settings, interrupted)?;
     eprintln!(
-        "slurm: submitted {} ({}); scripts and logs in {}",
-        slurm::count(submitted.jobs, "job"),
-        slurm::count(submitted.tasks, "task"),
-        options.dir.display()
+        "slurm: submitted {}; scripts and logs in {}",
+        run.submitted,
+        run.dir.display()
     );
-    print_summary(&study, &report, &out_dir);
-    Ok(exit_code(&report))
+    print_summary(bench.study(), &run.outcome, &out_dir);
+    Ok(exit_code(&run.outcome))
 }
 
-#[allow(clippy::too_many_arguments)]
-fn worker(
-    cli: &Cli,
-    args: &StudyArgs,
-    stage: &str,
-    instance_list: &Path,
-    status_pattern: &str,
-    study_digest: &str,
-    jobs: Option<usize>,
-    registry: &Registry,
-) -> Result<ExitCode> {
-    use squeal_engine::slurm::worker;
-    let bytes =
-        std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
-    let digest = blake3::hash(&bytes).to_hex().to_string();
-    if digest != study_digest {
-        anyhow::bail!(
-            "{} changed since this job was submitted: rerun `squeal run` to plan it again",
-            args.study.display()
-        );
-    }
-    let (study, _) = load_study(args, registry)?;
-    let stage_idx = study
-        .index_of(stage)
-        .ok_or_else(|| anyhow::anyhow!("the study has no stage `{stage}`"))?;
-    let instances = Instances::expand(&study, &[stage_idx]);
-    let task = worker::task_index().map_err(anyhow::Error::msg)?;
-    let name = worker::instance_of_task(instance_list, task).map_err(anyhow::Error::msg)?;
-    let target = instances
-        .list
-        .iter()
-        .position(|instance| instance.name == name)
-        .ok_or_else(|| anyhow::anyhow!("the study has no instance `{name}`"))?;
-    let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
-    let record = RunRecord::default();
-    let context = Context {
-        study: &study,
-        instances: &instances,
-        cache: &cache,
-        record: &record,
-    };
-    let status = worker::run_instance(&context, target, jobs)?;
-    let path = worker::status_path(status_pattern, task);
-    status
-        .write(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
+fn worker(cli: &Cli, args: &WorkerArgs, registry: &Registry) -> Result<ExitCode> {
+    let status = Workbench::work(registry, &args.invocation(cli.cache.clone()), args.jobs)?;
     if status.succeeded() {
-        eprintln!("{name}: {} in {:.3} s", status.status, status.wall_s);
+        eprintln!(
+            "{}: {} in {:.3} s",
+            status.instance, status.status, status.wall_s
+        );
         Ok(ExitCode::SUCCESS)
     } else {
-        eprintln!("error: {name} {}: {}", status.status, status.message);
+        eprintln!(
+            "error: {} {}: {}",
+            status.instance, status.status, status.message
+        );
         Ok(ExitCode::FAILURE)
     }
-}
-
-/// Where a run writes: `--out`, or `out/STEM`. A file in the way is a usage error before
-/// anything runs, not an error after the whole study has.
-fn out_dir_of(out: Option<PathBuf>, study: &Path) -> Result<PathBuf, UsageError> {
-    let out_dir = out.unwrap_or_else(|| default_out_dir(study));
-    if out_dir.exists() && !out_dir.is_dir() {
-        return Err(UsageError(SpecError {
-            location: squeal_engine::spec::Location::CommandLine(format!(
-                "--out {}",
-                out_dir.display()
-            )),
-            path: "--out".into(),
-            message: "a file is in the way: the outputs go to a folder".into(),
-        }));
-    }
-    Ok(out_dir)
-}
-
-/// `out/STEM`, STEM the study file name without its extension.
-fn default_out_dir(study: &Path) -> PathBuf {
-    let stem = study
-        .file_stem()
-        .map_or("study".into(), |stem| stem.to_string_lossy().into_owned());
-    PathBuf::from("out").join(stem)
-}
-
-fn report(
-    cli: &Cli,
-    args: &StudyArgs,
-    out: Option<PathBuf>,
-    output: Option<PathBuf>,
-    registry: &Registry,
-) -> Result<()> {
-    let (study, targets) = load_study(args, registry)?;
-    let instances = Instances::expand(&study, &targets);
-    let out_dir = out.unwrap_or_else(|| default_out_dir(&args.study));
-    let manifest_path = out_dir.join("manifest.parquet");
-    if !manifest_path.is_file() {
-        anyhow::bail!(
-            "no run of {} in {} (no manifest.parquet): run `squeal run {}` first",
-            args.study.display(),
-            out_dir.display(),
-            args.study.display()
-        );
-    }
-    let manifest = squeal_engine::manifest::read(&manifest_path).map_err(anyhow::Error::msg)?;
-    let study_bytes =
-        std::fs::read(&args.study).with_context(|| format!("reading {}", args.study.display()))?;
-    let cache = Cache::open(cache_dir(&cli.cache, Some(&args.study)))?;
-    let page = squeal_engine::report::render(&squeal_engine::report::ReportInput {
-        study: &study,
-        instances: &instances,
-        manifest: &manifest,
-        cache: &cache,
-        study_bytes: &study_bytes,
-        version: env!("CARGO_PKG_VERSION"),
-        out_dir: &out_dir,
-    });
-    let path = output.unwrap_or_else(|| out_dir.join("report.html"));
-    squeal_engine::output::write_atomic(&path, page.as_bytes())
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!("{}", path.display());
-    Ok(())
 }
 
 fn cache_command(cli: &Cli, command: &CacheCommand, registry: &Registry) -> Result<ExitCode> {
     match command {
         CacheCommand::Stats => {
-            let cache = Cache::open(cache_dir(&cli.cache, None))?;
+            let cache = Cache::open(Workbench::cache_dir(cli.cache.as_deref(), None))?;
             let stats = cache.stats()?;
             println!("cache {}", cache.root().display());
             println!("  actions     {}", stats.actions);
@@ -679,7 +444,7 @@ fn cache_command(cli: &Cli, command: &CacheCommand, registry: &Registry) -> Resu
             println!("  temporaries {}", stats.stray_temporaries);
         }
         CacheCommand::Verify => {
-            let cache = Cache::open(cache_dir(&cli.cache, None))?;
+            let cache = Cache::open(Workbench::cache_dir(cli.cache.as_deref(), None))?;
             let report = cache.verify()?;
             for problem in &report.problems {
                 println!("{problem}");
@@ -695,11 +460,18 @@ fn cache_command(cli: &Cli, command: &CacheCommand, registry: &Registry) -> Resu
             }
         }
         CacheCommand::Gc { studies, max_size } => {
-            let dir = cache_dir(&cli.cache, studies.first().map(PathBuf::as_path));
+            let dir =
+                Workbench::cache_dir(cli.cache.as_deref(), studies.first().map(PathBuf::as_path));
             let keep_keys = if studies.is_empty() {
                 None
             } else {
-                Some(referenced_keys(&dir, studies, registry)?)
+                let cache = Cache::open(&dir)?;
+                let mut keys = HashSet::new();
+                for study in studies {
+                    let bench = Workbench::open(registry, study, &[], &[], Some(&dir))?;
+                    keys.extend(bench.referenced_keys(&cache));
+                }
+                Some(keys)
             };
             let cache = Cache::open_exclusive(&dir)?;
             let report = cache.gc(&GcPolicy {
@@ -718,43 +490,8 @@ fn cache_command(cli: &Cli, command: &CacheCommand, registry: &Registry) -> Resu
     Ok(ExitCode::SUCCESS)
 }
 
-/// Keys of every cached instance of the given studies (their targets, with their parameters).
-fn referenced_keys(
-    dir: &Path,
-    studies: &[PathBuf],
-    registry: &Registry,
-) -> Result<HashSet<squeal_cache::Digest>> {
-    let cache = Cache::open(dir)?;
-    let mut keys = HashSet::new();
-    for path in studies {
-        let args = StudyArgs {
-            study: path.clone(),
-            set: Vec::new(),
-            targets: Vec::new(),
-        };
-        let (study, targets) = load_study(&args, registry)?;
-        let instances = Instances::expand(&study, &targets);
-        let record = RunRecord::default();
-        let context = Context {
-            study: &study,
-            instances: &instances,
-            cache: &cache,
-            record: &record,
-        };
-        keys.extend(
-            plan::plan(&context)
-                .into_iter()
-                .filter_map(|line| match line.decision {
-                    Decision::Cached { key, .. } => Some(key),
-                    Decision::Runs { .. } => None,
-                }),
-        );
-    }
-    Ok(keys)
-}
-
 fn print_stages(registry: &Registry) {
-    let compute_time = squeal_engine::ports::compute_time_port();
+    let compute_time = squeal_engine::compute_time_port();
     println!(
         "Every stage also has the output `{}` (table): {}.\n",
         compute_time.name, compute_time.doc

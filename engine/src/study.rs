@@ -52,11 +52,8 @@ impl std::str::FromStr for Override {
     type Err = SpecError;
 
     fn from_str(arg: &str) -> Result<Override, SpecError> {
-        let error = |message: &str| SpecError {
-            location: Location::CommandLine(format!("--set {arg}")),
-            path: "--set".into(),
-            message: message.to_string(),
-        };
+        let error =
+            |message: &str| SpecError::command_line(format!("--set {arg}"), "--set", message);
         let (target, text) = arg
             .split_once('=')
             .ok_or_else(|| error("expected stage.param=value"))?;
