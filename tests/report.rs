@@ -93,7 +93,7 @@ fn the_report_of_the_quick_study_holds_every_figure_status_and_its_provenance() 
     workspace.run_ok(&["run", "quick.yaml"]);
     workspace.run_ok(&["report", "quick.yaml", "-o", "again.html"]);
     let again = std::fs::read_to_string(workspace.path().join("again.html")).unwrap();
-    assert!(again.contains("6 instances: 0 ran, 6 cached"));
+    assert!(again.contains("13 instances: 0 ran, 13 cached"));
     assert!(again.contains("<title>stability (cached)"));
 }
 

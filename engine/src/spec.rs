@@ -42,6 +42,22 @@ pub struct SpecError {
     pub message: String,
 }
 
+impl SpecError {
+    /// A problem with a command-line argument: `arg` as written (`--target mesh`), `option`
+    /// the option it belongs to (`--target`).
+    pub fn command_line(
+        arg: impl Into<String>,
+        option: &str,
+        message: impl Into<String>,
+    ) -> SpecError {
+        SpecError {
+            location: Location::CommandLine(arg.into()),
+            path: option.into(),
+            message: message.into(),
+        }
+    }
+}
+
 /// `text` with its control characters escaped (`\n`, `\r`, `\t`, `\u{..}`).
 fn one_line(text: &str) -> std::borrow::Cow<'_, str> {
     if !text.chars().any(char::is_control) {

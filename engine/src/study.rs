@@ -9,7 +9,7 @@ use petgraph::graph::{DiGraph, NodeIndex};
 use serde_saphyr::Spanned;
 use squeal_stages::{Arity, ParamSpec, ParamType, Stage, Value};
 
-use crate::slurm::requests::{JobDefaults, StageResources};
+use crate::resources::{JobDefaults, StageResources};
 use crate::spec::{self, Located, Location, RawStage, RawSweep, RawValue, SpecError};
 use crate::units;
 
@@ -52,11 +52,8 @@ impl std::str::FromStr for Override {
     type Err = SpecError;
 
     fn from_str(arg: &str) -> Result<Override, SpecError> {
-        let error = |message: &str| SpecError {
-            location: Location::CommandLine(format!("--set {arg}")),
-            path: "--set".into(),
-            message: message.to_string(),
-        };
+        let error =
+            |message: &str| SpecError::command_line(format!("--set {arg}"), "--set", message);
         let (target, text) = arg
             .split_once('=')
             .ok_or_else(|| error("expected stage.param=value"))?;
@@ -462,10 +459,7 @@ impl Validator<'_> {
                     tracing::warn!("{}", reference.error(&input_path, message));
                     output = new;
                 }
-                let out = upstream
-                    .outputs()
-                    .into_iter()
-                    .chain([crate::run::compute_time_port()])
+                let out = crate::ports::outputs_of(upstream.as_ref())
                     .find(|out| out.name == output)
                     .ok_or_else(|| {
                         let known: Vec<&str> =

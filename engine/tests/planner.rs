@@ -9,9 +9,9 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use squeal_cache::Cache;
-use squeal_engine::plan::plan;
-use squeal_engine::record::RunRecord;
-use squeal_engine::{Context, Decision, Instances, Override, Registry, RunOptions, Status, Study};
+use squeal_engine::{
+    Context, Decision, Instances, Override, Registry, RunOptions, RunRecord, Status, Study, plan,
+};
 
 /// xorshift64*: a fixed sequence of cases, the same on every machine.
 struct Rng(u64);
@@ -108,7 +108,7 @@ fn plan_and_run(
         .map(|line| line.instance)
         .collect();
     let options = RunOptions::local(Some(2), dir.join("out"), false);
-    let report = squeal_engine::run::run(&context, &options, Some(&record_path)).unwrap();
+    let report = squeal_engine::run(&context, &options, Some(&record_path)).unwrap();
     let ran = report
         .instances
         .iter()

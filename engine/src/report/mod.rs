@@ -20,6 +20,7 @@ use squeal_cache::{Cache, Digest};
 use squeal_stages::{Artifact, ArtifactType, ColumnData, Coords, Table};
 
 use crate::instances::Instances;
+use crate::manifest::ManifestRow;
 use crate::study::Study;
 
 /// Rows of a table shown before it is cut.
@@ -33,7 +34,7 @@ pub struct ReportInput<'a> {
     /// Every stage's instances, as the study now expands.
     pub instances: &'a Instances,
     /// The last run's `manifest.parquet`.
-    pub manifest: &'a Table,
+    pub manifest: &'a [ManifestRow],
     pub cache: &'a Cache,
     pub study_bytes: &'a [u8],
     pub version: &'a str,
@@ -59,9 +60,9 @@ pub struct InstanceView {
     folder: String,
 }
 
-/// The page, or why it cannot be made (a manifest without the expected columns).
-pub fn render(input: &ReportInput) -> Result<String, String> {
-    let views = instance_views(input)?;
+/// The page.
+pub fn render(input: &ReportInput) -> String {
+    let views = instance_views(input);
     let index: HashMap<&str, usize> = views
         .iter()
         .enumerate()
@@ -129,27 +130,10 @@ pub fn render(input: &ReportInput) -> Result<String, String> {
     page.push_str(&provenance(input, &views));
     page.push_str(CHECK_SCRIPT);
     page.push_str("</body></html>\n");
-    Ok(page)
+    page
 }
 
-fn instance_views(input: &ReportInput) -> Result<Vec<InstanceView>, String> {
-    let manifest = input.manifest;
-    let strings = |name: &str| match manifest.column(name) {
-        Some(ColumnData::Str(values)) => Ok(values.clone()),
-        _ => Err(format!(
-            "the manifest has no text column `{name}`: rerun `squeal run`"
-        )),
-    };
-    let numbers = |name: &str| match manifest.column(name) {
-        Some(ColumnData::F64(values)) => Ok(values.clone()),
-        _ => Err(format!(
-            "the manifest has no number column `{name}`: rerun `squeal run`"
-        )),
-    };
-    let (names, stage_names, kinds) = (strings("stage")?, strings("stage_name")?, strings("kind")?);
-    let (keys, statuses, reasons) = (strings("key")?, strings("status")?, strings("reason")?);
-    let (walls, computes) = (numbers("wall_s")?, numbers("compute_s")?);
-    let (params, outputs) = (strings("params_json")?, strings("outputs_json")?);
+fn instance_views(input: &ReportInput) -> Vec<InstanceView> {
     let by_name: HashMap<&str, usize> = input
         .instances
         .list
@@ -157,46 +141,42 @@ fn instance_views(input: &ReportInput) -> Result<Vec<InstanceView>, String> {
         .enumerate()
         .map(|(idx, instance)| (instance.name.as_str(), idx))
         .collect();
-    let mut views = Vec::with_capacity(names.len());
-    for row in 0..names.len() {
-        let index = by_name.get(names[row].as_str()).copied();
-        let instance = index.map(|idx| &input.instances.list[idx]);
-        let coords = instance.map_or_else(Vec::new, |instance| {
-            input.instances.labelled(&instance.coords)
-        });
-        let folder = instance.map_or_else(
-            || stage_names[row].clone(),
-            |instance| {
-                std::iter::once(stage_names[row].clone())
-                    .chain(input.instances.coord_segments(instance))
-                    .collect::<Vec<_>>()
-                    .join("/")
-            },
-        );
-        let outputs: BTreeMap<String, Digest> =
-            serde_json::from_str::<BTreeMap<String, String>>(&outputs[row])
-                .unwrap_or_default()
-                .into_iter()
-                .filter_map(|(name, digest)| digest.parse().ok().map(|digest| (name, digest)))
-                .collect();
-        let ran = matches!(statuses[row].as_str(), "ran" | "cached" | "failed");
-        views.push(InstanceView {
-            name: names[row].clone(),
-            stage_name: stage_names[row].clone(),
-            kind: kinds[row].clone(),
-            status: statuses[row].clone(),
-            reason: reasons[row].clone(),
-            wall_s: (statuses[row] != "skipped").then_some(walls[row]),
-            compute_s: ran.then_some(computes[row]),
-            key: keys[row].clone(),
-            params_json: params[row].clone(),
-            outputs,
-            coords,
-            instance: index,
-            folder,
-        });
-    }
-    Ok(views)
+    input
+        .manifest
+        .iter()
+        .map(|row| {
+            let index = by_name.get(row.instance.as_str()).copied();
+            let instance = index.map(|idx| &input.instances.list[idx]);
+            let coords = instance.map_or_else(Vec::new, |instance| {
+                input.instances.labelled(&instance.coords)
+            });
+            let folder = instance.map_or_else(
+                || row.stage.clone(),
+                |instance| {
+                    std::iter::once(row.stage.clone())
+                        .chain(input.instances.coord_segments(instance))
+                        .collect::<Vec<_>>()
+                        .join("/")
+                },
+            );
+            let ran = matches!(row.status.as_str(), "ran" | "cached" | "failed");
+            InstanceView {
+                name: row.instance.clone(),
+                stage_name: row.stage.clone(),
+                kind: row.kind.clone(),
+                status: row.status.clone(),
+                reason: row.reason.clone(),
+                wall_s: (row.status != "skipped").then_some(row.wall_s),
+                compute_s: ran.then_some(row.compute_s),
+                key: row.key.map(|key| key.hex()).unwrap_or_default(),
+                params_json: row.params_json.clone(),
+                outputs: row.outputs.clone(),
+                coords,
+                instance: index,
+                folder,
+            }
+        })
+        .collect()
 }
 
 fn summary(views: &[InstanceView]) -> String {

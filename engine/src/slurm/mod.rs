@@ -43,21 +43,25 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use squeal_stages::Placement;
 
+use crate::outcome::{Elsewhere, RunOutcome, Status};
 use crate::plan::{self, Context, Decision};
-use crate::run::{self, Elsewhere, RunOptions, RunReport, Status};
+use crate::resources::JobDefaults;
+use crate::run::{self, RunOptions};
 use client::JobState;
-use requests::{JobDefaults, JobRequest};
+use requests::JobRequest;
 use submit::{Files, Submission};
-use worker::TaskStatus;
+use worker::{TaskStatus, WorkerInvocation};
 
 /// How the driver runs a study on Slurm.
 #[derive(Debug, Clone)]
 pub struct SlurmOptions {
     /// Requests from the command line, over the study's `slurm:` section.
     pub defaults: JobDefaults,
-    /// The command a job runs, up to its task's own arguments:
-    /// `squeal --cache DIR worker STUDY [--set …] --study-digest HEX`.
-    pub worker: Vec<String>,
+    /// The `squeal` binary the jobs run.
+    pub program: PathBuf,
+    /// The command line of every job's worker; `stage`, `instances` and `status` are each
+    /// submission's own.
+    pub worker: WorkerInvocation,
     /// Where the run's scripts, instance lists, logs and status files go; on the shared file
     /// system.
     pub dir: PathBuf,
@@ -71,11 +75,22 @@ pub struct SlurmOptions {
     pub interrupted: Arc<AtomicBool>,
 }
 
-/// What a run submitted, for the summary.
+/// What a run submitted, for the summary: `2 jobs (8 tasks)`.
 #[derive(Debug, Clone, Default)]
 pub struct Submitted {
     pub jobs: usize,
     pub tasks: usize,
+}
+
+impl std::fmt::Display for Submitted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} ({})",
+            count(self.jobs, "job"),
+            count(self.tasks, "task")
+        )
+    }
 }
 
 /// Each stage's request, all sources merged.
@@ -133,7 +148,7 @@ pub fn run(
     context: &Context,
     options: &SlurmOptions,
     record_path: &Path,
-) -> Result<(RunReport, Submitted), String> {
+) -> Result<(RunOutcome, Submitted), String> {
     let started = Instant::now();
     let requests = stage_requests(context, &options.defaults);
     let n = context.instances.list.len();
@@ -265,17 +280,17 @@ fn sbatch_args(request: &JobRequest, dependency: Option<String>) -> Vec<String> 
     args
 }
 
+/// The command a submission's jobs run: the program, then the worker's arguments.
 fn worker_command(options: &SlurmOptions, stage: &str, files: &Files) -> Vec<String> {
-    let mut command = options.worker.clone();
-    command.extend([
-        "--stage".into(),
-        stage.into(),
-        "--instances".into(),
-        files.instances.to_string_lossy().into_owned(),
-        "--status".into(),
-        files.status.to_string_lossy().into_owned(),
-    ]);
-    command
+    let invocation = WorkerInvocation {
+        stage: stage.into(),
+        instances: files.instances.clone(),
+        status: files.status.to_string_lossy().into_owned(),
+        ..options.worker.clone()
+    };
+    std::iter::once(options.program.to_string_lossy().into_owned())
+        .chain(invocation.to_args())
+        .collect()
 }
 
 /// The script, instance list and files of submission `number`.

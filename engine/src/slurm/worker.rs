@@ -1,7 +1,8 @@
 //! `squeal worker`: what a Slurm job runs. It settles one instance and whatever upstream of it
 //! is not cached yet (instances the driver placed with it, never another job's: those ran
 //! before it, by the job's dependencies), writes outputs to the shared cache only, and leaves a
-//! status file for the driver.
+//! status file for the driver. Its command line is [`WorkerInvocation`]: the driver writes it
+//! into each job's script, and the job's `squeal` parses it back into the same fields.
 
 use std::collections::HashMap;
 use std::io;
@@ -9,8 +10,57 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::outcome::{InstanceOutcome, Status};
 use crate::plan::Context;
-use crate::run::{self, InstanceReport, RunOptions, Status};
+use crate::run::{self, RunOptions};
+
+/// The command line of `squeal worker`, after the program:
+/// `--cache CACHE worker STUDY [--set STAGE.PARAM=VALUE]… --study-digest HEX --stage STAGE
+/// --instances FILE --status PATTERN`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WorkerInvocation {
+    /// The shared cache (the global `--cache`, before the subcommand); without it, the one
+    /// beside the study.
+    pub cache: Option<PathBuf>,
+    /// The study file.
+    pub study: PathBuf,
+    /// The driver's `--set` overrides, as written.
+    pub sets: Vec<String>,
+    /// The blake3 of the study file when the job was submitted: a job refuses an edited study.
+    pub study_digest: String,
+    /// The instance's stage.
+    pub stage: String,
+    /// The submission's instance names; the task runs line SLURM_ARRAY_TASK_ID + 1.
+    pub instances: PathBuf,
+    /// Where to write the outcome; `{task}` stands for the task index.
+    pub status: String,
+}
+
+impl WorkerInvocation {
+    /// The arguments, in the order `squeal` takes them.
+    pub fn to_args(&self) -> Vec<String> {
+        let text = |path: &Path| path.to_string_lossy().into_owned();
+        let mut args = Vec::new();
+        if let Some(cache) = &self.cache {
+            args.extend(["--cache".to_string(), text(cache)]);
+        }
+        args.extend(["worker".to_string(), text(&self.study)]);
+        for set in &self.sets {
+            args.extend(["--set".to_string(), set.clone()]);
+        }
+        args.extend([
+            "--study-digest".to_string(),
+            self.study_digest.clone(),
+            "--stage".into(),
+            self.stage.clone(),
+            "--instances".into(),
+            text(&self.instances),
+            "--status".into(),
+            self.status.clone(),
+        ]);
+        args
+    }
+}
 
 /// What a task leaves for the driver: its instance's outcome.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -99,7 +149,7 @@ pub fn run_instance(
 }
 
 impl TaskStatus {
-    pub fn of(report: &InstanceReport) -> TaskStatus {
+    pub fn of(report: &InstanceOutcome) -> TaskStatus {
         let message = match &report.status {
             Status::Ran | Status::Cached => String::new(),
             Status::Failed(message) => message.clone(),

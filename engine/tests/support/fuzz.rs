@@ -7,7 +7,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
-use squeal_engine::spec::Location;
+use squeal_engine::Location;
 use squeal_engine::{Instances, Registry, Study};
 
 /// xorshift64*: the same inputs on every machine for a given seed.
