@@ -430,14 +430,10 @@ fn write_grid(mesh: &Mesh, point_data: &[DataArray]) -> Result<String, String> {
 mod tests {
     use super::*;
     use std::collections::BTreeMap;
-    use std::sync::Arc;
 
-    use crate::artifact::Artifact;
     use crate::artifact::CscMatrix;
-    use crate::export::vtu::ModesVtu;
     use crate::mesh::gmsh::{ContactGroups, ReadOptions, read_msh};
     use crate::mesh::structured::block;
-    use crate::stage::{Input, Inputs, Params, Stage, Value};
 
     /// A `<DataArray>` read back: its parent element, attributes and whitespace-split values.
     #[derive(Debug)]
@@ -647,34 +643,11 @@ mod tests {
         (model, modes)
     }
 
-    fn stage_inputs(model: &Model, modes: &RealModes) -> Inputs {
-        Inputs(BTreeMap::from([
-            (
-                "model".to_string(),
-                Input::One(Arc::new(Artifact::Model(Box::new(model.clone())))),
-            ),
-            (
-                "modes".to_string(),
-                Input::One(Arc::new(Artifact::RealModes(Box::new(modes.clone())))),
-            ),
-        ]))
-    }
-
-    fn max_modes(n: i64) -> Params {
-        Params(BTreeMap::from([("max_modes".to_string(), Value::Int(n))]))
-    }
-
     #[test]
     fn modes_vtu_expands_shapes_to_nodes_with_zeros_where_clamped() {
         let (model, modes) = clamped_block();
-        let outputs = ModesVtu
-            .run(&max_modes(20), &stage_inputs(&model, &modes))
-            .unwrap();
-        let Artifact::Document(vtu) = &outputs["modes"] else {
-            panic!("not a document")
-        };
-        assert_eq!(vtu.extension, "vtu");
-        let (piece, arrays) = parse_vtu(std::str::from_utf8(&vtu.bytes).unwrap());
+        let vtu = modes_vtu(&model, &modes, 20).unwrap();
+        let (piece, arrays) = parse_vtu(&vtu);
         assert_eq!(piece["NumberOfPoints"], "12");
         let names: Vec<&str> = arrays
             .iter()
@@ -700,13 +673,8 @@ mod tests {
         }
         assert_eq!(array(&arrays, "CellData", "part").ints(), [0, 0]);
 
-        let outputs = ModesVtu
-            .run(&max_modes(1), &stage_inputs(&model, &modes))
-            .unwrap();
-        let Artifact::Document(vtu) = &outputs["modes"] else {
-            panic!("not a document")
-        };
-        let (_, arrays) = parse_vtu(std::str::from_utf8(&vtu.bytes).unwrap());
+        let vtu = modes_vtu(&model, &modes, 1).unwrap();
+        let (_, arrays) = parse_vtu(&vtu);
         assert_eq!(arrays.iter().filter(|a| a.parent == "PointData").count(), 1);
     }
 
@@ -714,9 +682,7 @@ mod tests {
     fn inconsistent_inputs_are_refused_in_one_line() {
         let (model, mut modes) = clamped_block();
         modes.shapes[1].pop();
-        let err = ModesVtu
-            .run(&max_modes(20), &stage_inputs(&model, &modes))
-            .unwrap_err();
+        let err = modes_vtu(&model, &modes, 20).unwrap_err();
         assert!(
             err.message
                 .contains("mode 2 has 23 values, the model has 24 DOFs"),
@@ -725,9 +691,7 @@ mod tests {
 
         let (model, mut modes) = clamped_block();
         modes.shapes[0][4] = f64::NAN;
-        let err = ModesVtu
-            .run(&max_modes(20), &stage_inputs(&model, &modes))
-            .unwrap_err();
+        let err = modes_vtu(&model, &modes, 20).unwrap_err();
         assert!(
             err.message
                 .contains("`mode_0001_100.0Hz` has a non-finite value"),
