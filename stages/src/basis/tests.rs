@@ -10,15 +10,21 @@
 use std::f64::consts::PI;
 use std::sync::Arc;
 
+use faer::Mat;
 use faer::linalg::solvers::Solve;
+use squeal_linalg::csc::symmetric_mul;
+use squeal_linalg::tall::transpose_times;
 
+use super::reduction::STIFFNESS;
 use super::*;
-use crate::artifact::basis::{StaticModes, interface_dofs};
+use crate::artifact::Basis;
+use crate::complex_modes::ComplexModes;
 use crate::mesh::brake::BrakeGeometry;
 use crate::modes::Modes;
 use crate::params::DeclaredParams;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
+use crate::table::ColumnData;
 use crate::transient::Transient;
 use crate::transient::products::Products;
 use crate::transient::tests::{
