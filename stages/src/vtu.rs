@@ -435,7 +435,8 @@ mod tests {
     use crate::artifact::Artifact;
     use crate::artifact::CscMatrix;
     use crate::export::vtu::ModesVtu;
-    use crate::mesh::gmsh::{ContactGroups, ReadOptions, read_msh};
+    use crate::mesh::gmsh::{ReadOptions, read_msh};
+    use crate::mesh::interface::ContactSides;
     use crate::mesh::structured::block;
     use crate::stage::{Input, Inputs, Params, Stage, Value};
 
@@ -526,7 +527,7 @@ mod tests {
     fn two_part_mesh() -> Mesh {
         let path = format!("{}/tests/data/two_part.msh", env!("CARGO_MANIFEST_DIR"));
         let options = ReadOptions {
-            contact: Some(ContactGroups {
+            contact: Some(ContactSides {
                 disc: "contact_disc".into(),
                 pad: "contact_pad".into(),
                 relative_tolerance: 1e-3,

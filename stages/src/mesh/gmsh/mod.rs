@@ -49,7 +49,7 @@ use std::path::PathBuf;
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::mesh::interface;
+use crate::mesh::interface::{self, ContactSides};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 
 mod build;
@@ -64,19 +64,11 @@ use parse::{
 /// Gmsh element type of the 8-node hexahedron.
 const GMSH_HEXAHEDRON: u32 = 5;
 
-/// How to find contact pairs: the names of the two physical surfaces of the interface.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ContactGroups {
-    pub disc: String,
-    pub pad: String,
-    /// Largest distance between paired nodes, relative to the shortest contact face edge.
-    pub relative_tolerance: f64,
-}
-
 /// Options of [`read_msh`]; `contact: None` reads no contact pairs.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ReadOptions {
-    pub contact: Option<ContactGroups>,
+    /// How to find contact pairs: the names of the two physical surfaces of the interface.
+    pub contact: Option<ContactSides>,
 }
 
 /// Why a file could not be imported: the 1-based line (for parse errors) and what is wrong.
@@ -165,7 +157,7 @@ impl Stage for GmshImport {
             &params.contact_pad,
             "a physical surface",
         )?
-        .map(|[disc, pad]| ContactGroups {
+        .map(|[disc, pad]| ContactSides {
             disc,
             pad,
             relative_tolerance: params.contact_tolerance,
@@ -253,7 +245,7 @@ mod tests {
 
     fn with_contact() -> ReadOptions {
         ReadOptions {
-            contact: Some(ContactGroups {
+            contact: Some(ContactSides {
                 disc: "contact_disc".into(),
                 pad: "contact_pad".into(),
                 relative_tolerance: 1e-3,
