@@ -43,6 +43,10 @@ pub mod transient;
 // Stage kinds for exercising the engine.
 pub mod test_kinds;
 
+// The fixtures the unit tests share.
+#[cfg(test)]
+pub(crate) mod fixtures;
+
 use std::sync::Arc;
 
 pub use artifact::{Artifact, ArtifactType, Document, Figure};

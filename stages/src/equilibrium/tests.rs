@@ -4,13 +4,9 @@ use super::*;
 use crate::artifact::Equilibrium;
 use crate::artifact::mesh::Mesh;
 use crate::fem::material::Material;
-use crate::mesh::brake::{BrakeGeometry, brake};
+use crate::fixtures::{coarse_brake, test_model};
 use crate::mesh::structured::stacked_blocks;
 use crate::stage::Value;
-
-fn coarse_brake() -> Mesh {
-    brake(&BrakeGeometry::coarse()).unwrap()
-}
 
 #[test]
 fn the_strain_estimate_is_exact_for_a_homogeneous_strain() {
@@ -19,7 +15,7 @@ fn the_strain_estimate_is_exact_for_a_homogeneous_strain() {
     for node in &mut mesh.nodes {
         node[0] += 0.1 * node[1] * node[2];
     }
-    let (model, _) = crate::assemble::test_model(&mesh, "", &[]);
+    let (model, _) = test_model(&mesh, "", &[]);
     let (a, b, c) = (1e-3, -6e-3, 4e-3);
     let mut u = vec![0.0; model.n_dofs()];
     for (node, dofs) in model.dof_of_node.iter().enumerate() {
@@ -34,7 +30,7 @@ fn the_strain_estimate_is_exact_for_a_homogeneous_strain() {
 
 /// `assemble` with default materials (optionally overridden) and `clamped`.
 fn model(mesh: &Mesh, clamped: &str, overrides: &[(&str, f64)]) -> Model {
-    crate::assemble::test_model(mesh, clamped, overrides).0
+    test_model(mesh, clamped, overrides).0
 }
 
 fn settings() -> LcpSettings {
@@ -44,7 +40,7 @@ fn settings() -> LcpSettings {
 #[test]
 fn contact_forces_balance_the_support_reactions_of_each_pad() {
     let mesh = coarse_brake();
-    let (model, params) = crate::assemble::test_model(&mesh, "hub, pad_backs", &[]);
+    let (model, params) = test_model(&mesh, "hub, pad_backs", &[]);
     let materials: Vec<Material> = (model.mesh.parts.iter())
         .map(|part| params.material(part).unwrap())
         .collect();
