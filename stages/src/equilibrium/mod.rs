@@ -213,7 +213,10 @@ impl Stage for SlidingEquilibrium {
             .map(|(r, pair)| r / pair.area)
             .collect();
         let pressure = figure::pressure_figure(&model.mesh, &pressure)?;
-        let vtu = Artifact::document("vtu", crate::vtu::equilibrium_vtu(model, &equilibrium)?);
+        let vtu = Artifact::document(
+            "vtu",
+            crate::vtu_writer::equilibrium_vtu(model, &equilibrium)?,
+        );
         Ok(Outputs::from([
             (
                 "equilibrium".to_string(),

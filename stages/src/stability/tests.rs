@@ -38,7 +38,7 @@ fn the_matrices_stage_reads_matrix_market_files() {
         }
         params.insert("f_max_hz".into(), Value::Float(0.0));
         params.insert("mu".into(), Value::Float(0.38));
-        let outputs = lumped::StabilityMatrices
+        let outputs = matrices::StabilityMatrices
             .run(&Params(params), &Inputs::default())
             .unwrap();
         let table = outputs["eigenvalues"].as_table().unwrap();
