@@ -24,7 +24,7 @@ pub mod complex_modes;
 pub mod contact;
 pub mod fem;
 pub mod plot;
-pub mod vtu;
+pub mod vtu_writer;
 
 // The stages: mesh → assemble → modes, equilibrium → stability → basis → transient → signal,
 // exports, and the stages that gather and check sweeps.
@@ -42,6 +42,10 @@ pub mod transient;
 
 // Stage kinds for exercising the engine.
 pub mod test_kinds;
+
+// The fixtures the unit tests share.
+#[cfg(test)]
+pub(crate) mod fixtures;
 
 use std::sync::Arc;
 
@@ -66,7 +70,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(equilibrium::SlidingEquilibrium),
         Arc::new(stability::Stability),
         Arc::new(stability::track::Track),
-        Arc::new(stability::lumped::StabilityMatrices),
+        Arc::new(stability::matrices::StabilityMatrices),
         Arc::new(basis::ReductionBasis),
         Arc::new(basis::pareto::Pareto),
         Arc::new(transient::Transient),

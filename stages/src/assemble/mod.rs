@@ -18,7 +18,7 @@ pub mod dofs;
 pub mod sparse;
 
 #[cfg(test)]
-pub(crate) mod tests;
+mod tests;
 
 use rayon::prelude::*;
 
@@ -354,15 +354,4 @@ pub fn with_default_materials(
     values.push(("clamped", Value::Str(clamped.to_string())));
     let params = Params::defaults(&Assemble, &values).read::<Assemble>()?;
     Ok((assemble_model(mesh, &params)?.0, params))
-}
-
-/// [`with_default_materials`], for tests.
-#[cfg(test)]
-pub(crate) fn test_model(
-    mesh: &Mesh,
-    clamped: &str,
-    overrides: &[(&str, f64)],
-) -> (Model, AssembleParams) {
-    with_default_materials(mesh, clamped, overrides)
-        .unwrap_or_else(|err| panic!("assembly failed: {err}"))
 }

@@ -1,39 +1,13 @@
 //! Verification of the assembly: exact mass, exact symmetry and reproducibility, the constant
 //! strain patch test on a distorted mesh, Rayleigh damping per part, and clear errors.
 
-use std::collections::BTreeMap;
-use std::sync::Arc;
-
 use super::Assemble;
 use crate::artifact::Artifact;
-use crate::artifact::Mesh;
 use crate::artifact::Model;
+use crate::fixtures::{assemble, try_assemble};
 use crate::mesh::structured;
-use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
+use crate::stage::{Params, Value};
 use crate::table::{ColumnData, Table};
-
-/// Runs `assemble` on `mesh` with `clamped` and the default materials.
-pub(crate) fn try_assemble(mesh: &Mesh, clamped: &str) -> Result<(Model, Table), StageError> {
-    let params = Params::defaults(&Assemble, &[("clamped", Value::Str(clamped.into()))]);
-    let inputs = Inputs(BTreeMap::from([(
-        "mesh".to_string(),
-        Input::One(Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
-    )]));
-    let mut outputs = Assemble.run(&params, &inputs)?;
-    let model = match outputs.remove("model") {
-        Some(Artifact::Model(model)) => *model,
-        other => panic!("no model output: {other:?}"),
-    };
-    let summary = match outputs.remove("summary") {
-        Some(Artifact::Table(table)) => table,
-        other => panic!("no summary output: {other:?}"),
-    };
-    Ok((model, summary))
-}
-
-pub(crate) fn assemble(mesh: &Mesh, clamped: &str) -> (Model, Table) {
-    try_assemble(mesh, clamped).unwrap_or_else(|err| panic!("assembly failed: {err}"))
-}
 
 /// `rᵀ M r` for the unit translation `r` along x: the total (free) mass.
 fn translational_mass(model: &Model) -> f64 {

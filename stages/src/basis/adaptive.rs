@@ -22,8 +22,8 @@
 //! columns ([`super::Reduction::extend`]). No full run is needed: one factorisation of the full
 //! `J` and one solve per sampled step.
 
+use super::StaticModes;
 use super::{Candidates, Reduction, Sources};
-use crate::artifact::basis::StaticModes;
 use crate::artifact::{Equilibrium, Model};
 use crate::stage::{RunContext, StageError};
 use crate::table::Table;

@@ -10,20 +10,24 @@
 use std::f64::consts::PI;
 use std::sync::Arc;
 
+use faer::Mat;
 use faer::linalg::solvers::Solve;
+use squeal_linalg::csc::symmetric_mul;
+use squeal_linalg::tall::transpose_times;
 
+use super::reduction::STIFFNESS;
 use super::*;
-use crate::artifact::basis::{StaticModes, interface_dofs};
+use crate::artifact::Basis;
+use crate::complex_modes::ComplexModes;
+use crate::fixtures::{brake_inputs, brake_inputs_of, f64_column, growth_rate, transient_params};
 use crate::mesh::brake::BrakeGeometry;
 use crate::modes::Modes;
 use crate::params::DeclaredParams;
 use crate::stability::Stability;
 use crate::stage::{Input, Value};
+use crate::table::ColumnData;
 use crate::transient::Transient;
 use crate::transient::products::Products;
-use crate::transient::tests::{
-    brake_inputs, brake_inputs_of, f64_column, growth_rate, stage_params,
-};
 
 fn insert(inputs: &mut Inputs, port: &str, artifact: Artifact) {
     inputs
@@ -88,7 +92,7 @@ fn a_basis_spanning_every_dof_reproduces_the_full_transient() {
     assert_eq!(quantity(summary, "n_reduced"), n as f64);
     // A kick that opens and closes pairs: the contact laws are exercised, not only the
     // linear dynamics.
-    let params = stage_params(&[
+    let params = transient_params(&[
         ("initial", Value::Str("kick".into())),
         ("kick_velocity", Value::Float(1.0)),
         ("tau", Value::Float(2e-6)),
@@ -200,7 +204,7 @@ fn bodies_kept_whole_stay_physical_and_the_vectors_reduce_the_others() {
         assert!(pads.iter().all(|&dof| vector[dof] == 0.0));
     }
     assert_reduced_matrices_are_the_dense_projection(model, basis);
-    let params = stage_params(&[
+    let params = transient_params(&[
         ("tau", Value::Float(2e-6)),
         ("duration", Value::Float(4e-4)),
         ("amplitude", Value::Float(1e-6)),
@@ -388,7 +392,7 @@ fn a_reduced_run_grows_at_the_rate_of_the_unstable_mode_it_starts_from() {
     let run = |indicator_samples: i64| {
         Transient
             .run(
-                &stage_params(&[
+                &transient_params(&[
                     ("tau", Value::Float(tau)),
                     ("duration", Value::Float((3.0 / expected).min(4000.0 * tau))),
                     ("amplitude", Value::Float(1e-9)),
@@ -502,7 +506,7 @@ fn a_transient_refuses_a_basis_built_on_another_model() {
     let inputs = brake_inputs();
     let basis = fc_basis(&inputs, &[("n_modes", Value::Int(4))])["basis"].clone();
     let model = inputs.get::<Model>("model").unwrap();
-    let params = stage_params(&[("duration", Value::Float(1e-5))]);
+    let params = transient_params(&[("duration", Value::Float(1e-5))]);
     let run_on = |model: Model| {
         let mut inputs = inputs.clone();
         insert(&mut inputs, "model", Artifact::Model(Box::new(model)));
@@ -677,7 +681,7 @@ fn the_residual_indicator_tracks_the_true_error_and_the_adaptive_basis_meets_its
         .unwrap();
     let tau = 2.0 * PI / im[most] / 40.0;
     let (duration, amplitude) = (400.0 * tau, 1e-4);
-    let params = stage_params(&[
+    let params = transient_params(&[
         ("tau", Value::Float(tau)),
         ("duration", Value::Float(duration)),
         ("amplitude", Value::Float(amplitude)),

@@ -17,13 +17,19 @@
 //!   (so its amplitude is a displacement in metres). K R = 0 is checked, and per body as many
 //!   DOFs as it has free motions are chosen to pin (greedy, best conditioned rows of R), so
 //!   that R restricted to the pinned DOFs is invertible.
+//! - The pieces the solve takes from them: the pressure checked to push floating bodies, every
+//!   one of them and nothing clamped; K with the pinned DOFs' rows and columns cut to their
+//!   diagonal; each body's free motions checked to move its contact pairs along their normals.
 
 use faer::Mat;
 
-use crate::artifact::Model;
 use crate::artifact::mesh::{cross, dot, sub};
+use crate::artifact::{CscMatrix, Model};
 use crate::fem::faces::{Side, faces_within};
 use crate::stage::StageError;
+
+/// The node set the pressure acts on.
+pub const PRESSURE_SET: &str = "pad_backs";
 
 /// The pressure load on a node set's faces.
 #[derive(Debug, Clone, PartialEq)]
@@ -365,4 +371,119 @@ fn pins(model: &Model, R: &Mat<f64>, bodies: &[FloatingBody]) -> Result<Vec<usiz
         }
     }
     Ok(pinned)
+}
+
+/// The pressure as applied: area and |z resultant| of the faces on the upper (index 0) and
+/// lower (index 1) pads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AppliedPressure {
+    pub area: [f64; 2],
+    pub force: [f64; 2],
+    pub floating_bodies: usize,
+}
+
+/// K with the `pinned` rows and columns replaced by their diagonal entry alone.
+pub(super) fn pin(K: &CscMatrix, pinned: &[usize]) -> CscMatrix {
+    let mut is_pinned = vec![false; K.n_rows];
+    for &dof in pinned {
+        is_pinned[dof] = true;
+    }
+    let mut triplets = Vec::with_capacity(K.values.len());
+    for col in 0..K.n_cols {
+        for entry in K.col_ptr[col]..K.col_ptr[col + 1] {
+            let row = K.row_idx[entry];
+            if (is_pinned[row] || is_pinned[col]) && row != col {
+                continue;
+            }
+            triplets.push((row, col, K.values[entry]));
+        }
+    }
+    CscMatrix::from_triplets(K.n_rows, K.n_cols, triplets)
+}
+
+/// The pressure problem's pieces: F, R, the pins, and what the summary reports.
+pub(super) struct Floating {
+    pub(super) forces: Vec<f64>,
+    pub(super) R: Mat<f64>,
+    pub(super) pinned: Vec<usize>,
+    pub(super) applied: AppliedPressure,
+    pub(super) bodies: Vec<FloatingBody>,
+}
+
+/// Checks that the pressure pushes floating bodies, every one of them, and nothing clamped.
+pub(super) fn floating_under_pressure(
+    model: &Model,
+    pressure: f64,
+) -> Result<Floating, StageError> {
+    let bodies = floating_bodies(model)?;
+    if bodies.bodies.is_empty() {
+        return Err(StageError::new(format!(
+            "load: pressure needs pads free along the disc normal, but every body is held by its clamps: clamp the pad backs in-plane only (`clamped: \"hub, {PRESSURE_SET}:xy\"`)"
+        )));
+    }
+    let load = pressure_load(model, pressure, PRESSURE_SET)?;
+    let total = load.force[0] + load.force[1];
+    if load.on_clamped > 1e-9 * total {
+        return Err(StageError::new(format!(
+            "{:.3e} N of the {total:.3e} N pressure resultant falls on clamped DOFs of `{PRESSURE_SET}`: clamp the pad backs in-plane only (`{PRESSURE_SET}:xy`) so that they are free along the normal",
+            load.on_clamped
+        )));
+    }
+    for body in &bodies.bodies {
+        let pushed = body
+            .nodes
+            .iter()
+            .flat_map(|&node| model.dof_of_node[node as usize].iter().flatten())
+            .any(|&dof| load.forces[dof as usize] != 0.0);
+        if !pushed {
+            return Err(StageError::new(format!(
+                "{body} is not held by its clamps and carries no pressure: clamp it"
+            )));
+        }
+    }
+    Ok(Floating {
+        forces: load.forces,
+        applied: AppliedPressure {
+            area: load.area,
+            force: load.force,
+            floating_bodies: bodies.bodies.len(),
+        },
+        R: bodies.R,
+        pinned: bodies.pinned,
+        bodies: bodies.bodies,
+    })
+}
+
+pub(super) fn body_list(bodies: &[FloatingBody]) -> String {
+    bodies
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<String>>()
+        .join("; ")
+}
+
+/// Each body's rigid motions must move its contact pairs along their normals (B_b of full
+/// column rank): a motion the contact does not see (a pad spinning about the normal) is
+/// held by nothing.
+pub(super) fn check_contact_holds(B: &Mat<f64>, bodies: &[FloatingBody]) -> Result<(), StageError> {
+    for body in bodies {
+        let modes = body.modes.clone();
+        let k = modes.len();
+        let gram = Mat::from_fn(k, k, |i, j| {
+            (0..B.nrows())
+                .map(|pair| B[(pair, modes.start + i)] * B[(pair, modes.start + j)])
+                .sum::<f64>()
+        });
+        let svd = gram.svd().map_err(|err| {
+            StageError::new(format!("SVD of the contact motions of {body}: {err:?}"))
+        })?;
+        let largest = svd.S()[0];
+        let smallest = svd.S()[k - 1];
+        if !(smallest > 1e-10 * largest) {
+            return Err(StageError::new(format!(
+                "{body}: its contact pairs do not hold all its free rigid motions (a motion moves none of them along the normal): guide it in-plane (`{PRESSURE_SET}:xy`)"
+            )));
+        }
+    }
+    Ok(())
 }

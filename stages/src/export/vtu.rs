@@ -1,12 +1,12 @@
 //! `vtu.mesh` and `vtu.modes`: a mesh, and real mode shapes on it, as VTK XML unstructured
-//! grids (`.vtu`, written by [`crate::vtu`]) for ParaView (`File > Open`), PyVista
+//! grids (`.vtu`, written by [`crate::vtu_writer`]) for ParaView (`File > Open`), PyVista
 //! (`pyvista.read`) or meshio.
 
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{Mesh, Model, RealModes};
 use crate::params::{HasParams, NoParams};
 use crate::stage::{Inputs, Outputs, Params, PortSpec, Stage, StageError};
-use crate::vtu::{mesh_vtu, modes_vtu};
+use crate::vtu_writer::{mesh_vtu, modes_vtu};
 
 /// `vtu.mesh`: the mesh with its parts, node sets and contact pairs.
 pub struct MeshVtu;

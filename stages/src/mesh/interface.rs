@@ -14,6 +14,16 @@ use super::contact_faces::{FaceIntegrals, quad_tangents};
 use crate::artifact::mesh::{ContactPair, Mesh, dot, norm, sub};
 use crate::value::StageError;
 
+/// The two sides of the contact interface, by name (Gmsh physical surfaces; Abaqus surfaces or
+/// node sets), and how far apart paired nodes may be.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactSides {
+    pub disc: String,
+    pub pad: String,
+    /// Largest distance between paired nodes, relative to the shortest contact face edge.
+    pub relative_tolerance: f64,
+}
+
 /// The two sides as given: both named, or both empty (no contact).
 pub fn contact_sides(disc: &str, pad: &str, what: &str) -> Result<Option<[String; 2]>, StageError> {
     match (disc.trim(), pad.trim()) {

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use super::Modes;
 use crate::artifact::Artifact;
 use crate::artifact::Model;
-use crate::assemble::tests::assemble;
+use crate::fixtures::assemble;
 use crate::mesh::structured;
 use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
 use crate::table::ColumnData;

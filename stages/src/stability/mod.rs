@@ -39,7 +39,7 @@ pub mod conditioning;
 pub mod dense;
 mod figure;
 pub mod krylov;
-pub mod lumped;
+pub mod matrices;
 pub mod shift_invert;
 pub mod sliding;
 pub mod track;
@@ -605,7 +605,7 @@ impl Stage for Stability {
             }
         }
         let shapes_table = model.nodal_table(fields);
-        let vtu = crate::vtu::complex_modes_vtu(model, &unstable_fields)?;
+        let vtu = crate::vtu_writer::complex_modes_vtu(model, &unstable_fields)?;
         let diagram = figure::stability_diagram(&solution.pairs, equilibrium.mu)?;
         Ok(Outputs::from([
             (

@@ -10,35 +10,10 @@ use faer::c64;
 use super::*;
 use crate::artifact::CscMatrix;
 use crate::artifact::mesh::{ContactPair, Mesh};
-use crate::assemble::test_model;
-use crate::contact::lcp::LcpSettings;
-use crate::equilibrium::{self, Load, Solver};
-use crate::mesh::brake::{BrakeGeometry, brake};
+use crate::fixtures::{coarse_brake, sliding_equilibrium, small_brake, test_model};
 use crate::params::DeclaredParams;
 use crate::stability::sliding::Part;
 use crate::stage::{Input, Value};
-
-/// A brake small enough for a dense reference solve of its linearised problem.
-fn small_brake() -> Mesh {
-    brake(&BrakeGeometry::small()).unwrap()
-}
-
-fn equilibrium_of(model: &Model, mu: f64) -> Equilibrium {
-    equilibrium_at(model, mu, 4.0)
-}
-
-fn equilibrium_at(model: &Model, mu: f64, omega: f64) -> Equilibrium {
-    equilibrium::solve(
-        model,
-        mu,
-        omega,
-        Load::Interference(5e-5),
-        Solver::SemismoothNewton,
-        &LcpSettings::default(),
-    )
-    .unwrap()
-    .0
-}
 
 /// The stage reads the Hoffmann model's Matrix Market files of `pipelines/hoffmann`
 /// (its eigenvalues are verified in the verification suite), whole at μ = 0.38 or as
@@ -63,7 +38,7 @@ fn the_matrices_stage_reads_matrix_market_files() {
         }
         params.insert("f_max_hz".into(), Value::Float(0.0));
         params.insert("mu".into(), Value::Float(0.38));
-        let outputs = lumped::StabilityMatrices
+        let outputs = matrices::StabilityMatrices
             .run(&Params(params), &Inputs::default())
             .unwrap();
         let table = outputs["eigenvalues"].as_table().unwrap();
@@ -145,7 +120,7 @@ fn friction_direction_damping_of_one_sliding_point() {
 fn the_operators_paired_product_equals_the_two_products_of_m_and_c() {
     // With friction damping, Ĉ has entries (pad–disc couplings) outside M's pattern.
     let (model, _) = test_model(&small_brake(), "hub, pad_backs", &[]);
-    let equilibrium = equilibrium_of(&model, 0.6);
+    let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
     let system = SlidingSystem::new(&model, &equilibrium, true).unwrap();
     let m = system.dim();
     for width in [1, 3, 8] {
@@ -174,7 +149,7 @@ fn a_band_wider_than_the_disks_of_the_basis_is_refused_with_what_to_change() {
     // not retry ever closer shifts.
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
-    let equilibrium = equilibrium_of(&model, 0.6);
+    let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
     let settings = Settings {
         f_max_hz: 12_000.0,
         max_divergence_rate: 1.0,
@@ -214,7 +189,7 @@ fn a_vanishing_sliding_speed_reaches_its_limit_instead_of_failing() {
         ..Settings::default()
     };
     let solve_at = |omega: f64| {
-        solve(&model, &equilibrium_at(&model, 0.6, omega), &settings)
+        solve(&model, &sliding_equilibrium(&model, 0.6, omega), &settings)
             .unwrap_or_else(|err| panic!("ω = {omega:e} rad/s: {err}"))
             .pairs
     };
@@ -236,7 +211,7 @@ fn a_vanishing_sliding_speed_reaches_its_limit_instead_of_failing() {
 fn real_mode_projection_approaches_krylov() {
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
-    let equilibrium = equilibrium_of(&model, 0.6);
+    let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
     let f_max_hz = 6_000.0;
     let reference = solve(
         &model,
@@ -288,7 +263,9 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
         let Artifact::Model(inner) = model.as_ref() else {
             unreachable!()
         };
-        let equilibrium = Arc::new(Artifact::Equilibrium(Box::new(equilibrium_of(inner, mu))));
+        let equilibrium = Arc::new(Artifact::Equilibrium(Box::new(sliding_equilibrium(
+            inner, mu, 4.0,
+        ))));
         let inputs = Inputs(BTreeMap::from([
             ("model".to_string(), Input::One(model.clone())),
             ("equilibrium".to_string(), Input::One(equilibrium)),
@@ -366,7 +343,7 @@ fn an_equilibrium_of_another_model_is_refused() {
     let mesh = small_brake();
     let (clamped, _) = test_model(&mesh, "hub, pad_backs", &[]);
     let (free_pads, _) = test_model(&mesh, "hub", &[]);
-    let equilibrium = equilibrium_of(&clamped, 0.38);
+    let equilibrium = sliding_equilibrium(&clamped, 0.38, 4.0);
     let err = solve(&free_pads, &equilibrium, &Settings::default())
         .err()
         .unwrap();
@@ -383,7 +360,7 @@ fn an_equilibrium_of_another_model_is_refused() {
 fn an_equilibrium_without_contact_is_an_error() {
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
-    let mut equilibrium = equilibrium_of(&model, 0.38);
+    let mut equilibrium = sliding_equilibrium(&model, 0.38, 4.0);
     equilibrium
         .closed
         .iter_mut()
@@ -417,9 +394,9 @@ fn stability_results_do_not_depend_on_the_thread_count() {
     squeal_linalg::fix_global_parallelism();
     // Large enough for the Krylov solver (beyond the dense limit) and for several row chunks
     // of its tall products.
-    let mesh = brake(&BrakeGeometry::coarse()).unwrap();
+    let mesh = coarse_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
-    let equilibrium = equilibrium_of(&model, 0.6);
+    let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
     let inputs = Inputs(BTreeMap::from([
         (
             "model".to_string(),
@@ -453,7 +430,7 @@ fn stability_results_do_not_depend_on_the_thread_count() {
 fn krylov_condition_numbers_match_the_dense_solve() {
     let mesh = small_brake();
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
-    let equilibrium = equilibrium_of(&model, 0.6);
+    let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
     let f_max_hz = 6_000.0;
     let dense = solve(
         &model,

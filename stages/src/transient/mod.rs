@@ -72,7 +72,7 @@ pub(crate) mod products;
 pub mod reduced;
 pub mod scheme;
 #[cfg(test)]
-pub(crate) mod tests;
+mod tests;
 
 use faer::c64;
 

@@ -13,7 +13,7 @@
 //! pairs with `W = H J⁻¹ Hᵀ`, one backward sweep (the independent subtrees of J's elimination
 //! tree in parallel, [`squeal_linalg::sweeps`]); or, for a reduced model of dense blocks, by
 //! their inverses (`StepSolve`). `M v` comes from the step's own equation
-//! (and `C v` too when the damping is Rayleigh's row by row, `products.rs`), `K u` by its
+//! (and `C v` too when the damping is Rayleigh's row by row, `products/`), `K u` by its
 //! recursion `K u¹ = K u⁰ + τ K v^θ`, so a step costs one solve and one pass over `K` (with `C`
 //! for other damping). (The solve's backward error, ε‖J‖‖v‖ per step by the factor, up to
 //! `κ₁(Â) ε ‖b‖` by the inverse's blocks, is all that separates the derived products from
@@ -239,7 +239,7 @@ pub fn factorise_J(
 const LEAST_INVERSE_ENTRIES: usize = 1 << 16;
 /// The largest condition `κ₁(Â)` of an inverse's scaled blocks that a step solves by: a
 /// product by the inverse leaves a residual `κ₁(Â)` times a solve's at worst, and the step's
-/// derived products (`products.rs`) and its energy audit read the step's equation as exact.
+/// derived products (`products/`) and its energy audit read the step's equation as exact.
 const MOST_INVERSE_CONDITION: f64 = 1e4;
 
 /// How a step solves `J v¹ = F + Hᵀ r`: by `J`'s sparse factor split around the contact

@@ -2,108 +2,11 @@
 //! thread-count independence, and resuming from a checkpoint. The scheme's exact solutions
 //! (energy, order, impact, stick–slip, Hoffmann) are verified in `tests/verification`.
 
-use std::collections::BTreeMap;
 use std::f64::consts::PI;
-use std::sync::Arc;
 
 use super::*;
-use crate::assemble::test_model;
-use crate::contact::lcp::LcpSettings;
-use crate::equilibrium::{self, Load};
-use crate::mesh::brake::{BrakeGeometry, brake};
-use crate::params::DeclaredParams;
-use crate::stability::Stability;
-use crate::stage::{Input, Value};
-
-pub(crate) fn stage_params(overrides: &[(&str, Value)]) -> Params {
-    Params::defaults(&Transient, overrides)
-}
-
-/// A coarse brake through equilibrium and stability, as the transient's inputs.
-pub(crate) fn brake_inputs() -> Inputs {
-    brake_inputs_of(&BrakeGeometry::small())
-}
-
-/// A brake's model, sliding equilibrium and stability tables (modes below 8 kHz).
-pub(crate) fn brake_inputs_of(geometry: &BrakeGeometry) -> Inputs {
-    let mesh = brake(geometry).unwrap();
-    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
-    let equilibrium = equilibrium::solve(
-        &model,
-        0.6,
-        4.0,
-        Load::Interference(5e-5),
-        equilibrium::Solver::SemismoothNewton,
-        &LcpSettings::default(),
-    )
-    .unwrap()
-    .0;
-    let model = Arc::new(Artifact::Model(Box::new(model)));
-    let equilibrium = Arc::new(Artifact::Equilibrium(Box::new(equilibrium)));
-    let mut inputs = Inputs(BTreeMap::from([
-        ("model".to_string(), Input::One(model)),
-        ("equilibrium".to_string(), Input::One(equilibrium)),
-    ]));
-    let stability_params = Params(
-        Stability
-            .params()
-            .into_iter()
-            .map(|spec| {
-                let value = match spec.name {
-                    "f_max_hz" => Value::Float(8000.0),
-                    _ => spec.default.unwrap(),
-                };
-                (spec.name.to_string(), value)
-            })
-            .collect(),
-    );
-    let outputs = Stability.run(&stability_params, &inputs).unwrap();
-    for port in ["eigenvalues", "shapes"] {
-        inputs.0.insert(
-            port.to_string(),
-            Input::One(Arc::new(outputs[port].clone())),
-        );
-    }
-    inputs
-}
-
-pub(crate) fn f64_column<'a>(table: &'a Table, name: &str) -> &'a [f64] {
-    match table.column(name) {
-        Some(ColumnData::F64(values)) => values,
-        _ => panic!("no f64 column {name}"),
-    }
-}
-
-/// The growth rate of the kinetic energy's envelope, `e^{2 σ t}`: σ fitted in log scale to
-/// the per-period maxima, the first two periods left out.
-pub(crate) fn growth_rate(history: &Table, period: f64, tau: f64) -> f64 {
-    let t = f64_column(history, "t");
-    let kinetic = f64_column(history, "kinetic");
-    let per_period = (period / tau).round() as usize;
-    let peaks: Vec<(f64, f64)> = kinetic
-        .chunks(per_period)
-        .zip(t.chunks(per_period))
-        .skip(2)
-        .filter(|(chunk, _)| chunk.len() == per_period)
-        .map(|(chunk, times)| {
-            let (idx, value) = chunk
-                .iter()
-                .enumerate()
-                .max_by(|a, b| a.1.total_cmp(b.1))
-                .unwrap();
-            (times[idx], value.ln())
-        })
-        .collect();
-    let n = peaks.len() as f64;
-    let mean_t = peaks.iter().map(|p| p.0).sum::<f64>() / n;
-    let mean_y = peaks.iter().map(|p| p.1).sum::<f64>() / n;
-    let slope = peaks
-        .iter()
-        .map(|(x, y)| (x - mean_t) * (y - mean_y))
-        .sum::<f64>()
-        / peaks.iter().map(|(x, _)| (x - mean_t).powi(2)).sum::<f64>();
-    slope / 2.0
-}
+use crate::fixtures::{brake_inputs, f64_column, growth_rate, transient_params};
+use crate::stage::Value;
 
 #[test]
 fn the_brake_grows_at_the_rate_of_its_most_unstable_mode() {
@@ -122,7 +25,7 @@ fn the_brake_grows_at_the_rate_of_its_most_unstable_mode() {
     let duration = (3.0 / expected).min(4000.0 * tau);
     let outputs = Transient
         .run(
-            &stage_params(&[
+            &transient_params(&[
                 ("tau", Value::Float(tau)),
                 ("duration", Value::Float(duration)),
                 ("amplitude", Value::Float(1e-9)),
@@ -188,7 +91,7 @@ fn bad_parameters_are_refused_with_the_figure_that_matters() {
         ),
     ] {
         let error = Transient
-            .run(&stage_params(&overrides), &inputs)
+            .run(&transient_params(&overrides), &inputs)
             .unwrap_err();
         assert!(error.message.contains(expected), "{overrides:?}: {error}");
     }
@@ -199,7 +102,7 @@ fn stage_outputs_do_not_depend_on_the_thread_count() {
     let inputs = brake_inputs();
     // A loose tolerance: the contact iterations read W in single precision, each step then
     // settled on its own velocities or refined.
-    let params = stage_params(&[
+    let params = transient_params(&[
         ("tau", Value::Float(2e-6)),
         ("duration", Value::Float(4e-4)),
         ("amplitude", Value::Float(1e-6)),
@@ -231,7 +134,7 @@ impl crate::stage::Checkpoints for MemoryCheckpoints {
 #[test]
 fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
     let inputs = brake_inputs();
-    let params = stage_params(&[
+    let params = transient_params(&[
         ("tau", Value::Float(2e-6)),
         ("duration", Value::Float(6e-4)),
         ("amplitude", Value::Float(1e-6)),
@@ -305,7 +208,7 @@ fn a_loose_tolerance_solved_in_single_precision_is_met_on_the_steps_own_velociti
     let run = |tolerance: f64| {
         Transient
             .run(
-                &stage_params(&[
+                &transient_params(&[
                     ("initial", Value::Str("kick".into())),
                     ("kick_velocity", Value::Float(1.0)),
                     ("tau", Value::Float(2e-6)),

@@ -4,7 +4,7 @@
 
 use serde::Deserialize;
 use squeal_stages::artifact::CscMatrix;
-use squeal_stages::stability::lumped::solve_matrices;
+use squeal_stages::stability::matrices::solve_matrices;
 
 use crate::hoffmann::Hoffmann;
 use crate::reference;

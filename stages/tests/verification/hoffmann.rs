@@ -9,7 +9,7 @@
 use faer::c64;
 use serde::Deserialize;
 use squeal_stages::artifact::CscMatrix;
-use squeal_stages::stability::lumped::solve_matrices;
+use squeal_stages::stability::matrices::solve_matrices;
 
 use crate::reference;
 

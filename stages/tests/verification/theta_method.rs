@@ -10,7 +10,7 @@ use faer::{Mat, Side, c64};
 use serde::Deserialize;
 use squeal_stages::NoCheckpoints;
 use squeal_stages::artifact::CscMatrix;
-use squeal_stages::stability::lumped::solve_matrices;
+use squeal_stages::stability::matrices::solve_matrices;
 use squeal_stages::transient::contact::{Solver, pad_blocks};
 use squeal_stages::transient::mode_start;
 use squeal_stages::transient::scheme::{

@@ -40,34 +40,28 @@ use std::path::{Path, PathBuf};
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::mesh::interface;
+use crate::mesh::interface::{self, ContactSides};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 
+mod assembly;
+mod build;
 mod deck;
-mod model;
+mod interpret;
 
 pub use deck::InpError;
-
-/// The two sides of the contact interface: surfaces or node sets.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ContactSets {
-    pub disc: String,
-    pub pad: String,
-    /// Largest distance between paired nodes, relative to the shortest contact face edge.
-    pub relative_tolerance: f64,
-}
 
 /// Options of [`read_inp`]: the element sets that are parts, and the contact sides.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadOptions {
     pub parts: Vec<String>,
-    pub contact: Option<ContactSets>,
+    /// The contact sides: surfaces or node sets.
+    pub contact: Option<ContactSides>,
 }
 
 /// Reads the deck at `path` (with its includes) into a [`Mesh`].
 pub fn read_inp(path: &Path, options: &ReadOptions) -> Result<Mesh, InpError> {
     let blocks = deck::read_deck(path)?;
-    model::build_mesh(&model::interpret(blocks)?, options)
+    build::build_mesh(&interpret::interpret(blocks)?, options)
 }
 
 /// Reads deck text (`file` names it in messages; includes resolve in `dir`).
@@ -78,7 +72,7 @@ pub fn read_inp_text(
     options: &ReadOptions,
 ) -> Result<Mesh, InpError> {
     let blocks = deck::parse_deck(text, file, dir)?;
-    model::build_mesh(&model::interpret(blocks)?, options)
+    build::build_mesh(&interpret::interpret(blocks)?, options)
 }
 
 /// `mesh.abaqus`: reads a user file, so it is impure and never cached (an unchanged file
@@ -147,7 +141,7 @@ impl Stage for AbaqusImport {
             &params.contact_pad,
             "a surface or node set",
         )?
-        .map(|[disc, pad]| ContactSets {
+        .map(|[disc, pad]| ContactSides {
             disc: disc.to_lowercase(),
             pad: pad.to_lowercase(),
             relative_tolerance: params.contact_tolerance,

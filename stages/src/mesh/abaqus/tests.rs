@@ -14,7 +14,7 @@ fn data_dir() -> PathBuf {
 fn options(parts: &[&str], contact: Option<(&str, &str)>) -> ReadOptions {
     ReadOptions {
         parts: parts.iter().map(|part| part.to_string()).collect(),
-        contact: contact.map(|(disc, pad)| ContactSets {
+        contact: contact.map(|(disc, pad)| ContactSides {
             disc: disc.into(),
             pad: pad.into(),
             relative_tolerance: 1e-3,
@@ -45,7 +45,7 @@ fn gmsh_mesh() -> Mesh {
     gmsh::read_msh(
         &text,
         &gmsh::ReadOptions {
-            contact: Some(gmsh::ContactGroups {
+            contact: Some(ContactSides {
                 disc: "contact_disc".into(),
                 pad: "contact_pad".into(),
                 relative_tolerance: 1e-3,

@@ -4,11 +4,11 @@
 use std::collections::{BTreeMap, HashMap};
 
 use super::parse::{BoundaryGroup, Elements, GroupKey, Nodes, element_type_name};
-use super::{ContactGroups, MshError, ReadOptions};
+use super::{MshError, ReadOptions};
 use crate::artifact::mesh::{ContactPair, Mesh};
 use crate::fem::faces::{Side, faces_within};
 use crate::fem::hex8::first_inverted_corner;
-use crate::mesh::interface;
+use crate::mesh::interface::{self, ContactSides};
 
 pub(super) fn build_mesh(
     nodes: &Nodes,
@@ -146,7 +146,7 @@ pub(super) fn pair_contact_nodes(
     mesh: &Mesh,
     elements: &Elements,
     index_of_tag: &HashMap<u64, u32>,
-    contact: &ContactGroups,
+    contact: &ContactSides,
 ) -> Result<Vec<ContactPair>, MshError> {
     let disc_group = contact_group(elements, &contact.disc, "contact_disc")?;
     let pad_group = contact_group(elements, &contact.pad, "contact_pad")?;

@@ -1,0 +1,159 @@
+//! The fixtures the unit tests share: brakes, their models and sliding equilibria, and the
+//! inputs of the stages downstream, here rather than in one stage's tests that another's
+//! borrow.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use crate::artifact::{Artifact, Equilibrium, Mesh, Model};
+use crate::assemble::{Assemble, AssembleParams, with_default_materials};
+use crate::contact::lcp::LcpSettings;
+use crate::equilibrium::{self, Load};
+use crate::mesh::brake::{BrakeGeometry, brake};
+use crate::params::DeclaredParams;
+use crate::stability::Stability;
+use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
+use crate::table::{ColumnData, Table};
+use crate::transient::Transient;
+
+/// The coarse brake.
+pub(crate) fn coarse_brake() -> Mesh {
+    brake(&BrakeGeometry::coarse()).unwrap()
+}
+
+/// A brake small enough for a dense reference solve of its linearised problem.
+pub(crate) fn small_brake() -> Mesh {
+    brake(&BrakeGeometry::small()).unwrap()
+}
+
+/// [`with_default_materials`]: `mesh` with the default materials (some overridden by name),
+/// `clamped` held.
+pub(crate) fn test_model(
+    mesh: &Mesh,
+    clamped: &str,
+    overrides: &[(&str, f64)],
+) -> (Model, AssembleParams) {
+    with_default_materials(mesh, clamped, overrides)
+        .unwrap_or_else(|err| panic!("assembly failed: {err}"))
+}
+
+/// Runs `assemble` on `mesh` with `clamped` and the default materials.
+pub(crate) fn try_assemble(mesh: &Mesh, clamped: &str) -> Result<(Model, Table), StageError> {
+    let params = Params::defaults(&Assemble, &[("clamped", Value::Str(clamped.into()))]);
+    let inputs = Inputs(BTreeMap::from([(
+        "mesh".to_string(),
+        Input::One(Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
+    )]));
+    let mut outputs = Assemble.run(&params, &inputs)?;
+    let model = match outputs.remove("model") {
+        Some(Artifact::Model(model)) => *model,
+        other => panic!("no model output: {other:?}"),
+    };
+    let summary = match outputs.remove("summary") {
+        Some(Artifact::Table(table)) => table,
+        other => panic!("no summary output: {other:?}"),
+    };
+    Ok((model, summary))
+}
+
+/// [`try_assemble`], unwrapped.
+pub(crate) fn assemble(mesh: &Mesh, clamped: &str) -> (Model, Table) {
+    try_assemble(mesh, clamped).unwrap_or_else(|err| panic!("assembly failed: {err}"))
+}
+
+/// The sliding equilibrium of `model` at `mu` and `omega`, the pads pressed by an interference
+/// of 50 µm (semi-smooth Newton).
+pub(crate) fn sliding_equilibrium(model: &Model, mu: f64, omega: f64) -> Equilibrium {
+    equilibrium::solve(
+        model,
+        mu,
+        omega,
+        Load::Interference(5e-5),
+        equilibrium::Solver::SemismoothNewton,
+        &LcpSettings::default(),
+    )
+    .unwrap()
+    .0
+}
+
+/// The small brake through equilibrium and stability, as the transient's inputs.
+pub(crate) fn brake_inputs() -> Inputs {
+    brake_inputs_of(&BrakeGeometry::small())
+}
+
+/// A brake's model, sliding equilibrium and stability tables (modes below 8 kHz).
+pub(crate) fn brake_inputs_of(geometry: &BrakeGeometry) -> Inputs {
+    let mesh = brake(geometry).unwrap();
+    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
+    let model = Arc::new(Artifact::Model(Box::new(model)));
+    let equilibrium = Arc::new(Artifact::Equilibrium(Box::new(equilibrium)));
+    let mut inputs = Inputs(BTreeMap::from([
+        ("model".to_string(), Input::One(model)),
+        ("equilibrium".to_string(), Input::One(equilibrium)),
+    ]));
+    let stability_params = Params(
+        Stability
+            .params()
+            .into_iter()
+            .map(|spec| {
+                let value = match spec.name {
+                    "f_max_hz" => Value::Float(8000.0),
+                    _ => spec.default.unwrap(),
+                };
+                (spec.name.to_string(), value)
+            })
+            .collect(),
+    );
+    let outputs = Stability.run(&stability_params, &inputs).unwrap();
+    for port in ["eigenvalues", "shapes"] {
+        inputs.0.insert(
+            port.to_string(),
+            Input::One(Arc::new(outputs[port].clone())),
+        );
+    }
+    inputs
+}
+
+/// The `transient` stage's parameters: its defaults, with `overrides`.
+pub(crate) fn transient_params(overrides: &[(&str, Value)]) -> Params {
+    Params::defaults(&Transient, overrides)
+}
+
+pub(crate) fn f64_column<'a>(table: &'a Table, name: &str) -> &'a [f64] {
+    match table.column(name) {
+        Some(ColumnData::F64(values)) => values,
+        _ => panic!("no f64 column {name}"),
+    }
+}
+
+/// The growth rate of the kinetic energy's envelope, `e^{2 σ t}`: σ fitted in log scale to
+/// the per-period maxima, the first two periods left out.
+pub(crate) fn growth_rate(history: &Table, period: f64, tau: f64) -> f64 {
+    let t = f64_column(history, "t");
+    let kinetic = f64_column(history, "kinetic");
+    let per_period = (period / tau).round() as usize;
+    let peaks: Vec<(f64, f64)> = kinetic
+        .chunks(per_period)
+        .zip(t.chunks(per_period))
+        .skip(2)
+        .filter(|(chunk, _)| chunk.len() == per_period)
+        .map(|(chunk, times)| {
+            let (idx, value) = chunk
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .unwrap();
+            (times[idx], value.ln())
+        })
+        .collect();
+    let n = peaks.len() as f64;
+    let mean_t = peaks.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_y = peaks.iter().map(|p| p.1).sum::<f64>() / n;
+    let slope = peaks
+        .iter()
+        .map(|(x, y)| (x - mean_t) * (y - mean_y))
+        .sum::<f64>()
+        / peaks.iter().map(|(x, _)| (x - mean_t).powi(2)).sum::<f64>();
+    slope / 2.0
+}
