@@ -27,7 +27,7 @@ stages:
     params: { f_max_hz: 8 kHz }
   transient:
     kind: transient
-    inputs: { model: model.model, equilibrium: equilibrium.equilibrium, eigenvalues: stability.eigenvalues, shapes: stability.shapes }
+    inputs: { model: model.model, equilibrium: equilibrium.equilibrium, complex_modes: stability.modes }
     params: { tau: 2 us, duration: 30 ms, amplitude: 1 nm, output_every: 5 }
 "#;
 

@@ -326,8 +326,7 @@ fn a_basis_sweep_gathers_into_pareto_and_an_adaptive_basis_meets_its_default_tar
     inputs: &basis_inputs
       model: model.model
       equilibrium: equilibrium.equilibrium
-      eigenvalues: stability.eigenvalues
-      shapes: stability.shapes
+      complex_modes: stability.modes
       modes: modes.modes
     matrix: {{ kind: [fc, real], n_modes: [12, 40] }}
   full:
@@ -335,8 +334,7 @@ fn a_basis_sweep_gathers_into_pareto_and_an_adaptive_basis_meets_its_default_tar
     inputs: &transient_inputs
       model: model.model
       equilibrium: equilibrium.equilibrium
-      eigenvalues: stability.eigenvalues
-      shapes: stability.shapes
+      complex_modes: stability.modes
     params: &transient_params {{ tau: 2 us, duration: 4 ms, amplitude: 1 nm, output_every: 5 }}
   reduced:
     kind: transient

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::artifact::{Artifact, Equilibrium, Mesh, Model};
+use crate::artifact::{Artifact, ComplexMode, ComplexModes, Equilibrium, Mesh, Model};
 use crate::assemble::{Assemble, AssembleParams, with_default_materials};
 use crate::contact::lcp::LcpSettings;
 use crate::equilibrium::{self, Load};
@@ -106,13 +106,21 @@ pub(crate) fn brake_inputs_of(geometry: &BrakeGeometry) -> Inputs {
             .collect(),
     );
     let outputs = Stability.run(&stability_params, &inputs).unwrap();
-    for port in ["eigenvalues", "shapes"] {
-        inputs.0.insert(
-            port.to_string(),
-            Input::One(Arc::new(outputs[port].clone())),
-        );
-    }
+    inputs.0.insert(
+        "complex_modes".to_string(),
+        Input::One(Arc::new(outputs["modes"].clone())),
+    );
     inputs
+}
+
+/// The most unstable of the complex modes in `inputs` (a brake's, from [`brake_inputs`]).
+pub(crate) fn most_unstable(inputs: &Inputs) -> &ComplexMode {
+    let modes: &ComplexModes = inputs.get("complex_modes").unwrap();
+    modes
+        .modes
+        .iter()
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .unwrap()
 }
 
 /// The `transient` stage's parameters: its defaults, with `overrides`.

@@ -20,7 +20,6 @@ pub mod table;
 pub mod value;
 
 // Shared kernels and formats.
-pub mod complex_modes;
 pub mod contact;
 pub mod fem;
 pub mod plot;

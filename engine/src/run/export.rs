@@ -106,7 +106,8 @@ pub(super) fn export(
             | Artifact::Model(_)
             | Artifact::RealModes(_)
             | Artifact::Equilibrium(_)
-            | Artifact::Basis(_) => files = Vec::new(),
+            | Artifact::Basis(_)
+            | Artifact::ComplexModes(_) => files = Vec::new(),
         }
         for (file, bytes) in &files {
             let path = out_dir.join(file);

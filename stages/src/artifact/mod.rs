@@ -6,11 +6,13 @@
 use serde::{Deserialize, Serialize};
 
 pub mod basis;
+pub mod complex_modes;
 pub mod equilibrium;
 pub mod mesh;
 pub mod model;
 
 pub use basis::Basis;
+pub use complex_modes::{ComplexMode, ComplexModes, ComplexShape, ShapeMatrices};
 pub use equilibrium::{ContactFrames, Equilibrium};
 pub use mesh::{ContactPair, Mesh};
 pub use model::{CscMatrix, Model, RealModes};
@@ -32,6 +34,7 @@ pub enum Artifact {
     RealModes(Box<RealModes>),
     Equilibrium(Box<Equilibrium>),
     Basis(Box<Basis>),
+    ComplexModes(Box<ComplexModes>),
 }
 
 /// Bytes of a file format, with the extension it is written under.
@@ -59,6 +62,7 @@ pub enum ArtifactType {
     RealModes,
     Equilibrium,
     Basis,
+    ComplexModes,
 }
 
 impl ArtifactType {
@@ -72,6 +76,7 @@ impl ArtifactType {
             ArtifactType::RealModes => "real modes",
             ArtifactType::Equilibrium => "equilibrium",
             ArtifactType::Basis => "basis",
+            ArtifactType::ComplexModes => "complex modes",
         }
     }
 }
@@ -116,6 +121,7 @@ artifact_value!(
     RealModes(RealModes),
     Equilibrium(Equilibrium),
     Basis(Basis),
+    ComplexModes(ComplexModes),
 );
 
 /// The bytes could not be decoded as an artifact (a corrupt or foreign cache object).
@@ -134,6 +140,7 @@ impl Artifact {
             Artifact::RealModes(_) => ArtifactType::RealModes,
             Artifact::Equilibrium(_) => ArtifactType::Equilibrium,
             Artifact::Basis(_) => ArtifactType::Basis,
+            Artifact::ComplexModes(_) => ArtifactType::ComplexModes,
         }
     }
 

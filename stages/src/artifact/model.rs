@@ -79,29 +79,34 @@ impl Model {
         *hasher.finalize().as_bytes()
     }
 
+    /// The free DOF of each row of [`Model::nodal_table`] (node-major, x, y, z), `None` where
+    /// clamped; one row per DOF for a model without a node map.
+    pub fn dof_of_nodal_row(&self) -> Vec<Option<usize>> {
+        if self.dof_of_node.is_empty() {
+            return (0..self.n_dofs()).map(Some).collect();
+        }
+        self.dof_of_node
+            .iter()
+            .flatten()
+            .map(|dof| dof.map(|dof| dof as usize))
+            .collect()
+    }
+
     /// A wide table of fields over the free DOFs: columns `node`, `dir`, `dof` (−1 where clamped),
     /// then one f64 column per field; one row per node and direction, zeros on clamped DOFs.
     pub fn nodal_table(&self, fields: Vec<(String, Vec<f64>)>) -> Table {
         let model = self;
-        let mut nodes = Vec::new();
-        let mut directions = Vec::new();
-        let mut dofs: Vec<Option<usize>> = Vec::new();
-        if model.dof_of_node.is_empty() {
-            // A model without a node map: one row per DOF.
-            for dof in 0..model.n_dofs() {
-                nodes.push(-1i64);
-                directions.push(String::new());
-                dofs.push(Some(dof));
-            }
+        let (nodes, directions): (Vec<i64>, Vec<String>) = if model.dof_of_node.is_empty() {
+            (
+                vec![-1; model.n_dofs()],
+                vec![String::new(); model.n_dofs()],
+            )
         } else {
-            for (node, node_dofs) in model.dof_of_node.iter().enumerate() {
-                for (direction, dof) in node_dofs.iter().enumerate() {
-                    nodes.push(node as i64);
-                    directions.push(["x", "y", "z"][direction].to_string());
-                    dofs.push(dof.map(|dof| dof as usize));
-                }
-            }
-        }
+            (0..model.dof_of_node.len())
+                .flat_map(|node| ["x", "y", "z"].map(|direction| (node as i64, direction.into())))
+                .unzip()
+        };
+        let dofs = model.dof_of_nodal_row();
         let mut table = Table::new()
             .with("node", nodes)
             .with("dir", directions)

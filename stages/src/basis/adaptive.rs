@@ -68,10 +68,9 @@ pub(super) fn enrich(
     context: &RunContext,
 ) -> Result<Vec<Round>, StageError> {
     let model = probe.model;
-    let (Some(eigenvalues), Some(shapes)) = (probe.sources.eigenvalues, probe.sources.shapes)
-    else {
+    let Some(modes) = probe.sources.complex_modes else {
         return Err(StageError::new(
-            "basis: adaptive starts its probe from the most unstable mode: connect the stability stage's `eigenvalues` and `shapes`",
+            "basis: adaptive starts its probe from the most unstable mode: connect the stability stage's `modes` to `complex_modes`",
         ));
     };
     let steps = probe.duration / probe.tau;
@@ -98,7 +97,7 @@ pub(super) fn enrich(
         solve_by: SolveBy::Choice,
     };
     let full_step = FullStep::new(&structure, theta, probe.tau)?;
-    let start = most_unstable_start(eigenvalues, shapes, model.n_dofs(), probe.amplitude)?;
+    let start = most_unstable_start(modes, model.n_dofs(), probe.amplitude)?;
     let mut rounds = Vec::new();
     for round in 1..=enrichment.max_rounds {
         let basis = reduction.basis("adaptive");

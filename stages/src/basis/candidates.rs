@@ -19,10 +19,11 @@ use squeal_linalg::gram_schmidt::MSpan;
 
 use super::static_modes::StaticModes;
 use super::{BasisKind, BasisParams};
-use crate::artifact::{CscMatrix, Equilibrium, Model, RealModes};
-use crate::complex_modes::ComplexModes;
+use crate::artifact::{
+    ComplexMode, ComplexModes, ComplexShape, CscMatrix, Equilibrium, Model, RealModes,
+};
 use crate::stage::StageError;
-use crate::table::{ColumnData, Table};
+use crate::table::Table;
 
 /// Candidate vectors per block of `M`-norm products.
 const NORM_BLOCK: usize = 64;
@@ -98,8 +99,7 @@ pub(super) fn candidates_of(
 
 /// The inputs vectors may come from.
 pub(super) struct Sources<'a> {
-    pub(super) eigenvalues: Option<&'a Table>,
-    pub(super) shapes: Option<&'a Table>,
+    pub(super) complex_modes: Option<&'a ComplexModes>,
     pub(super) real_modes: Option<&'a RealModes>,
 }
 
@@ -126,28 +126,20 @@ pub(super) fn cutoff(params: &BasisParams, sources: &Sources) -> Result<f64, Sta
     if params.n_modes > 0 || params.kind == BasisKind::Modes {
         return Ok(f64::INFINITY);
     }
-    let eigenvalues = sources.eigenvalues.ok_or_else(|| {
+    let modes = sources.complex_modes.ok_or_else(|| {
         StageError::new(
-            "basis: the cut-off is cutoff_factor times the highest unstable frequency, which needs the `eigenvalues` input; or set f_cutoff_hz or n_modes",
+            "basis: the cut-off is cutoff_factor times the highest unstable frequency, which needs the `complex_modes` input; or set f_cutoff_hz or n_modes",
         )
     })?;
-    let (Some(ColumnData::F64(freqs_hz)), Some(ColumnData::Bool(unstable))) = (
-        eigenvalues.column("freq_hz"),
-        eigenvalues.column("unstable"),
-    ) else {
-        return Err(StageError::new(
-            "basis: the eigenvalues table has no f64 `freq_hz` and bool `unstable` columns",
-        ));
-    };
-    let highest = freqs_hz
+    let highest = modes
+        .modes
         .iter()
-        .zip(unstable)
-        .filter(|(_, unstable)| **unstable)
-        .map(|(freq_hz, _)| *freq_hz)
+        .filter(|mode| mode.is_unstable())
+        .map(ComplexMode::freq_hz)
         .fold(0.0_f64, f64::max);
     if highest == 0.0 {
         return Err(StageError::new(
-            "basis: the stability tables hold no unstable mode to set the cut-off: set f_cutoff_hz or n_modes",
+            "basis: the complex modes hold no unstable mode to set the cut-off: set f_cutoff_hz or n_modes",
         ));
     }
     Ok(params.cutoff_factor * highest)
@@ -205,32 +197,25 @@ impl Candidates {
         wanted: &Wanted,
         n_dofs: usize,
     ) -> Result<(), StageError> {
-        let (Some(eigenvalues), Some(shapes)) = (sources.eigenvalues, sources.shapes) else {
-            return Err(StageError::new(
-                "basis: fc and modes take complex modes: connect the stability stage's `eigenvalues` and `shapes`",
-            ));
-        };
-        let modes = ComplexModes::from_tables(shapes, eigenvalues)?;
-        let dofs: &[i64] = match shapes.column("dof") {
-            Some(ColumnData::I64(values)) => values,
-            _ => {
-                return Err(StageError::new(
-                    "basis: the shapes table has no i64 column `dof`",
-                ));
-            }
-        };
-        let mut order: Vec<usize> = (0..modes.numbers.len()).collect();
-        order.sort_by(|&a, &b| modes.freqs_hz[a].total_cmp(&modes.freqs_hz[b]));
+        let modes = sources.complex_modes.ok_or_else(|| {
+            StageError::new(
+                "basis: fc and modes take complex modes: connect the stability stage's `modes` to `complex_modes`",
+            )
+        })?;
+        modes.check_dofs(n_dofs)?;
+        let modes: Vec<(&ComplexMode, &ComplexShape)> = modes.with_shapes().collect();
+        let mut order: Vec<usize> = (0..modes.len()).collect();
+        order.sort_by(|&a, &b| modes[a].0.freq_hz().total_cmp(&modes[b].0.freq_hz()));
         let chosen: Vec<usize> = match wanted {
             Wanted::Lowest { n_modes, cutoff_hz } => {
                 let below: Vec<usize> = order
                     .into_iter()
-                    .filter(|&k| modes.freqs_hz[k] <= *cutoff_hz)
+                    .filter(|&k| modes[k].0.freq_hz() <= *cutoff_hz)
                     .collect();
                 if *n_modes > 0 {
                     if below.len() < *n_modes {
                         return Err(StageError::new(format!(
-                            "basis: n_modes = {n_modes}, the stability tables hold {} mode shapes (does the stability stage keep `shapes: all`?)",
+                            "basis: n_modes = {n_modes}, the complex modes hold {} shapes below the cut-off (does the stability stage keep `shapes: all`?)",
                             below.len()
                         )));
                     }
@@ -243,34 +228,21 @@ impl Candidates {
                 .iter()
                 .map(|number| {
                     modes
-                        .numbers
                         .iter()
-                        .position(|m| m == number)
+                        .position(|(mode, _)| mode.number == *number)
                         .ok_or_else(|| {
                             StageError::new(format!(
-                                "basis: mode {number} has no shape in the stability tables"
+                                "basis: mode {number} has no shape among the complex modes"
                             ))
                         })
                 })
                 .collect::<Result<_, _>>()?,
         };
-        let mut full = vec![0.0; n_dofs];
         for k in chosen {
+            let (mode, shape) = modes[k];
             let first = self.len();
-            for (part, columns) in [("complex_re", &modes.real), ("complex_im", &modes.imag)] {
-                full.iter_mut().for_each(|value| *value = 0.0);
-                for (row, &dof) in dofs.iter().enumerate() {
-                    if dof >= 0 && (dof as usize) < n_dofs {
-                        full[dof as usize] = columns[(row, k)];
-                    }
-                }
-                self.push(
-                    &full,
-                    part,
-                    modes.numbers[k],
-                    modes.freqs_hz[k],
-                    Some(first),
-                );
+            for (part, vector) in [("complex_re", &shape.re), ("complex_im", &shape.im)] {
+                self.push(vector, part, mode.number, mode.freq_hz(), Some(first));
             }
         }
         Ok(())

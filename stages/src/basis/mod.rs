@@ -184,15 +184,9 @@ impl Stage for ReductionBasis {
                 "the sliding equilibrium (fc takes u_e)",
             ),
             PortSpec::one(
-                "eigenvalues",
-                ArtifactType::Table,
-                "fc, modes: the stability stage's eigenvalues",
-            )
-            .optional(),
-            PortSpec::one(
-                "shapes",
-                ArtifactType::Table,
-                "fc, modes: the stability stage's mode shapes",
+                "complex_modes",
+                ArtifactType::ComplexModes,
+                "fc, modes, adaptive, the cut-off: the stability stage's complex modes",
             )
             .optional(),
             PortSpec::one(
@@ -278,8 +272,7 @@ impl Stage for ReductionBasis {
         );
         let static_modes = StaticModes::new(model, &interface)?;
         let sources = Sources {
-            eigenvalues: inputs.get_optional("eigenvalues")?,
-            shapes: inputs.get_optional("shapes")?,
+            complex_modes: inputs.get_optional("complex_modes")?,
             real_modes: inputs.get_optional("modes")?,
         };
         let cutoff_hz = cutoff(&params, &sources)?;

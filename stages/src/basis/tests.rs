@@ -18,8 +18,10 @@ use squeal_linalg::tall::transpose_times;
 use super::reduction::STIFFNESS;
 use super::*;
 use crate::artifact::Basis;
-use crate::complex_modes::ComplexModes;
-use crate::fixtures::{brake_inputs, brake_inputs_of, f64_column, growth_rate, transient_params};
+use crate::artifact::{ComplexMode, ComplexShape};
+use crate::fixtures::{
+    brake_inputs, brake_inputs_of, f64_column, growth_rate, most_unstable, transient_params,
+};
 use crate::mesh::brake::BrakeGeometry;
 use crate::modes::Modes;
 use crate::params::DeclaredParams;
@@ -379,13 +381,8 @@ fn the_reduction_grown_by_blocks_is_the_dense_projection() {
 #[test]
 fn a_reduced_run_grows_at_the_rate_of_the_unstable_mode_it_starts_from() {
     let mut inputs = brake_inputs();
-    let eigenvalues = inputs.table("eigenvalues").unwrap().clone();
-    let re = f64_column(&eigenvalues, "re");
-    let im = f64_column(&eigenvalues, "im");
-    let most = (0..re.len())
-        .max_by(|&a, &b| re[a].total_cmp(&re[b]))
-        .unwrap();
-    let (expected, period) = (re[most], 2.0 * PI / im[most]);
+    let most = most_unstable(&inputs);
+    let (expected, period) = (most.re, 2.0 * PI / most.im);
     let basis = fc_basis(&inputs, &[]);
     insert(&mut inputs, "basis", basis["basis"].clone());
     let tau = period / 60.0;
@@ -470,9 +467,9 @@ fn bad_requests_are_refused_with_what_is_missing() {
         );
     }
     let mut without_stability = inputs.clone();
-    without_stability.0.remove("eigenvalues");
+    without_stability.0.remove("complex_modes");
     let message = refuse(&[], &without_stability);
-    assert!(message.contains("eigenvalues"), "{message}");
+    assert!(message.contains("complex_modes"), "{message}");
     let params = Params::defaults(&ReductionBasis, &[("modes", Value::Str("1, x".into()))]);
     let message = ReductionBasis.read_params(&params).unwrap_err().to_string();
     assert!(message.contains("`x`"), "{message}");
@@ -572,9 +569,7 @@ fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
         count(&narrow) < count(&all),
         "the narrow band leaves modes out"
     );
-    for port in ["eigenvalues", "shapes"] {
-        insert(&mut inputs, port, narrow[port].clone());
-    }
+    insert(&mut inputs, "complex_modes", narrow["modes"].clone());
     let modes = real_modes(&inputs, 0, 12_000.0);
     insert(&mut inputs, "modes", modes);
     let cutoff = [("f_cutoff_hz", Value::Float(8000.0))];
@@ -585,22 +580,15 @@ fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
     );
     // How much of each complex mode of the wide band lies outside a basis.
     let model: &Model = inputs.get("model").unwrap();
-    let modes = ComplexModes::from_tables(
-        all["shapes"].as_table().unwrap(),
-        all["eigenvalues"].as_table().unwrap(),
-    )
-    .unwrap();
-    let dofs = match all["shapes"].as_table().unwrap().column("dof") {
-        Some(ColumnData::I64(dofs)) => dofs.clone(),
-        _ => panic!("no dof column"),
+    let Artifact::ComplexModes(modes) = &all["modes"] else {
+        panic!("no complex modes")
     };
+    let modes: Vec<(&ComplexMode, &ComplexShape)> = modes.with_shapes().collect();
     let narrow_freqs = f64_column(narrow["eigenvalues"].as_table().unwrap(), "freq_hz").to_vec();
-    let missing: Vec<usize> = (0..modes.numbers.len())
+    let missing: Vec<usize> = (0..modes.len())
         .filter(|&k| {
-            modes.freqs_hz[k] <= 8000.0
-                && narrow_freqs
-                    .iter()
-                    .all(|f| (f - modes.freqs_hz[k]).abs() > 1e-6 * f)
+            let freq_hz = modes[k].0.freq_hz();
+            freq_hz <= 8000.0 && narrow_freqs.iter().all(|f| (f - freq_hz).abs() > 1e-6 * f)
         })
         .collect();
     assert!(!missing.is_empty());
@@ -616,13 +604,8 @@ fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
         let gram = gram.as_ref().llt(faer::Side::Lower).unwrap();
         let mut worst = 0.0_f64;
         for &k in &missing {
-            for part in [&modes.real, &modes.imag] {
-                let mut u = Mat::<f64>::zeros(model.n_dofs(), 1);
-                for (row, &dof) in dofs.iter().enumerate() {
-                    if dof >= 0 {
-                        u[(dof as usize, 0)] = part[(row, k)];
-                    }
-                }
+            for part in [&modes[k].1.re, &modes[k].1.im] {
+                let u = Mat::from_fn(model.n_dofs(), 1, |dof, _| part[dof]);
                 let M_norm = |u: &Mat<f64>| {
                     (u.transpose() * symmetric_mul(&model.M, u.as_ref()))[(0, 0)]
                         .max(0.0)
@@ -673,13 +656,7 @@ fn the_modes_the_stability_band_leaves_out_lie_in_the_span_of_the_basis() {
 #[test]
 fn the_residual_indicator_tracks_the_true_error_and_the_adaptive_basis_meets_its_target() {
     let inputs = brake_inputs();
-    let eigenvalues = inputs.table("eigenvalues").unwrap().clone();
-    let im = f64_column(&eigenvalues, "im");
-    let re = f64_column(&eigenvalues, "re");
-    let most = (0..re.len())
-        .max_by(|&a, &b| re[a].total_cmp(&re[b]))
-        .unwrap();
-    let tau = 2.0 * PI / im[most] / 40.0;
+    let tau = 2.0 * PI / most_unstable(&inputs).im / 40.0;
     let (duration, amplitude) = (400.0 * tau, 1e-4);
     let params = transient_params(&[
         ("tau", Value::Float(tau)),

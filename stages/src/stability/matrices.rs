@@ -13,9 +13,9 @@ use faer::c64;
 
 use super::figure::stability_diagram;
 use super::sliding::{mul_complex, norm};
-use super::{EigenPair, conditioning, eigenvalue_table, mode_name};
+use super::{EigenPair, complex_mode, conditioning, eigenvalue_table, mode_name};
 use crate::artifact::CscMatrix;
-use crate::artifact::{Artifact, ArtifactType};
+use crate::artifact::{Artifact, ArtifactType, ComplexModes};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 use squeal_linalg::matrix_market::read_matrix_market;
@@ -145,8 +145,8 @@ impl Stage for StabilityMatrices {
         "stability.matrices"
     }
     fn version(&self) -> u32 {
-        // 2: condition numbers, kf_path, shapes (CHANGELOG.md, "stability.matrices")
-        2
+        // 3: the `modes` output (CHANGELOG.md, "stability.matrices")
+        3
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of a small model from Matrix Market M, C, K (dense; lumped friction models)"
@@ -164,7 +164,12 @@ impl Stage for StabilityMatrices {
             PortSpec::one(
                 "shapes",
                 ArtifactType::Table,
-                "one row per DOF (`dof`), mode_NNNN_re and mode_NNNN_im columns, each shape of unit norm: what stability.track follows",
+                "one row per DOF (`dof`), mode_NNNN_re and mode_NNNN_im columns, each shape of unit norm",
+            ),
+            PortSpec::one(
+                "modes",
+                ArtifactType::ComplexModes,
+                "every eigenvalue with its residual, κ and unit shape: what stability.track follows",
             ),
             PortSpec::one(
                 "diagram",
@@ -217,6 +222,7 @@ impl Stage for StabilityMatrices {
         let diagram = stability_diagram(&pairs, params.mu)?;
         let n = M.n_rows;
         let mut shapes = Table::new().with("dof", (0..n as i64).collect::<Vec<i64>>());
+        let mut modes = Vec::with_capacity(pairs.len());
         for (mode, pair) in pairs.iter().enumerate() {
             // Unit norm, the largest component real and positive: one shape per mode, whatever
             // phase the solver returned.
@@ -228,15 +234,12 @@ impl Stage for StabilityMatrices {
                 .unwrap_or(c64::new(1.0, 0.0));
             let scale = largest.conj() / (largest.norm() * norm(&pair.q)).max(f64::MIN_POSITIVE);
             let shape: Vec<c64> = pair.q.iter().map(|value| value * scale).collect();
+            let re: Vec<f64> = shape.iter().map(|value| value.re).collect();
+            let im: Vec<f64> = shape.iter().map(|value| value.im).collect();
             shapes = shapes
-                .with(
-                    format!("{}_re", mode_name(mode)),
-                    shape.iter().map(|value| value.re).collect::<Vec<f64>>(),
-                )
-                .with(
-                    format!("{}_im", mode_name(mode)),
-                    shape.iter().map(|value| value.im).collect::<Vec<f64>>(),
-                );
+                .with(format!("{}_re", mode_name(mode)), re.clone())
+                .with(format!("{}_im", mode_name(mode)), im.clone());
+            modes.push(complex_mode(mode, pair, Some((re, im))));
         }
         Ok(Outputs::from([
             (
@@ -244,6 +247,10 @@ impl Stage for StabilityMatrices {
                 Artifact::Table(eigenvalue_table(&pairs)),
             ),
             ("shapes".to_string(), Artifact::Table(shapes)),
+            (
+                "modes".to_string(),
+                Artifact::ComplexModes(Box::new(ComplexModes { modes })),
+            ),
             ("diagram".to_string(), Artifact::Figure(diagram)),
         ]))
     }

@@ -49,11 +49,11 @@ mod tests;
 
 use std::f64::consts::PI;
 
-use faer::{Mat, c64};
+use faer::c64;
 
 use crate::artifact::Equilibrium;
 use crate::artifact::Model;
-use crate::artifact::{Artifact, ArtifactType};
+use crate::artifact::{Artifact, ArtifactType, ComplexMode, ComplexModes, ComplexShape};
 use crate::stage::{
     HasParams, Inputs, Outputs, Params, PortSpec, Progress, Resources, RunContext, Stage,
     StageError,
@@ -67,8 +67,6 @@ use sliding::{Part, SlidingSystem, mul_complex};
 
 /// Systems of up to this many reduced DOFs are solved densely (an eigenproblem of size 2·DOFs).
 pub const DENSE_LIMIT: usize = 300;
-/// `Re λ > UNSTABLE_FLOOR · |λ|` marks an unstable mode.
-pub const UNSTABLE_FLOOR: f64 = 1e-8;
 /// With `n_real_modes = 0`, the projection keeps every real mode below this multiple of f_max.
 pub const PROJECTION_BAND_FACTOR: f64 = 1.5;
 
@@ -406,8 +404,23 @@ pub fn divergence_rate(lambda: c64) -> f64 {
     2.0 * lambda.re / lambda.im
 }
 
-pub fn is_unstable(lambda: c64) -> bool {
-    lambda.re > UNSTABLE_FLOOR * lambda.norm()
+pub use crate::artifact::complex_modes::is_unstable;
+
+/// The eigenpair `pair`, the `mode`-th (0-based) of its band, with its shape over the model's
+/// DOFs when it is kept.
+pub fn complex_mode(
+    mode: usize,
+    pair: &EigenPair,
+    shape: Option<(Vec<f64>, Vec<f64>)>,
+) -> ComplexMode {
+    ComplexMode {
+        number: mode as i64 + 1,
+        re: pair.lambda.re,
+        im: pair.lambda.im,
+        residual: pair.residual,
+        condition: pair.condition,
+        shape: shape.map(|(re, im)| ComplexShape { re, im }),
+    }
 }
 
 /// Name of the columns of mode `mode` (0-based) in the shapes table, without `_re`/`_im`.
@@ -489,8 +502,8 @@ impl Stage for Stability {
         "stability"
     }
     fn version(&self) -> u32 {
-        // 9: an equilibrium of another model's DOFs is refused (CHANGELOG.md, "stability")
-        9
+        // 10: the `modes` output (CHANGELOG.md, "stability")
+        10
     }
     fn doc(&self) -> &'static str {
         "Complex eigenvalues of the sliding equilibrium: every mode in the band, divergence rates, stability diagram"
@@ -526,6 +539,11 @@ impl Stage for Stability {
                 "shapes",
                 ArtifactType::Table,
                 "one row per node and direction, mode_NNNN_re and mode_NNNN_im columns",
+            ),
+            PortSpec::one(
+                "modes",
+                ArtifactType::ComplexModes,
+                "every eigenvalue with its residual and κ, and the shapes kept: what basis, transient, svd_projection and stability.track take",
             ),
             PortSpec::one(
                 "summary",
@@ -588,6 +606,7 @@ impl Stage for Stability {
         let only_unstable = params.shapes == ShapesKept::Unstable;
         let mut fields = Vec::new();
         let mut unstable_fields = Vec::new();
+        let mut modes = Vec::with_capacity(shapes.len());
         for (mode, (pair, shape)) in solution.pairs.iter().zip(&shapes).enumerate() {
             let real: Vec<f64> = shape.iter().map(|value| value.re).collect();
             let imaginary: Vec<f64> = shape.iter().map(|value| value.im).collect();
@@ -599,10 +618,12 @@ impl Stage for Stability {
                     imaginary.clone(),
                 ));
             }
-            if unstable || !only_unstable {
-                fields.push((format!("{}_re", mode_name(mode)), real));
-                fields.push((format!("{}_im", mode_name(mode)), imaginary));
+            let kept = unstable || !only_unstable;
+            if kept {
+                fields.push((format!("{}_re", mode_name(mode)), real.clone()));
+                fields.push((format!("{}_im", mode_name(mode)), imaginary.clone()));
             }
+            modes.push(complex_mode(mode, pair, kept.then_some((real, imaginary))));
         }
         let shapes_table = model.nodal_table(fields);
         let vtu = crate::vtu_writer::complex_modes_vtu(model, &unstable_fields)?;
@@ -613,6 +634,10 @@ impl Stage for Stability {
                 Artifact::Table(eigenvalue_table(&solution.pairs)),
             ),
             ("shapes".to_string(), Artifact::Table(shapes_table)),
+            (
+                "modes".to_string(),
+                Artifact::ComplexModes(Box::new(ComplexModes { modes })),
+            ),
             (
                 "summary".to_string(),
                 Artifact::Table(summary_table(&solution, &settings, dense_check)),
@@ -726,34 +751,4 @@ fn summary_table(solution: &Solution, settings: &Settings, check: Option<DenseCh
         Method::RealModeProjection { .. } => "real_mode_projection",
     };
     Table::quantities(&quantities).with("method", vec![method.to_string(); quantities.len()])
-}
-
-/// A dense complex matrix of mode shapes (one column per mode) from a shapes table.
-pub fn shapes_from_table(table: &Table) -> Result<(Vec<String>, Mat<c64>), StageError> {
-    let mut names = Vec::new();
-    let mut columns: Vec<(&[f64], &[f64])> = Vec::new();
-    for column in table.columns() {
-        let Some(base) = column.name.strip_suffix("_re") else {
-            continue;
-        };
-        let (
-            Some(crate::table::ColumnData::F64(real)),
-            Some(crate::table::ColumnData::F64(imaginary)),
-        ) = (Some(&column.data), table.column(&format!("{base}_im")))
-        else {
-            return Err(StageError::new(format!(
-                "shapes: column {} has no f64 partner {base}_im",
-                column.name
-            )));
-        };
-        names.push(base.to_string());
-        columns.push((real, imaginary));
-    }
-    let rows = table.n_rows();
-    Ok((
-        names,
-        Mat::from_fn(rows, columns.len(), |row, col| {
-            c64::new(columns[col].0[row], columns[col].1[row])
-        }),
-    ))
 }

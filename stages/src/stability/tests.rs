@@ -257,8 +257,7 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
     let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
     let model = Arc::new(Artifact::Model(Box::new(model)));
     let params = Params::defaults;
-    let mut eigenvalue_points = Vec::new();
-    let mut shape_points = Vec::new();
+    let mut points = Vec::new();
     for mu in [0.3, 0.45, 0.6] {
         let Artifact::Model(inner) = model.as_ref() else {
             unreachable!()
@@ -290,6 +289,42 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
         }
         let shapes = outputs["shapes"].as_table().unwrap();
         assert!(shapes.column("mode_0001_re").is_some() && shapes.column("mode_0001_im").is_some());
+        // The complex modes hold what the tables hold, the shapes over the model's DOFs.
+        let Artifact::ComplexModes(modes) = &outputs["modes"] else {
+            panic!("no complex modes")
+        };
+        assert_eq!(
+            modes
+                .modes
+                .iter()
+                .map(|mode| mode.number)
+                .collect::<Vec<_>>(),
+            eigenvalues.i64("mode").unwrap()
+        );
+        for (column, value) in [
+            (
+                "re",
+                &(|mode: &ComplexMode| mode.re) as &dyn Fn(&ComplexMode) -> f64,
+            ),
+            ("im", &|mode| mode.im),
+            ("freq_hz", &|mode| mode.freq_hz()),
+            ("residual", &|mode| mode.residual),
+        ] {
+            let values: Vec<f64> = modes.modes.iter().map(value).collect();
+            assert_eq!(values, eigenvalues.f64(column).unwrap(), "{column}");
+        }
+        let dofs = shapes.i64("dof").unwrap();
+        for (mode, shape) in modes.with_shapes() {
+            for (part, values) in [("re", &shape.re), ("im", &shape.im)] {
+                let column = shapes
+                    .f64(&format!("mode_{:04}_{part}", mode.number))
+                    .unwrap();
+                for (row, &dof) in dofs.iter().enumerate() {
+                    let expected = if dof < 0 { 0.0 } else { values[dof as usize] };
+                    assert_eq!(column[row], expected);
+                }
+            }
+        }
         let Artifact::Figure(diagram) = &outputs["diagram"] else {
             panic!()
         };
@@ -306,13 +341,12 @@ fn the_stage_writes_its_tables_figure_and_vtu_and_tracks_a_sweep() {
             unstable.iter().filter(|u| **u).count()
         );
         let coords = vec![("mu".to_string(), Value::Float(mu))];
-        eigenvalue_points.push((coords.clone(), Arc::new(outputs["eigenvalues"].clone())));
-        shape_points.push((coords, Arc::new(outputs["shapes"].clone())));
+        points.push((coords, Arc::new(outputs["modes"].clone())));
     }
-    let inputs = Inputs(BTreeMap::from([
-        ("eigenvalues".to_string(), Input::Many(eigenvalue_points)),
-        ("shapes".to_string(), Input::Many(shape_points)),
-    ]));
+    let inputs = Inputs(BTreeMap::from([(
+        "complex_modes".to_string(),
+        Input::Many(points),
+    )]));
     let outputs = track::Track
         .run(&params(&track::Track, &[]), &inputs)
         .unwrap();

@@ -19,10 +19,9 @@ use std::sync::Arc;
 use faer::{Mat, c64};
 
 use super::figure::{Branch, coalescence_figure};
-use super::shapes_from_table;
-use crate::artifact::{Artifact, ArtifactType};
+use crate::artifact::{Artifact, ArtifactType, ComplexMode, ComplexModes};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, Value};
-use crate::table::{ColumnData, Table};
+use crate::table::Table;
 
 /// A row of the tracked table: axis value, branch, mode, freq_hz, re, im, unstable, residual,
 /// MAC with the previous point.
@@ -43,8 +42,7 @@ struct Point {
 /// The sweep's points (eigenvalues and shapes at each value of `axis`), in increasing `axis`.
 fn sweep_points(
     axis: &str,
-    eigenvalues: &[(crate::stage::Coords, Arc<Artifact>)],
-    shapes: &[(crate::stage::Coords, Arc<Artifact>)],
+    modes: &[(crate::stage::Coords, Arc<Artifact>)],
 ) -> Result<Vec<Point>, StageError> {
     let axis_value = |coords: &crate::stage::Coords| -> Result<f64, StageError> {
         match coords.iter().find(|(name, _)| *name == axis) {
@@ -60,19 +58,15 @@ fn sweep_points(
             ))),
         }
     };
-    let mut points = Vec::with_capacity(eigenvalues.len());
-    for (coords, artifact) in eigenvalues {
-        let table = artifact
-            .as_table()
-            .ok_or_else(|| StageError::new("eigenvalues: not a table"))?;
-        let (_, shapes_artifact) = shapes
-            .iter()
-            .find(|(other, _)| other == coords)
-            .ok_or_else(|| StageError::new("shapes: a sweep point has no shapes"))?;
-        let shapes_table = shapes_artifact
-            .as_table()
-            .ok_or_else(|| StageError::new("shapes: not a table"))?;
-        points.push(point(axis_value(coords)?, table, shapes_table)?);
+    let mut points = Vec::with_capacity(modes.len());
+    for (coords, artifact) in modes {
+        let Artifact::ComplexModes(modes) = artifact.as_ref() else {
+            return Err(StageError::new(format!(
+                "modes: a {} where complex modes are taken",
+                artifact.artifact_type()
+            )));
+        };
+        points.push(point(axis_value(coords)?, modes)?);
     }
     points.sort_by(|a, b| a.axis.total_cmp(&b.axis));
 
@@ -192,37 +186,39 @@ fn tracked_table(points: &[Point], axis: &str, branching: &Branching) -> (Table,
     (table, branches)
 }
 
-fn point(axis_value: f64, eigenvalues: &Table, shapes: &Table) -> Result<Point, StageError> {
-    let Some(ColumnData::I64(mode)) = eigenvalues.column("mode") else {
-        return Err(StageError::new("eigenvalues: no i64 column `mode`"));
-    };
-    let Some(ColumnData::Bool(unstable)) = eigenvalues.column("unstable") else {
-        return Err(StageError::new("eigenvalues: no bool column `unstable`"));
-    };
-    let (names, all_shapes) = shapes_from_table(shapes)?;
-    let columns: Vec<usize> =
-        mode.iter()
-            .map(|&number| {
-                let name = super::mode_name(number as usize - 1);
-                names.iter().position(|candidate| *candidate == name).ok_or_else(|| {
-                StageError::new(format!(
-                    "shapes: no columns for {name} (run the stability stage with shapes: all)"
-                ))
-            })
-            })
-            .collect::<Result<_, _>>()?;
-    let shapes = Mat::from_fn(all_shapes.nrows(), columns.len(), |row, col| {
-        all_shapes[(row, columns[col])]
-    });
+fn point(axis_value: f64, modes: &ComplexModes) -> Result<Point, StageError> {
+    let mut shapes: Vec<(&[f64], &[f64])> = Vec::with_capacity(modes.modes.len());
+    for mode in &modes.modes {
+        let shape = mode.shape.as_ref().ok_or_else(|| {
+            StageError::new(format!(
+                "modes: mode {} has no shape (run the stability stage with shapes: all)",
+                mode.number
+            ))
+        })?;
+        shapes.push((&shape.re, &shape.im));
+    }
+    let n_rows = shapes.first().map_or(0, |(re, _)| re.len());
+    if let Some(mode) = shapes.iter().position(|(re, _)| re.len() != n_rows) {
+        return Err(StageError::new(format!(
+            "modes: mode {} has {} DOFs, mode {} has {n_rows}",
+            modes.modes[mode].number,
+            shapes[mode].0.len(),
+            modes.modes[0].number
+        )));
+    }
+    let column =
+        |f: &dyn Fn(&ComplexMode) -> f64| -> Vec<f64> { modes.modes.iter().map(f).collect() };
     Ok(Point {
         axis: axis_value,
-        mode: mode.clone(),
-        freq_hz: eigenvalues.f64("freq_hz")?.to_vec(),
-        re: eigenvalues.f64("re")?.to_vec(),
-        im: eigenvalues.f64("im")?.to_vec(),
-        unstable: unstable.clone(),
-        residual: eigenvalues.f64("residual")?.to_vec(),
-        shapes,
+        mode: modes.modes.iter().map(|mode| mode.number).collect(),
+        freq_hz: column(&|mode| mode.freq_hz()),
+        re: column(&|mode| mode.re),
+        im: column(&|mode| mode.im),
+        unstable: modes.modes.iter().map(ComplexMode::is_unstable).collect(),
+        residual: column(&|mode| mode.residual),
+        shapes: Mat::from_fn(n_rows, shapes.len(), |row, col| {
+            c64::new(shapes[col].0[row], shapes[col].1[row])
+        }),
     })
 }
 
@@ -288,18 +284,11 @@ impl Stage for Track {
         "Follow the complex modes of a sweep (e.g. over mu) by MAC; one table and a coalescence figure"
     }
     fn inputs(&self) -> Vec<PortSpec> {
-        vec![
-            PortSpec::many(
-                "eigenvalues",
-                ArtifactType::Table,
-                "the stability stage's eigenvalues at every point",
-            ),
-            PortSpec::many(
-                "shapes",
-                ArtifactType::Table,
-                "the stability stage's shapes at every point",
-            ),
-        ]
+        vec![PortSpec::many(
+            "complex_modes",
+            ArtifactType::ComplexModes,
+            "a stability stage's complex modes at every point, every shape kept",
+        )]
     }
     fn outputs(&self) -> Vec<PortSpec> {
         vec![
@@ -317,9 +306,7 @@ impl Stage for Track {
     }
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let TrackParams { axis, min_mac } = params.read::<Self>()?;
-        let eigenvalues = inputs.many("eigenvalues")?;
-        let shapes = inputs.many("shapes")?;
-        let points = sweep_points(&axis, eigenvalues, shapes)?;
+        let points = sweep_points(&axis, inputs.many("complex_modes")?)?;
         let branching = follow_branches(&points, &axis, min_mac)?;
         let (table, branches) = tracked_table(&points, &axis, &branching);
         let figure = coalescence_figure(&branches, &axis)?;

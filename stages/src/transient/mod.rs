@@ -76,11 +76,11 @@ mod tests;
 
 use faer::c64;
 
-use crate::artifact::{Artifact, ArtifactType, Basis, Equilibrium, Model};
+use crate::artifact::{Artifact, ArtifactType, Basis, ComplexModes, Equilibrium, Model};
 use crate::stage::{
     HasParams, Inputs, Outputs, Params, PortSpec, Resources, RunContext, Stage, StageError,
 };
-use crate::table::{ColumnData, Table};
+use crate::table::Table;
 use contact::Solver;
 use reduced::{FullStep, ReducedModel};
 use scheme::{ContactState, Failure, Run, Settings, SolveBy, Structure};
@@ -231,14 +231,9 @@ impl Stage for Transient {
                 "the sliding equilibrium the run starts from",
             ),
             PortSpec::one(
-                "eigenvalues",
-                ArtifactType::Table,
-                "the stability stage's eigenvalues (mode, re, im)",
-            ),
-            PortSpec::one(
-                "shapes",
-                ArtifactType::Table,
-                "the stability stage's mode shapes (dof, mode_NNNN_re, mode_NNNN_im)",
+                "complex_modes",
+                ArtifactType::ComplexModes,
+                "the stability stage's complex modes: `initial: mode` starts along one",
             ),
             PortSpec::one(
                 "basis",
@@ -311,8 +306,7 @@ impl Stage for Transient {
     ) -> Result<Outputs, StageError> {
         let model: &Model = inputs.get("model")?;
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
-        let eigenvalues = inputs.table("eigenvalues")?;
-        let shapes = inputs.table("shapes")?;
+        let modes: &ComplexModes = inputs.get("complex_modes")?;
         let params = params.read::<Self>()?;
         params.check()?;
         model.check_dof_map()?;
@@ -320,8 +314,7 @@ impl Stage for Transient {
         let (u0, v0) = match params.initial {
             Initial::Kick => kick(model, equilibrium, params.kick_velocity),
             Initial::Mode => {
-                let (lambda, shape) =
-                    chosen_mode(eigenvalues, shapes, params.mode, model.n_dofs())?;
+                let (lambda, shape) = chosen_mode(modes, params.mode, model.n_dofs())?;
                 mode_start(lambda, &shape, params.amplitude)
             }
         };
@@ -400,15 +393,14 @@ pub fn run_reduced(
     Ok(run)
 }
 
-/// The start of a run from the sliding equilibrium plus the most unstable mode of the
-/// stability tables at `amplitude` (see the module doc).
+/// The start of a run from the sliding equilibrium plus the most unstable of the complex
+/// modes at `amplitude` (see the module doc).
 pub fn most_unstable_start(
-    eigenvalues: &Table,
-    shapes: &Table,
+    modes: &ComplexModes,
     n_dofs: usize,
     amplitude: f64,
 ) -> Result<(Vec<f64>, Vec<f64>), StageError> {
-    let (lambda, shape) = chosen_mode(eigenvalues, shapes, 0, n_dofs)?;
+    let (lambda, shape) = chosen_mode(modes, 0, n_dofs)?;
     Ok(mode_start(lambda, &shape, amplitude))
 }
 
@@ -449,75 +441,50 @@ pub fn structure_of<'a>(
     Ok((structure, contact_state))
 }
 
-/// The complex mode `mode` (1-based; 0 = the most unstable) of the stability tables, over the
-/// free DOFs.
+/// The complex mode `mode` (1-based; 0 = the most unstable with a shape), over the free DOFs.
 fn chosen_mode(
-    eigenvalues: &Table,
-    shapes: &Table,
+    modes: &ComplexModes,
     mode: i64,
     n_dofs: usize,
 ) -> Result<(c64, Vec<c64>), StageError> {
-    let f64_column = |table: &Table, name: &str| -> Result<Vec<f64>, StageError> {
-        match table.column(name) {
-            Some(ColumnData::F64(values)) => Ok(values.clone()),
-            _ => Err(StageError::new(format!(
-                "the stability tables have no f64 column `{name}`"
-            ))),
-        }
-    };
-    let modes: Vec<i64> = match eigenvalues.column("mode") {
-        Some(ColumnData::I64(values)) => values.clone(),
-        _ => {
-            return Err(StageError::new(
-                "the eigenvalues table has no i64 column `mode`",
-            ));
-        }
-    };
-    let re = f64_column(eigenvalues, "re")?;
-    let im = f64_column(eigenvalues, "im")?;
-    let has_shape = |mode: i64| shapes.column(&format!("mode_{mode:04}_re")).is_some();
     let chosen = if mode == 0 {
-        (0..modes.len())
-            .filter(|&row| re[row] > 0.0 && has_shape(modes[row]))
-            .max_by(|&a, &b| re[a].total_cmp(&re[b]))
+        modes
+            .with_shapes()
+            .filter(|(mode, _)| mode.re > 0.0)
+            .max_by(|(a, _), (b, _)| a.re.total_cmp(&b.re))
+            .map(|(mode, _)| mode)
             .ok_or_else(|| {
                 StageError::new(
-                    "no unstable mode with a shape in the stability tables: choose `mode`, or `initial: kick`",
+                    "no unstable mode with a shape in the complex modes: choose `mode`, or `initial: kick`",
                 )
             })?
     } else {
-        modes.iter().position(|&m| m == mode).ok_or_else(|| {
+        modes.get(mode).ok_or_else(|| {
             StageError::new(format!(
-                "mode {mode} is not in the stability tables (modes 1 to {})",
-                modes.len()
+                "mode {mode} is not among the complex modes (modes 1 to {})",
+                modes.modes.len()
             ))
         })?
     };
-    let number = modes[chosen];
-    if !has_shape(number) {
+    let number = chosen.number;
+    let Some(shape) = &chosen.shape else {
         return Err(StageError::new(format!(
-            "mode {number} has no shape in the shapes table (the stability stage keeps `shapes: unstable` only?)"
+            "mode {number} has no shape (the stability stage keeps `shapes: unstable` only?)"
+        )));
+    };
+    if shape.re.len() != n_dofs {
+        return Err(StageError::new(format!(
+            "mode {number} has {} DOFs, the model has {n_dofs}: it comes from another model's stability stage",
+            shape.re.len()
         )));
     }
-    let real = f64_column(shapes, &format!("mode_{number:04}_re"))?;
-    let imaginary = f64_column(shapes, &format!("mode_{number:04}_im"))?;
-    let dofs: Vec<i64> = match shapes.column("dof") {
-        Some(ColumnData::I64(values)) => values.clone(),
-        _ => return Err(StageError::new("the shapes table has no i64 column `dof`")),
-    };
-    let mut shape = vec![c64::new(0.0, 0.0); n_dofs];
-    for (row, &dof) in dofs.iter().enumerate() {
-        if dof >= 0 {
-            let dof = dof as usize;
-            if dof >= n_dofs {
-                return Err(StageError::new(format!(
-                    "the shapes table names DOF {dof}, past the model's {n_dofs} DOFs: it comes from another model's stability stage"
-                )));
-            }
-            shape[dof] = c64::new(real[row], imaginary[row]);
-        }
-    }
-    Ok((c64::new(re[chosen], im[chosen]), shape))
+    let shape = shape
+        .re
+        .iter()
+        .zip(&shape.im)
+        .map(|(&re, &im)| c64::new(re, im))
+        .collect();
+    Ok((c64::new(chosen.re, chosen.im), shape))
 }
 
 /// The start on complex mode `(λ, φ)`: `u = Re φ`, `v = Re(λ φ)`, `φ` turned so its largest

@@ -5,21 +5,16 @@
 use std::f64::consts::PI;
 
 use super::*;
-use crate::fixtures::{brake_inputs, f64_column, growth_rate, transient_params};
+use crate::fixtures::{brake_inputs, f64_column, growth_rate, most_unstable, transient_params};
 use crate::stage::Value;
 
 #[test]
 fn the_brake_grows_at_the_rate_of_its_most_unstable_mode() {
     let inputs = brake_inputs();
-    let eigenvalues = inputs.table("eigenvalues").unwrap();
-    let re = f64_column(eigenvalues, "re");
-    let im = f64_column(eigenvalues, "im");
-    let most = (0..re.len())
-        .max_by(|&a, &b| re[a].total_cmp(&re[b]))
-        .unwrap();
-    assert!(re[most] > 0.0, "the fixture has an unstable mode");
-    let expected = re[most];
-    let period = 2.0 * PI / im[most];
+    let most = most_unstable(&inputs);
+    assert!(most.re > 0.0, "the fixture has an unstable mode");
+    let expected = most.re;
+    let period = 2.0 * PI / most.im;
     let tau = period / 60.0;
     // Long enough for the growth to show over a few e-foldings, in the linear regime.
     let duration = (3.0 / expected).min(4000.0 * tau);
@@ -72,7 +67,7 @@ fn bad_parameters_are_refused_with_the_figure_that_matters() {
         ),
         (
             vec![("mode", Value::Int(100_000))],
-            "mode 100000 is not in the stability tables",
+            "mode 100000 is not among the complex modes (modes 1 to",
         ),
         (
             vec![("record_pairs", Value::Str("0, 9999".into()))],

@@ -35,10 +35,10 @@
 //! # Inputs
 //!
 //! - `snapshots`: wide table, one row per DOF, one f64 column per snapshot in time order
-//!   (non-f64 columns, e.g. a DOF index, are ignored).
-//! - `modes`: wide table, one row per DOF, f64 columns `mode_NNNN_re` and `mode_NNNN_im`.
-//! - `frequencies`: long table, `mode` (i64, the `NNNN` above) and `freq_hz` (f64); other
-//!   columns are ignored.
+//!   (other columns are ignored). Its i64 column `dof`, when there is one, gives the model DOF
+//!   of each row (−1 where clamped: the rows of the transient's nodal tables); without it, row
+//!   `r` is DOF `r`.
+//! - `complex_modes`: the stability stage's complex modes; those with a shape are projected on.
 //! - `mass`: either COO triplets `row`, `col` (i64, 0-based DOFs) and `value` (f64) holding
 //!   the full symmetric matrix (both triangles; duplicates add up, as in assembly), or a single
 //!   f64 column `diagonal` (a lumped mass, one row per DOF).
@@ -49,8 +49,7 @@ use faer::Mat;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::artifact::{Artifact, ArtifactType};
-pub use crate::complex_modes::ComplexModes;
+use crate::artifact::{Artifact, ArtifactType, ComplexModes, ShapeMatrices};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::{ColumnData, Table};
@@ -231,6 +230,17 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// The f64 columns of a wide snapshot table (one row per DOF) as the columns of a matrix, the
+/// The model DOF of each row of a snapshot table: its `dof` column (−1: clamped), or the row.
+fn dof_of_row(table: &Table) -> Result<Vec<Option<usize>>, StageError> {
+    match table.column("dof") {
+        None => Ok((0..table.n_rows()).map(Some).collect()),
+        Some(ColumnData::I64(dofs)) => {
+            Ok(dofs.iter().map(|&dof| usize::try_from(dof).ok()).collect())
+        }
+        Some(_) => Err(StageError::new("snapshots: the `dof` column is not i64")),
+    }
+}
+
 /// last `n_last` of them (0: all); an error names an empty table or a value that is not finite.
 pub fn snapshot_matrix(table: &Table, n_last: usize) -> Result<Mat<f64>, StageError> {
     let mut columns: Vec<(&str, &[f64])> = table
@@ -341,40 +351,39 @@ pub fn mass_svd(x: &Mat<f64>, mass: &MassMatrix) -> Result<MassSvd, StageError> 
     })
 }
 
-impl ComplexModes {
-    /// `|φ_jᴴ M ψ_k| / ‖φ_j‖_M` for every mode j (rows) and M-unit shape k (columns).
-    pub fn coefficients(
-        &self,
-        shapes: &Mat<f64>,
-        mass: &MassMatrix,
-    ) -> Result<Mat<f64>, StageError> {
-        let m_shapes = mass.apply_columns(shapes);
-        let real_part = self.real.transpose() * m_shapes.as_ref();
-        let imag_part = self.imag.transpose() * m_shapes.as_ref();
-        let m_real = mass.apply_columns(&self.real);
-        let m_imag = mass.apply_columns(&self.imag);
-        let mut coefficients = Mat::<f64>::zeros(self.numbers.len(), shapes.ncols());
-        for (mode_idx, &number) in self.numbers.iter().enumerate() {
-            let norm_squared = dot(
-                self.real.col_as_slice(mode_idx),
-                m_real.col_as_slice(mode_idx),
-            ) + dot(
-                self.imag.col_as_slice(mode_idx),
-                m_imag.col_as_slice(mode_idx),
-            );
-            if norm_squared.is_nan() || norm_squared <= 0.0 {
-                return Err(StageError::new(format!(
-                    "modes: mode {number} has M-norm² {norm_squared:e}"
-                )));
-            }
-            let norm = norm_squared.sqrt();
-            for shape_idx in 0..shapes.ncols() {
-                coefficients[(mode_idx, shape_idx)] =
-                    real_part[(mode_idx, shape_idx)].hypot(imag_part[(mode_idx, shape_idx)]) / norm;
-            }
+/// `|φ_jᴴ M ψ_k| / ‖φ_j‖_M` for every mode j (rows) and M-unit shape k (columns).
+pub fn coefficients(
+    modes: &ShapeMatrices,
+    shapes: &Mat<f64>,
+    mass: &MassMatrix,
+) -> Result<Mat<f64>, StageError> {
+    let m_shapes = mass.apply_columns(shapes);
+    let real_part = modes.re.transpose() * m_shapes.as_ref();
+    let imag_part = modes.im.transpose() * m_shapes.as_ref();
+    let m_real = mass.apply_columns(&modes.re);
+    let m_imag = mass.apply_columns(&modes.im);
+    let mut coefficients = Mat::<f64>::zeros(modes.modes.len(), shapes.ncols());
+    for (mode_idx, mode) in modes.modes.iter().enumerate() {
+        let norm_squared = dot(
+            modes.re.col_as_slice(mode_idx),
+            m_real.col_as_slice(mode_idx),
+        ) + dot(
+            modes.im.col_as_slice(mode_idx),
+            m_imag.col_as_slice(mode_idx),
+        );
+        if norm_squared.is_nan() || norm_squared <= 0.0 {
+            return Err(StageError::new(format!(
+                "modes: mode {} has M-norm² {norm_squared:e}",
+                mode.number
+            )));
         }
-        Ok(coefficients)
+        let norm = norm_squared.sqrt();
+        for shape_idx in 0..shapes.ncols() {
+            coefficients[(mode_idx, shape_idx)] =
+                real_part[(mode_idx, shape_idx)].hypot(imag_part[(mode_idx, shape_idx)]) / norm;
+        }
     }
+    Ok(coefficients)
 }
 
 /// `svd_projection`: principal shapes of the last snapshots, projected on the complex modes.
@@ -414,14 +423,9 @@ impl Stage for SvdProjection {
                 "wide: one row per DOF, one f64 column per snapshot",
             ),
             PortSpec::one(
-                "modes",
-                ArtifactType::Table,
-                "wide: one row per DOF, mode_NNNN_re and mode_NNNN_im",
-            ),
-            PortSpec::one(
-                "frequencies",
-                ArtifactType::Table,
-                "long: mode (i64), freq_hz",
+                "complex_modes",
+                ArtifactType::ComplexModes,
+                "the stability stage's complex modes: those with a shape are projected on",
             ),
             PortSpec::one(
                 "mass",
@@ -462,20 +466,14 @@ impl Stage for SvdProjection {
         let snapshot_table = inputs.table("snapshots")?;
         let x = snapshot_matrix(snapshot_table, params.n_last_snapshots)?;
         let (n_dofs, n_snapshots) = (x.nrows(), x.ncols());
-        let modes_table = inputs.table("modes")?;
-        if modes_table.n_rows() != n_dofs {
-            return Err(StageError::new(format!(
-                "modes have {} rows but snapshots have {n_dofs} DOFs",
-                modes_table.n_rows()
-            )));
-        }
+        let modes: &ComplexModes = inputs.get("complex_modes")?;
+        let modes = modes.shape_matrices(n_dofs, &dof_of_row(snapshot_table)?)?;
         let mass = MassMatrix::from_table(inputs.table("mass")?, n_dofs)?;
-        let modes = ComplexModes::from_tables(modes_table, inputs.table("frequencies")?)?;
 
         let svd = mass_svd(&x, &mass)?;
         let n_shapes = params.n_shapes.min(n_snapshots);
         let shapes = svd.shapes.subcols(0, n_shapes).to_owned();
-        let coefficients = modes.coefficients(&shapes, &mass)?;
+        let coefficients = coefficients(&modes, &shapes, &mass)?;
 
         let total_energy: f64 = svd.singular_values.iter().map(|s| s * s).sum();
         let energy_fraction: Vec<f64> = svd
@@ -494,7 +492,8 @@ impl Stage for SvdProjection {
             .with("singular_value", svd.singular_values.clone())
             .with("energy_fraction", energy_fraction.clone());
 
-        let n_modes = modes.numbers.len();
+        let n_modes = modes.modes.len();
+        let freqs_hz: Vec<f64> = modes.modes.iter().map(|mode| mode.freq_hz()).collect();
         let mut projection_shape = Vec::with_capacity(n_shapes * n_modes);
         let mut projection_mode = Vec::with_capacity(n_shapes * n_modes);
         let mut projection_freq = Vec::with_capacity(n_shapes * n_modes);
@@ -502,8 +501,8 @@ impl Stage for SvdProjection {
         for shape_idx in 0..n_shapes {
             for mode_idx in 0..n_modes {
                 projection_shape.push(shape_idx as i64 + 1);
-                projection_mode.push(modes.numbers[mode_idx]);
-                projection_freq.push(modes.freqs_hz[mode_idx]);
+                projection_mode.push(modes.modes[mode_idx].number);
+                projection_freq.push(freqs_hz[mode_idx]);
                 projection_coefficient.push(coefficients[(mode_idx, shape_idx)]);
             }
         }
@@ -522,7 +521,7 @@ impl Stage for SvdProjection {
         }
 
         let plot = ProjectionPlot {
-            freqs_hz: &modes.freqs_hz,
+            freqs_hz: &freqs_hz,
             coefficients: &coefficients,
             energy_fraction: &energy_fraction,
         };

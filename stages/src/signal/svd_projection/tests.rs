@@ -1,6 +1,7 @@
 use std::sync::Arc;
 
 use super::*;
+use crate::artifact::{ComplexMode, ComplexShape};
 use crate::stage::{Input, Value};
 
 /// A deterministic pseudo-random stream in [−0.5, 0.5).
@@ -105,44 +106,107 @@ fn orthogonal_modes(n: usize, n_modes: usize, mass: &MassMatrix) -> Mat<f64> {
     })
 }
 
-fn modes_tables(parts: &Mat<f64>, freqs: &[f64]) -> (Table, Table) {
-    let mut modes = Table::new();
-    for mode in 0..freqs.len() {
-        modes = modes
-            .with(
-                format!("mode_{:04}_re", mode + 1),
-                parts.col_as_slice(2 * mode).to_vec(),
-            )
-            .with(
-                format!("mode_{:04}_im", mode + 1),
-                parts.col_as_slice(2 * mode + 1).to_vec(),
-            );
+/// Complex modes at `freqs` (neutral: λ = iω), shape k from columns 2k and 2k + 1 of `parts`.
+fn complex_modes(parts: &Mat<f64>, freqs: &[f64]) -> ComplexModes {
+    ComplexModes {
+        modes: freqs
+            .iter()
+            .enumerate()
+            .map(|(mode, freq)| ComplexMode {
+                number: mode as i64 + 1,
+                re: 0.0,
+                im: 2.0 * std::f64::consts::PI * freq,
+                residual: 0.0,
+                condition: f64::NAN,
+                shape: Some(ComplexShape {
+                    re: parts.col_as_slice(2 * mode).to_vec(),
+                    im: parts.col_as_slice(2 * mode + 1).to_vec(),
+                }),
+            })
+            .collect(),
     }
-    let frequencies = Table::new()
-        .with("mode", (1..=freqs.len() as i64).collect::<Vec<i64>>())
-        .with("freq_hz", freqs.to_vec());
-    (modes, frequencies)
 }
 
 fn run(
     snapshots: Table,
-    modes: Table,
-    frequencies: Table,
+    modes: ComplexModes,
     mass: Table,
     n_shapes: i64,
 ) -> Result<Outputs, StageError> {
-    let one = |table: Table| Input::One(Arc::new(Artifact::Table(table)));
+    let one = |artifact: Artifact| Input::One(Arc::new(artifact));
     let inputs = Inputs(BTreeMap::from([
-        ("snapshots".to_string(), one(snapshots)),
-        ("modes".to_string(), one(modes)),
-        ("frequencies".to_string(), one(frequencies)),
-        ("mass".to_string(), one(mass)),
+        ("snapshots".to_string(), one(Artifact::Table(snapshots))),
+        (
+            "complex_modes".to_string(),
+            one(Artifact::ComplexModes(Box::new(modes))),
+        ),
+        ("mass".to_string(), one(Artifact::Table(mass))),
     ]));
     let params = Params(BTreeMap::from([
         ("n_last_snapshots".into(), Value::Int(0)),
         ("n_shapes".into(), Value::Int(n_shapes)),
     ]));
     SvdProjection.run(&params, &inputs)
+}
+
+/// Snapshots of Re(c₁ φ₂ e^{iω₁t} + c₂ φ₅ e^{iω₂t}) over the DOFs of `parts`, as rows of a
+/// nodal table where `clamped` rows (each before the DOF of its number) hold zeros and a
+/// `dof` of −1; the bar mass on the DOFs, 1 on the clamped rows.
+fn limit_cycle(parts: &Mat<f64>, freqs: &[f64], clamped: &[usize]) -> (Table, Table) {
+    let n = parts.nrows();
+    let mut dof_of_row: Vec<Option<usize>> = Vec::new();
+    for dof in 0..n {
+        if clamped.contains(&dof) {
+            dof_of_row.push(None);
+        }
+        dof_of_row.push(Some(dof));
+    }
+    let row_of_dof: Vec<usize> = (0..dof_of_row.len())
+        .filter(|&row| dof_of_row[row].is_some())
+        .collect();
+    let mut snapshots = Table::new().with(
+        "dof",
+        dof_of_row
+            .iter()
+            .map(|dof| dof.map_or(-1, |dof| dof as i64))
+            .collect::<Vec<i64>>(),
+    );
+    let (w1, w2) = (
+        2.0 * std::f64::consts::PI * freqs[1],
+        2.0 * std::f64::consts::PI * freqs[4],
+    );
+    for step in 0..50 {
+        let t = step as f64 * 1.3e-5;
+        let column: Vec<f64> = dof_of_row
+            .iter()
+            .map(|dof| {
+                let Some(i) = *dof else { return 0.0 };
+                // Re((re + i im) e^{iωt}) = re cos ωt − im sin ωt
+                1.0 * (parts[(i, 2)] * (w1 * t).cos() - parts[(i, 3)] * (w1 * t).sin())
+                    + 0.3
+                        * (parts[(i, 8)] * (w2 * t + 0.4).cos()
+                            - parts[(i, 9)] * (w2 * t + 0.4).sin())
+            })
+            .collect();
+        snapshots = snapshots.with(format!("u_{step:03}"), column);
+    }
+    let (rows, cols, values) = bar_mass(n);
+    let map = |dofs: Vec<i64>| -> Vec<i64> {
+        dofs.iter()
+            .map(|&dof| row_of_dof[dof as usize] as i64)
+            .collect()
+    };
+    let (mut rows, mut cols, mut values) = (map(rows), map(cols), values);
+    for row in (0..dof_of_row.len()).filter(|&row| dof_of_row[row].is_none()) {
+        rows.push(row as i64);
+        cols.push(row as i64);
+        values.push(1.0);
+    }
+    let mass = Table::new()
+        .with("row", rows)
+        .with("col", cols)
+        .with("value", values);
+    (snapshots, mass)
 }
 
 #[test]
@@ -154,31 +218,8 @@ fn limit_cycle_of_two_modes_projects_on_exactly_those_two() {
     let mass = mass_matrix(n);
     let parts = orthogonal_modes(n, n_modes, &mass);
     let freqs = [900.0, 3537.0, 5200.0, 8000.0, 11_100.0, 14_000.0];
-    let (modes, frequencies) = modes_tables(&parts, &freqs);
-    let mut snapshots = Table::new();
-    for step in 0..50 {
-        let t = step as f64 * 1.3e-5;
-        let (w1, w2) = (
-            2.0 * std::f64::consts::PI * freqs[1],
-            2.0 * std::f64::consts::PI * freqs[4],
-        );
-        let column: Vec<f64> = (0..n)
-            .map(|i| {
-                // Re((re + i im) e^{iωt}) = re cos ωt − im sin ωt
-                1.0 * (parts[(i, 2)] * (w1 * t).cos() - parts[(i, 3)] * (w1 * t).sin())
-                    + 0.3
-                        * (parts[(i, 8)] * (w2 * t + 0.4).cos()
-                            - parts[(i, 9)] * (w2 * t + 0.4).sin())
-            })
-            .collect();
-        snapshots = snapshots.with(format!("u_{step:03}"), column);
-    }
-    let (rows, cols, values) = bar_mass(n);
-    let mass_table = Table::new()
-        .with("row", rows)
-        .with("col", cols)
-        .with("value", values);
-    let outputs = run(snapshots, modes, frequencies, mass_table, 4).unwrap();
+    let (snapshots, mass) = limit_cycle(&parts, &freqs, &[]);
+    let outputs = run(snapshots, complex_modes(&parts, &freqs), mass, 4).unwrap();
 
     let principal = outputs["principal"].as_table().unwrap();
     let Some(ColumnData::F64(singular_values)) = principal.column("singular_value") else {
@@ -257,15 +298,36 @@ fn duplicate_triplets_add_up() {
 }
 
 #[test]
-fn a_mode_without_frequency_is_named() {
-    let modes = Table::new()
-        .with("mode_0003_re", vec![1.0])
-        .with("mode_0003_im", vec![0.0]);
-    let frequencies = Table::new()
-        .with("mode", vec![1i64])
-        .with("freq_hz", vec![10.0]);
-    let err = ComplexModes::from_tables(&modes, &frequencies)
-        .err()
-        .unwrap();
-    assert!(err.message.contains("no row for mode 3"), "{err}");
+fn clamped_rows_of_a_nodal_table_take_zeros_of_the_modes() {
+    // The same limit cycle with four clamped rows (zero snapshots, unit mass): the modes are
+    // over the 40 DOFs and laid on the snapshot rows by their `dof` column; the projection is
+    // the same to 1e-12, and modes of another model are refused.
+    let (n, n_modes) = (40, 6);
+    let parts = orthogonal_modes(n, n_modes, &mass_matrix(n));
+    let freqs = [900.0, 3537.0, 5200.0, 8000.0, 11_100.0, 14_000.0];
+    let coefficients = |clamped: &[usize]| -> Vec<f64> {
+        let (snapshots, mass) = limit_cycle(&parts, &freqs, clamped);
+        let outputs = run(snapshots, complex_modes(&parts, &freqs), mass, 4).unwrap();
+        outputs["projection"]
+            .as_table()
+            .unwrap()
+            .f64("coefficient")
+            .unwrap()
+            .to_vec()
+    };
+    let free = coefficients(&[]);
+    let clamped = coefficients(&[0, 7, 8, 39]);
+    assert_eq!(free.len(), clamped.len());
+    for (a, b) in free.iter().zip(&clamped) {
+        assert!((a - b).abs() < 1e-12, "{a} against {b}");
+    }
+
+    let (snapshots, mass) = limit_cycle(&parts, &freqs, &[]);
+    let short = Mat::from_fn(n - 1, 2 * n_modes, |i, j| parts[(i, j)]);
+    let err = run(snapshots, complex_modes(&short, &freqs), mass, 4).unwrap_err();
+    assert!(
+        err.message
+            .contains("mode 1 has 39 DOFs, DOF 39 was asked for"),
+        "{err}"
+    );
 }

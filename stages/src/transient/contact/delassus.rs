@@ -4,8 +4,6 @@
 use faer::{Mat, MatRef};
 use squeal_linalg::kernels::{axpy, axpy_single};
 
-use super::laws::Problem;
-
 /// The Delassus operator, 3 rows and columns per pair in the order (n, t, b), fixed through a
 /// run: in double precision, and copied to single precision for the iterations' passes over
 /// it (half the bytes, see [`Precision`]); with the projections' step lengths from its
@@ -77,11 +75,11 @@ pub(super) fn column<'a>(W: MatRef<'a, f64>, k: usize) -> &'a [f64] {
 
 squeal_linalg::widest_vectors! {
     /// `w = w_free + W r`, column by column (contiguous reads).
-    pub(super) fn velocities(problem: &Problem, r: &[f64], w: &mut [f64]) {
-        w.copy_from_slice(problem.w_free);
+    pub(super) fn velocities(W: &Delassus, w_free: &[f64], r: &[f64], w: &mut [f64]) {
+        w.copy_from_slice(w_free);
         for (k, &r_k) in r.iter().enumerate() {
             if r_k != 0.0 {
-                for (slot, W_ik) in w.iter_mut().zip(column(problem.W.double.as_ref(), k)) {
+                for (slot, W_ik) in w.iter_mut().zip(column(W.double.as_ref(), k)) {
                     *slot += W_ik * r_k;
                 }
             }

@@ -49,7 +49,7 @@ pub(super) fn iterate(
                 next[3 * p..3 * p + 3].copy_from_slice(&projected);
             }
             r.copy_from_slice(&next);
-            velocities(problem, r, w);
+            velocities(problem.W, problem.w_free, r, w);
         }
         let residual = problem.residual(r, w);
         history.push(residual);

@@ -153,7 +153,7 @@ impl ContactSolver {
                     *slot = w_free + W_r;
                 }
             }
-            _ => velocities(problem, r, w),
+            _ => velocities(problem.W, problem.w_free, r, w),
         }
         // Fixed-point iterations rebuild w from the whole of r: single precision would leave
         // an error of 2⁻²⁴ |W r| rather than of the change.

@@ -20,7 +20,7 @@ fn solve_settled(
 ) -> Result<Report, NotConverged> {
     let mut report = solver.solve(problem, tolerance, max_iterations, r, w)?;
     if report.precision == Precision::Single {
-        velocities(problem, r, w);
+        velocities(problem.W, problem.w_free, r, w);
         match solver.settle(problem, tolerance, r, w) {
             Ok(residual) => report.residual = residual,
             Err(_) => {
@@ -160,7 +160,7 @@ fn single_precision_solutions_are_settled_on_exact_velocities_or_refined() {
     let m = 3 * n_pairs;
     let exact = |r: &[f64]| {
         let mut w = vec![0.0; m];
-        velocities(&problem, r, &mut w);
+        velocities(problem.W, problem.w_free, r, &mut w);
         w
     };
     let distance = |a: &[f64], b: &[f64]| {
