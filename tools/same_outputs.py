@@ -10,21 +10,26 @@ library only.
     tools/same_outputs.py --before BIN_A --after BIN_B [--work DIR]
                           [--studies pipelines/a.yaml ...] [--skip STUDY ...]
                           [--phase before|after|both] [--reference DIR] [--rev REV]
-                          [--timeout MINUTES]
+                          [--after-rev REV] [--renamed OLD=NEW ...] [--timeout MINUTES]
 
-    # the reference, once, early, with the build from before the change:
-    SQUEAL_LOG=warn tools/same_outputs.py --before /work/bin-before/squeal \\
-        --after /work/bin-before/squeal --work /work/compare --phase before --timeout 25
+    # the reference, once, early, with a build from before the change kept aside:
+    SQUEAL_LOG=warn tools/same_outputs.py --before ../squeal-before --after ../squeal-before \\
+        --work ../compare --phase before --rev REV_BEFORE
     # later, with the new build: runs it, then compares with the reference
-    SQUEAL_LOG=warn tools/same_outputs.py --before /work/bin-before/squeal \\
-        --after target/release/squeal --work /work/compare --phase after \\
-        --skip basis_study time_step_study
+    SQUEAL_LOG=warn tools/same_outputs.py --before ../squeal-before \\
+        --after target/release/squeal --work ../compare --phase after \\
+        --after-rev HEAD --renamed pipelines/transient.yaml=pipelines/quick.yaml
 
 The study files: both sides must run the same ones, while the working tree's may change during
 a refactor. The phase that makes the reference (`before`, `both`) copies `pipelines/` at git
 revision REV (default HEAD) into WORK/studies/ (with WORK/studies/snapshot.json: commit and
 tree), and every later phase runs those copies; a reference made from another `pipelines/`
-tree is refused. The runs are made from WORK/studies, the study path as given
+tree is refused. When the change renames what studies write (an input, a study file), the
+after side runs the study files of `--after-rev` instead (copied into WORK/studies-after/),
+`--renamed OLD=NEW` naming the study that replaced a removed one. A study whose file differs
+between the two revisions may write outputs the reference does not have (new stages): they
+are listed, allowed; every output of the reference must still be there, byte for byte. The
+runs are made from WORK/studies, the study path as given
 (`pipelines/hoffmann/hoffmann.yaml`), so that files a study reads relative to its folder
 (`hoffmann/*.mtx`) resolve, and squeal's own run record (`pipelines/.squeal/record/`, which only
 explains the plan) goes there rather than into the working tree.
@@ -46,6 +51,9 @@ Options:
                made in another
   --rev        the git revision whose pipelines/ are run (default: HEAD), read when the
                reference is made
+  --after-rev  (`after`, `both`) the git revision whose pipelines/ the after side runs
+               (default: the reference's study files)
+  --renamed    OLD=NEW study paths: the after side runs NEW for the reference's OLD
   --timeout    stop a run (its process group) that takes longer than this many minutes
                (default: no limit); it is recorded as timed out and its study is not the same
 
@@ -68,10 +76,9 @@ required, except for
     with one binary gave different bytes for exactly these three files and identical ones for
     everything else. The errors those tables carry are the `compare` stages' own outputs,
     compared byte for byte.
-  Nothing else is excluded: the same binary run twice (a fresh cache each time, -j 2) wrote
-  byte-identical outputs (628 files) for every study but the two slow ones: coalescence,
-  hoffmann, mu_sweep, quick, stress, stress_coarse_brake, tgv_brake, transient. No file
-  carries a timestamp, host or path, and the threaded solvers give the same bits run to run.
+  Nothing else is excluded: the same binary run twice (a fresh cache each time, -j 2) writes
+  byte-identical outputs for every study: no file carries a timestamp, host or path, and the
+  threaded solvers give the same bits run to run.
 
 A study is "same" when both runs finished (no timeout) with the same exit code and every
 compared file is identical and present on both sides. A study that fails on both sides with
@@ -84,23 +91,9 @@ holds the same as JSON. Exit status: `after`/`both`: 0 only if every study is th
 `before`: 0 if every run finished (whatever its exit code, recorded for the comparison), 1 if
 one timed out or could not start; 2: usage error.
 
-Slow studies. The reference of 2026-11-27 (/work/bin-before/squeal, commit 895c382's
-pipelines, -j 2, SQUEAL_LOG=warn, on 2 cores shared with cargo builds, load 5 to 8: several
-times slower than on an idle machine), in seconds, exit code:
-  basis_study           > 1500  stopped at 25 min (about a third of its 67 instances done)
-  coalescence                1  0
-  hoffmann                 0.1  0
-  mu_sweep                  28  0
-  quick                      5  0
-  stress                    35  0
-  stress_coarse_brake      891  0
-  tgv_brake               1049  0
-  time_step_study       > 1500  stopped at 25 min
-  transient                 19  0
-basis_study and time_step_study (the full 31,500-DOF brake over 10 ms at 1 us, then a dozen
-and more reduced runs) are slow: left out of a check with `--skip basis_study time_step_study`,
-or run on an idle machine without --timeout (basis_study: about 22 min there with -j 1,
-docs/results.md).
+Slow studies: basis_study and time_step_study (the full 31,500-DOF brake over 10 ms at 1 us,
+then a dozen and more reduced runs) take tens of minutes each; leave them out of a quick check
+with `--skip basis_study time_step_study`, or give them an idle machine.
 """
 
 import argparse
@@ -167,6 +160,24 @@ def snapshot(studies_dir, rev, making):
     subprocess.run(["tar", "-x", "-C", str(studies_dir)], input=archive.stdout, check=True)
     stamp.write_text(json.dumps(wanted, indent=2) + "\n")
     return wanted
+
+
+def snapshot_after(studies_dir, rev):
+    """`pipelines/` at git revision `rev` for the after side, copied afresh."""
+    commit = git("rev-parse", "--verify", f"{rev}^{{commit}}")
+    if commit.returncode:
+        fail_usage(f"--after-rev {rev}: no such revision in {REPO}")
+    if studies_dir.exists():
+        subprocess.run(["rm", "-rf", "--", str(studies_dir)], check=True)
+    studies_dir.mkdir(parents=True)
+    archive = subprocess.run(
+        ["git", "-C", str(REPO), "archive", "--format=tar", commit.stdout.strip(), "pipelines"],
+        capture_output=True,
+    )
+    if archive.returncode:
+        fail_usage(f"git archive {rev} pipelines: {archive.stderr.decode().strip()}")
+    subprocess.run(["tar", "-x", "-C", str(studies_dir)], input=archive.stdout, check=True)
+    return {"rev": rev, "commit": commit.stdout.strip()}
 
 
 def default_studies(root):
@@ -394,6 +405,11 @@ def main():
     parser.add_argument("--rev", default="HEAD",
                         help="the git revision whose pipelines/ both sides run (default: HEAD); "
                              "read when the reference is made, then kept in WORK/studies/")
+    parser.add_argument("--after-rev", metavar="REV",
+                        help="the git revision whose pipelines/ the after side runs "
+                             "(default: the reference's)")
+    parser.add_argument("--renamed", nargs="+", default=[], metavar="OLD=NEW",
+                        help="the after side runs study NEW for the reference's OLD")
     parser.add_argument("--timeout", type=float, metavar="MINUTES",
                         help="stop a run after this many minutes (default: no limit)")
     args = parser.parse_args()
@@ -416,6 +432,19 @@ def main():
     studies_from = snapshot(root, args.rev, making="before" in sides)
     print(f"studies: pipelines/ of {studies_from['commit']} (tree {studies_from['tree']}), "
           f"copied to {root}", flush=True)
+    after_root = root
+    if args.after_rev:
+        if args.phase == "before":
+            fail_usage("--after-rev is for --phase after or both")
+        after_from = snapshot_after(work / "studies-after", args.after_rev)
+        after_root = work / "studies-after"
+        print(f"after side: pipelines/ of {after_from['commit']}, copied to {after_root}", flush=True)
+    renamed = {}
+    for pair in args.renamed:
+        old, sep, new = pair.partition("=")
+        if not sep:
+            fail_usage(f"--renamed {pair}: OLD=NEW")
+        renamed[study_path(old, root)] = new
     studies = [study_path(arg, root) for arg in args.studies] if args.studies else default_studies(root)
     skip = set(args.skip)
 
@@ -440,11 +469,17 @@ def main():
               "timing_dependent_differing": 0}
     for study in studies:
         stem = Path(study).stem
+        after_study = renamed.get(study, study)
+        if not (after_root / after_study).is_file():
+            fail_usage(f"{study}: no {after_study} in the after side's studies {after_root} "
+                       "(removed? name what replaced it: --renamed OLD=NEW)")
+        edited = (root / study).read_bytes() != (after_root / after_study).read_bytes()
         records = {}
         for side in SIDES:
             if side in sides:
-                records[side] = run_side(side, binaries[side], study, stem, side_dirs[side], root,
-                                         timeout_s)
+                side_study, side_root = (study, root) if side == "before" else (after_study, after_root)
+                records[side] = run_side(side, binaries[side], side_study, stem, side_dirs[side],
+                                         side_root, timeout_s)
             else:
                 records[side] = load_record(side_dirs[side] / stem)
         entry = {"study": study, "stem": stem, "before": records["before"], "after": records["after"]}
@@ -467,8 +502,10 @@ def main():
         finished = all(r is not None and not r.get("timed_out") and r.get("exit_code") is not None
                        for r in records.values())
         same_exit = finished and records["before"]["exit_code"] == records["after"]["exit_code"]
+        # An edited study may add outputs; it may not lose or change one.
+        result["edited_study"] = edited and after_study
         same = (same_exit and not result["differing"] and not result["only_before"]
-                and not result["only_after"])
+                and (edited or not result["only_after"]))
         result["same_exit"] = same_exit
         result["same"] = same
         entry["comparison"] = result
@@ -489,7 +526,8 @@ def main():
         if result["only_before"]:
             line += f"; only before: {len(result['only_before'])} [{listed(result['only_before'])}]"
         if result["only_after"]:
-            line += f"; only after: {len(result['only_after'])} [{listed(result['only_after'])}]"
+            allowed = f", new in the edited study {after_study}, allowed" if edited else ""
+            line += f"; only after{allowed}: {len(result['only_after'])} [{listed(result['only_after'])}]"
         line += f"; exit {exit_text(records['before'])}/{exit_text(records['after'])}; {times}"
         print(line, flush=True)
 
