@@ -1,6 +1,8 @@
 //! Finite-element kernels shared by the stages: the hexahedron (shape functions, Jacobian,
-//! element matrices, faces) and the materials (Hooke's law, Rayleigh damping, density per part).
+//! element matrices, faces), the materials (Hooke's law, Rayleigh damping, density per part)
+//! and orthotropic elasticity with the frames that orient it.
 
 pub mod faces;
 pub mod hex8;
 pub mod material;
+pub mod orthotropic;

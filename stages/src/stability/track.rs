@@ -278,7 +278,8 @@ impl Stage for Track {
         "stability.track"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: MAC over the model's DOFs (CHANGELOG.md, "stability.track")
+        2
     }
     fn doc(&self) -> &'static str {
         "Follow the complex modes of a sweep (e.g. over mu) by MAC; one table and a coalescence figure"
