@@ -11,7 +11,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use squeal_cache::{ActionRecord, Cache, Digest};
-use squeal_stages::Checkpoints;
+use squeal_contract::Checkpoints;
 
 /// The output name of a checkpoint's object in its record.
 const STATE: &str = "checkpoint";

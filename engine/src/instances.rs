@@ -8,7 +8,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use squeal_stages::{Arity, Coords, Value};
+use squeal_contract::{Arity, Coords, Value};
 
 use crate::study::Study;
 

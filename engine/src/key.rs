@@ -10,7 +10,7 @@
 use std::collections::BTreeMap;
 
 use squeal_cache::Digest;
-use squeal_stages::{Coords, Value};
+use squeal_contract::{Coords, Value};
 
 /// The resolved inputs of one instance: port → (coordinates, digest) per upstream artifact.
 pub type InputDigests = BTreeMap<String, Vec<(Coords, Digest)>>;
@@ -58,7 +58,7 @@ pub fn cache_key(
     inputs: &InputDigests,
 ) -> Digest {
     cache_key_on(
-        squeal_stages::numeric_platform(),
+        squeal_linalg::numeric_platform(),
         kind,
         version,
         params,
@@ -122,7 +122,7 @@ mod tests {
             cache_key("stability", 1, &base_params.clone(), &inputs.clone())
         );
         assert_ne!(base, cache_key("modes", 1, &base_params, &inputs));
-        let platform = squeal_stages::numeric_platform();
+        let platform = squeal_linalg::numeric_platform();
         assert_eq!(
             base,
             cache_key_on(platform, "stability", 1, &base_params, &inputs)

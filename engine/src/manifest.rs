@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use squeal_cache::Digest;
-use squeal_stages::{ColumnData, Table};
+use squeal_contract::{ColumnData, Table};
 
 use crate::outcome::{InstanceOutcome, RunOutcome, Status};
 use crate::{output, ports};

@@ -16,7 +16,7 @@ use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
-use squeal_stages::{ColumnData, Table};
+use squeal_contract::{ColumnData, Table};
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename: a reader
 /// sees the old file or the new one, never half of one. Not fsynced: everything written here

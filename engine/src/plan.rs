@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 
 use squeal_cache::{Cache, CacheError, Digest};
-use squeal_stages::{Coords, Value};
+use squeal_contract::{Coords, Value};
 
 use crate::instances::Instances;
 use crate::key::{InputDigests, cache_key};

@@ -2,7 +2,7 @@
 //! against them, the scheduler produces them, the manifest and the export leave them out of
 //! `out/`, and `squeal stages` names them.
 
-use squeal_stages::{ArtifactType, PortSpec, Stage};
+use squeal_contract::{ArtifactType, PortSpec, Stage};
 
 /// The output every stage has besides those it declares: a one-row table, column
 /// `compute_s`, of the seconds the instance took to compute its outputs (in this run, or when

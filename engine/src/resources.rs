@@ -3,7 +3,7 @@
 //! The study holds them; only the Slurm executor acts on them (`slurm/requests.rs`).
 
 use serde_saphyr::Spanned;
-use squeal_stages::Placement;
+use squeal_contract::Placement;
 
 use crate::spec::{self, RawResources, RawSlurm, SpecError};
 

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use petgraph::graph::{DiGraph, NodeIndex};
 use serde_saphyr::Spanned;
-use squeal_stages::{Arity, ParamSpec, ParamType, Stage, Value};
+use squeal_contract::{Arity, ParamSpec, ParamType, Stage, Value};
 
 use crate::resources::{JobDefaults, StageResources};
 use crate::spec::{self, Located, Location, RawStage, RawSweep, RawValue, SpecError};

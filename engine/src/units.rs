@@ -6,7 +6,7 @@
 //! written in SI would be) before it is hashed, so `0.04` and `"40 mm"`, or `5e-6` and
 //! `"5 us"`, are the same parameter value.
 
-use squeal_stages::{ParamSpec, ParamType, Value};
+use squeal_contract::{ParamSpec, ParamType, Value};
 
 use crate::spec::RawValue;
 

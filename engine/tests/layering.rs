@@ -19,6 +19,11 @@ fn the_files_of_the_engine_import_each_other_without_a_cycle() {
 }
 
 #[test]
+fn the_files_of_the_contract_import_each_other_without_a_cycle() {
+    assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../contract/src"));
+}
+
+#[test]
 fn the_files_of_the_stages_import_each_other_without_a_cycle() {
     assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../stages/src"));
 }

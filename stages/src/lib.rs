@@ -11,13 +11,8 @@
 // `!(x > 0.0)` is how numerical checks reject NaN together with x <= 0.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-// The stage contract, in layers: value → table → artifact → params → stage (a module imports
-// only from the layers before it).
-pub mod artifact;
-pub mod params;
-pub mod stage;
-pub mod table;
-pub mod value;
+// The stage contract (its own crate, `squeal-contract`), under the names the stages use.
+pub use squeal_contract::{artifact, choice, params, stage, stage_params, table, value};
 
 // Shared kernels and formats.
 pub mod contact;
@@ -48,15 +43,12 @@ pub(crate) mod fixtures;
 
 use std::sync::Arc;
 
-pub use artifact::{Artifact, ArtifactType, Document, Figure};
-pub use params::{DeclaredParams, HasParams, ParamSpec, ParamType, Params};
-pub use squeal_linalg::{fix_global_parallelism, numeric_platform};
-pub use stage::{
-    Arity, Checkpoints, Input, Inputs, NoCheckpoints, Outputs, Placement, PortSpec, Progress,
-    Resources, RunContext, Stage,
+pub use squeal_contract::{
+    Arity, Artifact, ArtifactType, Checkpoints, Column, ColumnData, Coords, DeclaredParams,
+    Document, Figure, HasParams, Input, Inputs, NoCheckpoints, Outputs, ParamSpec, ParamType,
+    Params, Placement, PortSpec, Progress, Resources, RunContext, Stage, StageError, Table, Value,
 };
-pub use table::{Column, ColumnData, Table};
-pub use value::{Coords, StageError, Value};
+pub use squeal_linalg::{fix_global_parallelism, numeric_platform};
 
 /// Every production stage kind, in the order `squeal stages` lists them.
 pub fn all_kinds() -> Vec<Arc<dyn Stage>> {

@@ -17,7 +17,7 @@ use std::path::Path;
 
 use base64::Engine;
 use squeal_cache::{Cache, Digest};
-use squeal_stages::{Artifact, ArtifactType, ColumnData, Coords, Table};
+use squeal_contract::{Artifact, ArtifactType, ColumnData, Coords, Table};
 
 use crate::instances::Instances;
 use crate::manifest::ManifestRow;

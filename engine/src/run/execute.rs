@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use squeal_cache::{ActionRecord, Cache, Digest};
-use squeal_stages::{
+use squeal_contract::{
     Arity, Artifact, Input, Inputs, Outputs, Params, Progress, RunContext, StageError, Table,
 };
 

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use squeal_cache::Digest;
-use squeal_stages::Artifact;
+use squeal_contract::Artifact;
 
 use super::execute::Memo;
 use crate::plan::Context;

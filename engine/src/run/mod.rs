@@ -16,7 +16,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use squeal_stages::Value;
+use squeal_contract::Value;
 
 use crate::instances::Instance;
 use crate::outcome::{Elsewhere, InstanceOutcome, RunOutcome, Status};
@@ -84,7 +84,7 @@ pub fn run(
 ) -> std::io::Result<RunOutcome> {
     let started = Instant::now();
     // Results must not depend on the thread count: the cache keys downstream work by them.
-    squeal_stages::fix_global_parallelism();
+    squeal_linalg::fix_global_parallelism();
     let n_instances = context.instances.list.len();
     let selected = |idx: usize| options.select.as_ref().is_none_or(|select| select[idx]);
     let n_selected = (0..n_instances).filter(|&idx| selected(idx)).count();

@@ -4,7 +4,7 @@
 //! A run goes in three steps, all from the driver (`squeal run --executor slurm`):
 //!
 //! 1. **The driver's share before the jobs.** Each stage kind has a placement
-//!    ([`squeal_stages::Placement`]): stages that take seconds (meshes, assembly, gathers,
+//!    ([`squeal_contract::Placement`]): stages that take seconds (meshes, assembly, gathers,
 //!    figures, exports, and on the default brake the real modes and the equilibrium) run in the
 //!    driver, because a job costs about a second of scheduling alone; stages that take minutes
 //!    (stability, transient, bases) become jobs. A study moves a stage with `resources: { placement: driver | job }`.
@@ -41,7 +41,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use squeal_stages::Placement;
+use squeal_contract::Placement;
 
 use crate::outcome::{Elsewhere, RunOutcome, Status};
 use crate::plan::{self, Context, Decision};

@@ -1,9 +1,9 @@
 //! What a job asks Slurm for. Four sources, the first that says wins: the stage's
 //! `resources:` in the study, the command line (or its `SQUEAL_SLURM_*` environment
 //! variables), the study's `slurm:` section, and the stage kind's own declaration
-//! ([`squeal_stages::Resources`]).
+//! ([`squeal_contract::Resources`]).
 
-use squeal_stages::{Placement, Stage};
+use squeal_contract::{Placement, Stage};
 
 use crate::resources::{JobDefaults, StageResources};
 

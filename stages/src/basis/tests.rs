@@ -757,7 +757,7 @@ fn basis_outputs_do_not_depend_on_the_thread_count() {
         ],
     ] {
         let params = Params::defaults(&ReductionBasis, &overrides);
-        crate::stage::assert_outputs_independent_of_threads(
+        crate::fixtures::assert_outputs_independent_of_threads(
             &ReductionBasis,
             &params,
             &inputs,

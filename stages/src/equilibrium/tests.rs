@@ -466,7 +466,7 @@ fn equilibrium_results_do_not_depend_on_the_thread_count() {
             "model".to_string(),
             Input::One(Arc::new(Artifact::Model(Box::new(model)))),
         )]));
-        crate::stage::assert_outputs_independent_of_threads(
+        crate::fixtures::assert_outputs_independent_of_threads(
             &SlidingEquilibrium,
             &params,
             &inputs,

@@ -454,7 +454,12 @@ fn stability_results_do_not_depend_on_the_thread_count() {
             })
             .collect(),
     );
-    crate::stage::assert_outputs_independent_of_threads(&Stability, &params, &inputs, "stability");
+    crate::fixtures::assert_outputs_independent_of_threads(
+        &Stability,
+        &params,
+        &inputs,
+        "stability",
+    );
 }
 
 /// The condition numbers of the Krylov band (left vectors from a second band solve of the

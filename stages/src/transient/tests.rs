@@ -103,7 +103,12 @@ fn stage_outputs_do_not_depend_on_the_thread_count() {
         ("amplitude", Value::Float(1e-6)),
         ("tolerance", Value::Float(1e-8)),
     ]);
-    crate::stage::assert_outputs_independent_of_threads(&Transient, &params, &inputs, "transient");
+    crate::fixtures::assert_outputs_independent_of_threads(
+        &Transient,
+        &params,
+        &inputs,
+        "transient",
+    );
 }
 
 /// Checkpoints kept in memory, one due every `every` steps.

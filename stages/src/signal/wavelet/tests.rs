@@ -201,7 +201,7 @@ fn outputs_do_not_depend_on_the_thread_count() {
         "signal".to_string(),
         Input::One(Arc::new(Artifact::Table(table))),
     )]));
-    crate::stage::assert_outputs_independent_of_threads(
+    crate::fixtures::assert_outputs_independent_of_threads(
         &Wavelet,
         &params(100.0, 3000.0, 60, 1e-3),
         &inputs,

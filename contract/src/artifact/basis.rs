@@ -17,7 +17,7 @@ use crate::value::StageError;
 /// T = [[I, 0], [Ψ_o, Φ_o]],   Ψ_o = −K_oo⁻¹ K_oi,   Φᵀ M Φ = I
 /// ```
 ///
-/// (`o`: the other DOFs). `Ψ_o` is computed by [`StaticModes`](crate::basis::StaticModes)
+/// (`o`: the other DOFs). `Ψ_o` is computed by the stages' `basis::StaticModes`
 /// and stored body by body ([`StaticBlock`]): a run lifts its snapshots to every DOF by
 /// products with it, where a solve by `K_oo` would first factorise `K_oo` again.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

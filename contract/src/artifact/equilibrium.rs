@@ -1,5 +1,5 @@
 //! The sliding equilibrium and the contact frames it was solved in (conventions in
-//! [`crate::contact`]).
+//! the stages' `contact` module).
 
 use serde::{Deserialize, Serialize};
 
