@@ -1,10 +1,10 @@
 //! Stage parameters, declared once.
 //!
-//! A stage's parameters are one struct declared with [`stage_params!`]: each field gives the
+//! A stage's parameters are one struct declared with [`stage_params!`](crate::stage_params): each field gives the
 //! parameter's name, type, unit, lower bound, default and doc. From that one declaration come
 //! the [`ParamSpec`] list the engine validates studies against (and `squeal stages` prints), and
 //! the typed value the stage reads ([`Params::read`]). Choices are enums declared with
-//! [`choice!`]: the engine takes their names from the enum, and a stage matches on the enum, so
+//! [`choice!`](crate::choice): the engine takes their names from the enum, and a stage matches on the enum, so
 //! a choice cannot be declared without the code that handles it. Lists are `Vec<T>` of any item
 //! that parses from text, read by one splitter ([`ListItem`]).
 //!
@@ -213,7 +213,7 @@ impl Params {
         S::Params::from_params(self)
     }
 
-    /// One parameter, typed (for [`stage_params!`]).
+    /// One parameter, typed (for [`stage_params!`](crate::stage_params)).
     pub fn field<T: ParamValue>(&self, name: &str) -> Result<T, StageError> {
         let value = self
             .0
@@ -433,7 +433,7 @@ impl<T: ListItem> ParamValue for Vec<T> {
     }
 }
 
-/// A stage's parameter struct, as [`stage_params!`] declares it.
+/// A stage's parameter struct, as [`stage_params!`](crate::stage_params) declares it.
 pub trait StageParams: Sized + fmt::Debug + 'static {
     /// The declarations, in the struct's order.
     fn specs() -> Vec<ParamSpec>;
