@@ -10,7 +10,7 @@ use squeal_contract::{ArtifactType, PortSpec, Stage};
 /// results (run time against error); downstream reruns only when the instance reruns.
 pub const COMPUTE_TIME_OUTPUT: &str = "compute_s";
 
-/// [`COMPUTE_TIME_OUTPUT`] as a port.
+/// The `compute_s` output as a port.
 pub fn compute_time_port() -> PortSpec {
     PortSpec::one(
         COMPUTE_TIME_OUTPUT,

@@ -26,7 +26,7 @@ crate::choice! {
 pub enum Load {
     /// Clamped backs pushed toward the disc by this much (m).
     Interference(f64),
-    /// This pressure (Pa) on the back faces ([`PRESSURE_SET`]), backs free along the normal.
+    /// This pressure (Pa) on the back faces ([`PRESSURE_SET`](super::floating::PRESSURE_SET)), backs free along the normal.
     Pressure(f64),
 }
 
