@@ -809,7 +809,7 @@ mod scanner {
                 "a.rs",
                 "use crate::{b::{self, B}, Thing};\n// crate::c::Gone\nconst S: &str = \"crate::c::Gone\";",
             ),
-            ("b.rs", "fn f() -> crate::c::C { todo!() }"),
+            ("b.rs", "fn f() -> crate::c::C { C }"),
             (
                 "c.rs",
                 "pub struct Thing; pub struct C; fn g<'a>(x: &'a str) {}",
