@@ -10,7 +10,6 @@ use crate::assemble::{Assemble, AssembleParams, with_default_materials};
 use crate::contact::lcp::LcpSettings;
 use crate::equilibrium::{self, Load};
 use crate::mesh::brake::{BrakeGeometry, brake};
-use crate::params::DeclaredParams;
 use crate::stability::Stability;
 use crate::stage::{Input, Inputs, Params, Stage, StageError, Value};
 use crate::table::{ColumnData, Table};
@@ -92,19 +91,7 @@ pub(crate) fn brake_inputs_of(geometry: &BrakeGeometry) -> Inputs {
         ("model".to_string(), Input::One(model)),
         ("equilibrium".to_string(), Input::One(equilibrium)),
     ]));
-    let stability_params = Params(
-        Stability
-            .params()
-            .into_iter()
-            .map(|spec| {
-                let value = match spec.name {
-                    "f_max_hz" => Value::Float(8000.0),
-                    _ => spec.default.unwrap(),
-                };
-                (spec.name.to_string(), value)
-            })
-            .collect(),
-    );
+    let stability_params = Params::defaults(&Stability, &[("f_max_hz", Value::Float(8000.0))]);
     let outputs = Stability.run(&stability_params, &inputs).unwrap();
     inputs.0.insert(
         "complex_modes".to_string(),

@@ -11,7 +11,6 @@ use super::*;
 use crate::artifact::CscMatrix;
 use crate::artifact::mesh::{ContactPair, Mesh};
 use crate::fixtures::{coarse_brake, sliding_equilibrium, small_brake, test_model};
-use crate::params::DeclaredParams;
 use crate::stability::sliding::Part;
 use crate::stage::{Input, Value};
 
@@ -441,19 +440,7 @@ fn stability_results_do_not_depend_on_the_thread_count() {
             Input::One(Arc::new(Artifact::Equilibrium(Box::new(equilibrium)))),
         ),
     ]));
-    let params = Params(
-        Stability
-            .params()
-            .into_iter()
-            .map(|spec| {
-                let value = match spec.name {
-                    "f_max_hz" => Value::Float(8000.0),
-                    _ => spec.default.unwrap(),
-                };
-                (spec.name.to_string(), value)
-            })
-            .collect(),
-    );
+    let params = Params::defaults(&Stability, &[("f_max_hz", Value::Float(8000.0))]);
     crate::fixtures::assert_outputs_independent_of_threads(
         &Stability,
         &params,
