@@ -1,6 +1,7 @@
-//! Cache keys: blake3 of a canonical encoding of what determines a stage's outputs —
-//! kind, implementation version, every declared parameter, the digests of its inputs, and the
-//! numeric platform (architecture and vector instruction set: results are bit-identical on any
+//! Cache keys: blake3 of a canonical encoding of what determines a stage's outputs — the
+//! artifacts' encoding version, kind, implementation version, every declared parameter, the
+//! digests of its inputs, and the numeric platform (architecture and vector instruction set:
+//! results are bit-identical on any
 //! thread count, but not across instruction sets, so machines that share a cache and differ
 //! there keep their own entries).
 //!
@@ -76,6 +77,9 @@ pub fn cache_key_on(
 ) -> Digest {
     let mut canonical = Canonical(blake3::Hasher::new());
     canonical.str("squeal cache key v2");
+    canonical
+        .0
+        .update(&squeal_contract::artifact::ENCODING_VERSION.to_le_bytes());
     canonical.str(platform);
     canonical.str(kind);
     canonical.0.update(&version.to_le_bytes());

@@ -58,7 +58,7 @@ fn main() {
     println!(
         "assemble ~30k: {} DOFs, {} elements, nnz(K) = {}, best of 3: {:.3} s",
         model.n_dofs(),
-        model.mesh.hexes.len(),
+        model.mesh.elements.len(),
         model.K.values.len(),
         seconds
     );
@@ -68,7 +68,7 @@ fn main() {
         println!(
             "assemble ~300k: {} DOFs, {} elements, nnz(K) = {}, best of 2: {:.3} s",
             large.n_dofs(),
-            large.mesh.hexes.len(),
+            large.mesh.elements.len(),
             large.K.values.len(),
             seconds
         );

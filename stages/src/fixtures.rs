@@ -82,8 +82,12 @@ pub(crate) fn brake_inputs() -> Inputs {
 
 /// A brake's model, sliding equilibrium and stability tables (modes below 8 kHz).
 pub(crate) fn brake_inputs_of(geometry: &BrakeGeometry) -> Inputs {
-    let mesh = brake(geometry).unwrap();
-    let (model, _) = test_model(&mesh, "hub, pad_backs", &[]);
+    brake_inputs_of_mesh(&brake(geometry).unwrap())
+}
+
+/// [`brake_inputs_of`] for a brake mesh of any element kind.
+pub(crate) fn brake_inputs_of_mesh(mesh: &Mesh) -> Inputs {
+    let (model, _) = test_model(mesh, "hub, pad_backs", &[]);
     let equilibrium = sliding_equilibrium(&model, 0.6, 4.0);
     let model = Arc::new(Artifact::Model(Box::new(model)));
     let equilibrium = Arc::new(Artifact::Equilibrium(Box::new(equilibrium)));

@@ -1,11 +1,22 @@
-//! Meshes of 8-node hexahedra, with parts (one material each), named node sets and the
-//! node-to-node contact pairs of conforming pad/disc interfaces.
+//! Meshes of solid elements of several kinds, with parts (one material each), named node sets
+//! and the node-to-node contact pairs of conforming pad/disc interfaces.
 //!
-//! Node order of a hexahedron (as VTK_HEXAHEDRON and Gmsh): nodes 0-1-2-3 are one face,
-//! counter-clockwise seen from outside the opposite face 4-5-6-7, node `i + 4` above node `i`.
-//! In the reference cube (ξ, η, ζ) ∈ [−1, 1]³ node 0 is (−1, −1, −1), 1 (1, −1, −1),
-//! 2 (1, 1, −1), 3 (−1, 1, −1), 4..7 the same at ζ = 1. A positive Jacobian determinant
-//! everywhere is required: an element with det J ≤ 0 is inverted or degenerate.
+//! Node orders (0-based), those of Abaqus and VTK except for the wedges' first triangle, which
+//! VTK writes the other way round. Corners first, counter-clockwise seen from the opposite
+//! face or apex, so that the reference map has a positive Jacobian determinant:
+//!
+//! | kind | corners | mid-edge nodes, by the corners of their edge |
+//! |---|---|---|
+//! | `tet4` | 0 1 2 base, 3 apex | — |
+//! | `tet10` | as `tet4` | 4 (0 1), 5 (1 2), 6 (2 0), 7 (0 3), 8 (1 3), 9 (2 3) |
+//! | `wedge6` | 0 1 2 bottom, 3 4 5 above them | — |
+//! | `wedge15` | as `wedge6` | 6 (0 1), 7 (1 2), 8 (2 0), 9 (3 4), 10 (4 5), 11 (5 3), 12 (0 3), 13 (1 4), 14 (2 5) |
+//! | `hex8` | 0 1 2 3 bottom, 4..7 above them | — |
+//! | `hex20` | as `hex8` | 8 (0 1), 9 (1 2), 10 (2 3), 11 (3 0), 12 (4 5), 13 (5 6), 14 (6 7), 15 (7 4), 16 (0 4), 17 (1 5), 18 (2 6), 19 (3 7) |
+//!
+//! A positive Jacobian determinant everywhere is required: an element with det J ≤ 0 is
+//! inverted or degenerate. Shape functions, quadrature and faces of each kind are in the
+//! stages' `fem::element` module.
 
 use std::collections::BTreeMap;
 
@@ -22,14 +33,236 @@ pub struct ContactPair {
     pub area: f64,
 }
 
+/// The kind of a solid element (node orders in the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum ElementKind {
+    /// 8-node hexahedron with incompatible modes.
+    Hex8,
+    /// 20-node serendipity hexahedron.
+    Hex20,
+    /// 4-node (constant-strain) tetrahedron.
+    Tet4,
+    /// 10-node tetrahedron.
+    Tet10,
+    /// 6-node wedge (triangular prism).
+    Wedge6,
+    /// 15-node wedge.
+    Wedge15,
+}
+
+impl ElementKind {
+    pub const ALL: [ElementKind; 6] = [
+        ElementKind::Hex8,
+        ElementKind::Hex20,
+        ElementKind::Tet4,
+        ElementKind::Tet10,
+        ElementKind::Wedge6,
+        ElementKind::Wedge15,
+    ];
+
+    pub fn n_nodes(self) -> usize {
+        match self {
+            ElementKind::Hex8 => 8,
+            ElementKind::Hex20 => 20,
+            ElementKind::Tet4 => 4,
+            ElementKind::Tet10 => 10,
+            ElementKind::Wedge6 => 6,
+            ElementKind::Wedge15 => 15,
+        }
+    }
+
+    /// The number of corner (vertex) nodes, which come first.
+    pub fn n_corners(self) -> usize {
+        match self {
+            ElementKind::Hex8 | ElementKind::Hex20 => 8,
+            ElementKind::Tet4 | ElementKind::Tet10 => 4,
+            ElementKind::Wedge6 | ElementKind::Wedge15 => 6,
+        }
+    }
+
+    /// The name in tables and messages: `hex8`, `tet10`, ...
+    pub fn name(self) -> &'static str {
+        match self {
+            ElementKind::Hex8 => "hex8",
+            ElementKind::Hex20 => "hex20",
+            ElementKind::Tet4 => "tet4",
+            ElementKind::Tet10 => "tet10",
+            ElementKind::Wedge6 => "wedge6",
+            ElementKind::Wedge15 => "wedge15",
+        }
+    }
+}
+
+impl std::fmt::Display for ElementKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One element: its kind, part and nodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Element<'a> {
+    pub kind: ElementKind,
+    /// An index into the mesh's `parts`.
+    pub part: u32,
+    pub nodes: &'a [u32],
+}
+
+/// The elements of a mesh, their nodes stored one after the other.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Elements {
+    kinds: Vec<ElementKind>,
+    parts: Vec<u32>,
+    /// Where each element's nodes start in `nodes`.
+    starts: Vec<usize>,
+    nodes: Vec<u32>,
+}
+
+impl Elements {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Appends an element; `nodes` has `kind.n_nodes()` entries (a mismatch is a bug of the
+    /// caller's, checked by [`Elements::check`]).
+    pub fn push(&mut self, kind: ElementKind, part: u32, nodes: &[u32]) {
+        debug_assert_eq!(nodes.len(), kind.n_nodes());
+        self.kinds.push(kind);
+        self.parts.push(part);
+        self.starts.push(self.nodes.len());
+        self.nodes.extend_from_slice(nodes);
+    }
+
+    pub fn len(&self) -> usize {
+        self.kinds.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kinds.is_empty()
+    }
+
+    pub fn get(&self, element: usize) -> Element<'_> {
+        Element {
+            kind: self.kinds[element],
+            part: self.parts[element],
+            nodes: self.nodes(element),
+        }
+    }
+
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = Element<'_>> + Clone + '_ {
+        (0..self.len()).map(|element| self.get(element))
+    }
+
+    pub fn kind(&self, element: usize) -> ElementKind {
+        self.kinds[element]
+    }
+
+    pub fn part(&self, element: usize) -> u32 {
+        self.parts[element]
+    }
+
+    /// The part of every element.
+    pub fn parts(&self) -> &[u32] {
+        &self.parts
+    }
+
+    pub fn set_part(&mut self, element: usize, part: u32) {
+        self.parts[element] = part;
+    }
+
+    pub fn nodes(&self, element: usize) -> &[u32] {
+        let start = self.starts[element];
+        &self.nodes[start..start + self.kinds[element].n_nodes()]
+    }
+
+    pub fn nodes_mut(&mut self, element: usize) -> &mut [u32] {
+        let start = self.starts[element];
+        &mut self.nodes[start..start + self.kinds[element].n_nodes()]
+    }
+
+    /// Every element's nodes, one element after the other.
+    pub fn all_nodes(&self) -> &[u32] {
+        &self.nodes
+    }
+
+    /// Appends the elements of `other`, its node indices shifted by `node_offset` and its parts
+    /// by `part_offset`.
+    pub fn extend_shifted(&mut self, other: &Elements, node_offset: u32, part_offset: u32) {
+        for element in other.iter() {
+            let nodes: Vec<u32> = element
+                .nodes
+                .iter()
+                .map(|node| node + node_offset)
+                .collect();
+            self.push(element.kind, element.part + part_offset, &nodes);
+        }
+    }
+
+    /// How many elements of each kind, by kind.
+    pub fn count_by_kind(&self) -> BTreeMap<ElementKind, usize> {
+        let mut counts = BTreeMap::new();
+        for kind in &self.kinds {
+            *counts.entry(*kind).or_insert(0) += 1;
+        }
+        counts
+    }
+
+    /// Checks that the storage is consistent and that every element names existing nodes and
+    /// parts: what indexing by element relies on.
+    pub fn check(&self, n_nodes: usize, n_parts: usize) -> Result<(), String> {
+        if self.parts.len() != self.kinds.len() || self.starts.len() != self.kinds.len() {
+            return Err(format!(
+                "the mesh has {} element kinds, {} element parts and {} element starts",
+                self.kinds.len(),
+                self.parts.len(),
+                self.starts.len()
+            ));
+        }
+        let mut next = 0;
+        for (element, (kind, start)) in self.kinds.iter().zip(&self.starts).enumerate() {
+            if *start != next || next + kind.n_nodes() > self.nodes.len() {
+                return Err(format!(
+                    "element {element}: its nodes are not stored in order"
+                ));
+            }
+            next += kind.n_nodes();
+        }
+        if next != self.nodes.len() {
+            return Err(format!(
+                "the elements have {next} nodes in all but {} are stored",
+                self.nodes.len()
+            ));
+        }
+        if let Some((element, part)) = self
+            .parts
+            .iter()
+            .enumerate()
+            .find(|(_, part)| **part as usize >= n_parts)
+        {
+            return Err(format!(
+                "element {element} is in part {part}, but the mesh has {n_parts} parts"
+            ));
+        }
+        if let Some(element) = (0..self.len()).find(|&element| {
+            self.nodes(element)
+                .iter()
+                .any(|&node| node as usize >= n_nodes)
+        }) {
+            return Err(format!(
+                "element {element} names node {}, but the mesh has {n_nodes} nodes",
+                self.nodes(element).iter().max().unwrap_or(&0)
+            ));
+        }
+        Ok(())
+    }
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Mesh {
     /// Node coordinates (m).
     pub nodes: Vec<[f64; 3]>,
-    /// Hexahedra, by node index.
-    pub hexes: Vec<[u32; 8]>,
-    /// Part of each hexahedron: an index into `parts`.
-    pub hex_part: Vec<u32>,
+    /// The elements, each with its kind, part and nodes.
+    pub elements: Elements,
     /// Part names; each names a material (`disc`, `pad`, ...).
     pub parts: Vec<String>,
     /// Named node sets, sorted: `hub` (clamped), `pad_backs`, ...
@@ -71,9 +304,9 @@ impl Mesh {
             }
             node
         }
-        for hex in &self.hexes {
-            let first = root(&mut parent, hex[0] as usize);
-            for &node in &hex[1..] {
+        for element in self.elements.iter() {
+            let first = root(&mut parent, element.nodes[0] as usize);
+            for &node in &element.nodes[1..] {
                 let other = root(&mut parent, node as usize);
                 if other != first {
                     parent[other] = first;
@@ -82,18 +315,16 @@ impl Mesh {
         }
         let mut body_of_root = vec![usize::MAX; self.n_nodes()];
         let mut n_bodies = 0;
-        for hex in &self.hexes {
-            let top = root(&mut parent, hex[0] as usize);
+        for element in self.elements.iter() {
+            let top = root(&mut parent, element.nodes[0] as usize);
             if body_of_root[top] == usize::MAX {
                 body_of_root[top] = n_bodies;
                 n_bodies += 1;
             }
         }
         let mut in_element = vec![false; self.n_nodes()];
-        for hex in &self.hexes {
-            for &node in hex {
-                in_element[node as usize] = true;
-            }
+        for &node in self.elements.all_nodes() {
+            in_element[node as usize] = true;
         }
         let body = (0..self.n_nodes())
             .map(|node| {

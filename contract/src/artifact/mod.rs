@@ -14,10 +14,15 @@ pub mod model;
 pub use basis::Basis;
 pub use complex_modes::{ComplexMode, ComplexModes, ComplexShape, ShapeMatrices};
 pub use equilibrium::{ContactFrames, Equilibrium};
-pub use mesh::{ContactPair, Mesh};
+pub use mesh::{ContactPair, Element, ElementKind, Elements, Mesh};
 pub use model::{CscMatrix, Model, RealModes};
 
 use crate::table::Table;
+
+/// The version of the artifacts' encoding, part of every cache key: raise it when an artifact
+/// type changes its layout, so that no entry is decoded with another layout.
+/// 2: meshes hold elements of several kinds.
+pub const ENCODING_VERSION: u32 = 2;
 
 /// A value produced by one stage and consumed by others.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

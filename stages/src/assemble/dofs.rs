@@ -66,11 +66,9 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
         }
     }
     let mut in_element = vec![false; n_nodes];
-    for hex in &mesh.hexes {
-        for &node in hex {
-            if let Some(slot) = in_element.get_mut(node as usize) {
-                *slot = true;
-            }
+    for &node in mesh.elements.all_nodes() {
+        if let Some(slot) = in_element.get_mut(node as usize) {
+            *slot = true;
         }
     }
     // A free node outside every element has neither mass nor stiffness: M and K would be

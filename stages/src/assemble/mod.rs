@@ -1,11 +1,11 @@
-//! `assemble`: the finite-element model of a hexahedral mesh — mass `M`, stiffness `K` and
-//! Rayleigh damping `C` over the free degrees of freedom.
+//! `assemble`: the finite-element model of a mesh of solid elements — mass `M`, stiffness `K`
+//! and Rayleigh damping `C` over the free degrees of freedom.
 //!
 //! Linear elasticity, small strains. With `N` the shape functions, `u ≈ N q`:
 //!
 //! ```text
 //! M = Σ_e ∫_e ρ Nᵀ N dV          (consistent mass)
-//! K = Σ_e K_e                     (hexahedra with incompatible modes, see [`hex8`])
+//! K = Σ_e K_e                     (elements of any kind, see [`element`])
 //! C = Σ_parts (α_p M_p + β_p K_p) (Rayleigh damping per part, [`material`])
 //! ```
 //!
@@ -28,7 +28,8 @@ use crate::artifact::{Artifact, ArtifactType};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError, Value};
 use crate::table::Table;
 
-use crate::fem::hex8::{self, Degenerate, ElementMatrices};
+use crate::artifact::ElementKind;
+use crate::fem::element::{self, Degenerate, ElementMatrices};
 use crate::fem::material::{MATERIAL_PARTS, Material};
 
 /// How many offending elements an error message names.
@@ -126,14 +127,14 @@ impl Stage for Assemble {
     }
 
     fn doc(&self) -> &'static str {
-        "Assemble mass, stiffness and Rayleigh damping of a hexahedral mesh (incompatible-mode hexahedra), clamping node sets"
+        "Assemble mass, stiffness and Rayleigh damping of a mesh of solid elements (hexahedra, tetrahedra, wedges), clamping node sets"
     }
 
     fn inputs(&self) -> Vec<PortSpec> {
         vec![PortSpec::one(
             "mesh",
             ArtifactType::Mesh,
-            "hexahedral mesh with parts `disc` and `pad`",
+            "mesh of solid elements with parts `disc` and `pad`",
         )]
     }
 
@@ -161,39 +162,12 @@ impl Stage for Assemble {
 
 /// Checks the mesh's indices and coordinates so that assembly cannot index out of bounds.
 fn check_mesh(mesh: &Mesh) -> Result<(), StageError> {
-    if mesh.hexes.is_empty() {
+    if mesh.elements.is_empty() {
         return Err(StageError::new("the mesh has no elements"));
     }
-    if mesh.hex_part.len() != mesh.hexes.len() {
-        return Err(StageError::new(format!(
-            "the mesh has {} elements but {} element parts",
-            mesh.hexes.len(),
-            mesh.hex_part.len()
-        )));
-    }
-    if let Some((element, part)) = mesh
-        .hex_part
-        .iter()
-        .enumerate()
-        .find(|(_, part)| **part as usize >= mesh.parts.len())
-    {
-        return Err(StageError::new(format!(
-            "element {element} is in part {part}, but the mesh has {} parts",
-            mesh.parts.len()
-        )));
-    }
-    let n_nodes = mesh.n_nodes();
-    if let Some((element, hex)) = mesh
-        .hexes
-        .iter()
-        .enumerate()
-        .find(|(_, hex)| hex.iter().any(|&node| node as usize >= n_nodes))
-    {
-        return Err(StageError::new(format!(
-            "element {element} names node {}, but the mesh has {n_nodes} nodes",
-            hex.iter().max().unwrap_or(&0)
-        )));
-    }
+    mesh.elements
+        .check(mesh.n_nodes(), mesh.parts.len())
+        .map_err(StageError::new)?;
     if let Some(node) = mesh
         .nodes
         .iter()
@@ -238,6 +212,23 @@ fn degenerate_error(failures: &[(usize, Degenerate)]) -> StageError {
     ))
 }
 
+/// Linear tetrahedra have constant strain and lock in bending: a coarse mesh of them gives
+/// frequencies far too high. They are accepted, with a warning.
+fn warn_of_linear_tetrahedra(mesh: &Mesh) {
+    let n_tet4 = mesh
+        .elements
+        .iter()
+        .filter(|element| element.kind == ElementKind::Tet4)
+        .count();
+    if n_tet4 > 0 {
+        tracing::warn!(
+            "{n_tet4} of {} elements are 4-node tetrahedra: constant strain, stiff in bending \
+             (mesh with 10-node tetrahedra for frequencies that converge)",
+            mesh.elements.len()
+        );
+    }
+}
+
 /// The model of `mesh` with the node sets `params.clamped` fixed, and its summary table.
 pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Table), StageError> {
     check_mesh(mesh)?;
@@ -250,14 +241,23 @@ pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Ta
     }
     let elasticities: Vec<[[f64; 6]; 6]> = materials.iter().map(Material::elasticity).collect();
 
-    let results: Vec<Result<ElementMatrices, Degenerate>> = mesh
-        .hexes
-        .par_iter()
-        .zip(&mesh.hex_part)
-        .map(|(hex, &part)| {
-            let coords = hex.map(|node| mesh.nodes[node as usize]);
-            let part = part as usize;
-            hex8::element_matrices(&coords, &elasticities[part], materials[part].density)
+    warn_of_linear_tetrahedra(mesh);
+    let results: Vec<Result<ElementMatrices, Degenerate>> = (0..mesh.elements.len())
+        .into_par_iter()
+        .map(|element| {
+            let element = mesh.elements.get(element);
+            let coords: Vec<[f64; 3]> = element
+                .nodes
+                .iter()
+                .map(|&node| mesh.nodes[node as usize])
+                .collect();
+            let part = element.part as usize;
+            element::element_matrices(
+                element.kind,
+                &coords,
+                &elasticities[part],
+                materials[part].density,
+            )
         })
         .collect();
     let failures: Vec<(usize, Degenerate)> = results
@@ -270,7 +270,8 @@ pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Ta
     }
     let elements: Vec<ElementMatrices> = results.into_iter().flatten().collect();
     let damping: Vec<(f64, f64)> = mesh
-        .hex_part
+        .elements
+        .parts()
         .iter()
         .map(|&part| {
             (
@@ -304,11 +305,11 @@ fn summary_table(
     let mut n_elements = vec![0i64; n_parts];
     let mut volume = vec![0.0; n_parts];
     let mut node_in_part = vec![vec![false; mesh.n_nodes()]; n_parts];
-    for ((hex, &part), matrices) in mesh.hexes.iter().zip(&mesh.hex_part).zip(elements) {
-        let part = part as usize;
+    for (element, matrices) in mesh.elements.iter().zip(elements) {
+        let part = element.part as usize;
         n_elements[part] += 1;
         volume[part] += matrices.volume;
-        for &node in hex {
+        for &node in element.nodes {
             node_in_part[part][node as usize] = true;
         }
     }
@@ -328,7 +329,7 @@ fn summary_table(
         .map(|(volume, material)| volume * material.density)
         .collect();
     names.push("total".into());
-    n_elements.push(mesh.hexes.len() as i64);
+    n_elements.push(mesh.elements.len() as i64);
     dofs.push(n_dofs as i64);
     volume.push(volume.iter().sum());
     masses.push(masses.iter().sum());

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use crate::artifact::CscMatrix;
 use crate::artifact::mesh::Mesh;
-use crate::fem::hex8::{ElementMatrices, packed_index};
+use crate::fem::element::{ElementMatrices, packed_index};
 
 /// The assembled matrices over the free DOFs.
 pub struct Assembled {
@@ -30,18 +30,16 @@ struct NodeElements {
 impl NodeElements {
     fn new(mesh: &Mesh) -> NodeElements {
         let mut offsets = vec![0usize; mesh.n_nodes() + 1];
-        for hex in &mesh.hexes {
-            for &node in hex {
-                offsets[node as usize + 1] += 1;
-            }
+        for &node in mesh.elements.all_nodes() {
+            offsets[node as usize + 1] += 1;
         }
         for node in 0..mesh.n_nodes() {
             offsets[node + 1] += offsets[node];
         }
         let mut next = offsets.clone();
         let mut elements = vec![0u32; offsets[mesh.n_nodes()]];
-        for (element_idx, hex) in mesh.hexes.iter().enumerate() {
-            for &node in hex {
+        for (element_idx, element) in mesh.elements.iter().enumerate() {
+            for &node in element.nodes {
                 elements[next[node as usize]] = element_idx as u32;
                 next[node as usize] += 1;
             }
@@ -71,7 +69,7 @@ fn neighbourhoods(
             let mut nodes: Vec<u32> = node_elements
                 .of(node)
                 .iter()
-                .flat_map(|&element| mesh.hexes[element as usize])
+                .flat_map(|&element| mesh.elements.nodes(element as usize).iter().copied())
                 .collect();
             nodes.sort_unstable();
             nodes.dedup();
@@ -164,20 +162,23 @@ pub fn assemble(
             let column_len = offsets[offsets.len() - 1];
             let mut previous_element = None;
             for &element_idx in node_elements.of(node) {
-                // A node listed twice in a hexahedron makes it degenerate, which is rejected
+                // A node listed twice in an element makes it degenerate, which is rejected
                 // before assembly; skipping repeats keeps every contribution counted once.
                 if previous_element == Some(element_idx) {
                     continue;
                 }
                 previous_element = Some(element_idx);
                 let element_idx = element_idx as usize;
-                let hex = &mesh.hexes[element_idx];
+                let element_nodes = mesh.elements.nodes(element_idx);
                 let matrices = &elements[element_idx];
                 let (alpha, beta) = damping[element_idx];
-                let Some(local_col) = hex.iter().position(|&other| other as usize == node) else {
+                let Some(local_col) = element_nodes
+                    .iter()
+                    .position(|&other| other as usize == node)
+                else {
                     continue;
                 };
-                for (local_row, &other) in hex.iter().enumerate() {
+                for (local_row, &other) in element_nodes.iter().enumerate() {
                     let Ok(neighbour) = nodes.binary_search(&other) else {
                         continue;
                     };

@@ -126,7 +126,7 @@ fn rayleigh_damping_is_taken_per_part() {
     // Two elements along x: element 0 is disc, element 1 is pad.
     let mut mesh = structured::block([2.0, 1.0, 1.0], [2, 1, 1], "disc");
     mesh.parts.push("pad".into());
-    mesh.hex_part[1] = 1;
+    mesh.elements.set_part(1, 1);
     let (model, summary) = assemble(&mesh, "");
     let (disc_alpha, disc_beta, pad_alpha, pad_beta) = (3.75, 5e-8, 54.375, 72.5e-8);
     // Node 0 (x = 0) belongs to the disc element only, node 2 (x = 2) to the pad only.
@@ -149,10 +149,10 @@ fn rayleigh_damping_is_taken_per_part() {
 fn inverted_element_is_named_with_its_det_j() {
     let mut mesh = structured::block([1.0, 1.0, 1.0], [3, 2, 2], "disc");
     // Mirror element 4 by swapping its bottom and top faces.
-    let hex = mesh.hexes[4];
-    mesh.hexes[4] = [
+    let hex = mesh.elements.nodes(4).to_vec();
+    mesh.elements.nodes_mut(4).copy_from_slice(&[
         hex[4], hex[5], hex[6], hex[7], hex[0], hex[1], hex[2], hex[3],
-    ];
+    ]);
     let err = try_assemble(&mesh, "").unwrap_err();
     assert!(
         err.message.contains("1 inverted or degenerate element"),

@@ -1,6 +1,7 @@
 //! Checks of a solution: the support reactions the pads carry, and the largest strain.
 
 use crate::artifact::Model;
+use crate::fem::element::{self, packed_index};
 use crate::fem::material::Material;
 use crate::stage::StageError;
 
@@ -24,38 +25,47 @@ pub fn back_reactions(
         in_set[node as usize] = true;
     }
     let mut total = [0.0; 3];
-    for (hex, part) in mesh.hexes.iter().zip(&mesh.hex_part) {
-        if !hex.iter().any(|node| in_set[*node as usize]) {
+    for (index, element) in mesh.elements.iter().enumerate() {
+        if !element.nodes.iter().any(|node| in_set[*node as usize]) {
             continue;
         }
-        let material = materials.get(*part as usize).ok_or_else(|| {
+        let part = element.part;
+        let material = materials.get(part as usize).ok_or_else(|| {
             StageError::new(format!(
                 "part {part} has no material: {} given",
                 materials.len()
             ))
         })?;
-        let coords = hex.map(|node| mesh.nodes[node as usize]);
-        let element =
-            crate::fem::hex8::element_matrices(&coords, &material.elasticity(), material.density)
-                .map_err(|degenerate| {
-                StageError::new(format!(
-                    "degenerate element: det J = {:e}",
-                    degenerate.det_j
-                ))
-            })?;
+        let coords: Vec<[f64; 3]> = element
+            .nodes
+            .iter()
+            .map(|&node| mesh.nodes[node as usize])
+            .collect();
+        let matrices = element::element_matrices(
+            element.kind,
+            &coords,
+            &material.elasticity(),
+            material.density,
+        )
+        .map_err(|degenerate| {
+            StageError::new(format!(
+                "element {index} is degenerate: det J = {:e} at {}",
+                degenerate.det_j, degenerate.location
+            ))
+        })?;
         let displacement = |dof: usize| {
-            model.dof_of_node[hex[dof / 3] as usize][dof % 3].map_or(0.0, |free| u[free as usize])
+            model.dof_of_node[element.nodes[dof / 3] as usize][dof % 3]
+                .map_or(0.0, |free| u[free as usize])
         };
-        for row in 0..24 {
-            if !in_set[hex[row / 3] as usize] {
+        let n_dofs = 3 * element.nodes.len();
+        for row in 0..n_dofs {
+            if !in_set[element.nodes[row / 3] as usize] {
                 continue;
             }
             // At a clamped DOF, K u = R + F with F = 0: the row of K times u is the support's
             // reaction R on the structure.
-            let internal: f64 = (0..24)
-                .map(|col| {
-                    element.stiffness[crate::fem::hex8::packed_index(row, col)] * displacement(col)
-                })
+            let internal: f64 = (0..n_dofs)
+                .map(|col| matrices.stiffness[packed_index(row, col)] * displacement(col))
                 .sum();
             total[row % 3] += internal;
         }
@@ -71,12 +81,21 @@ pub const SMALL_STRAIN: f64 = 0.01;
 pub fn largest_strain(model: &Model, u: &[f64]) -> (f64, usize) {
     let mesh = &model.mesh;
     let mut largest = (0.0, 0);
-    for (element, hex) in mesh.hexes.iter().enumerate() {
-        let coords = hex.map(|node| mesh.nodes[node as usize]);
-        let displacement = hex.map(|node| {
-            model.dof_of_node[node as usize].map(|dof| dof.map_or(0.0, |dof| u[dof as usize]))
-        });
-        let Some(gradient) = crate::fem::hex8::centre_displacement_gradient(&coords, &displacement)
+    for (index, element) in mesh.elements.iter().enumerate() {
+        let coords: Vec<[f64; 3]> = element
+            .nodes
+            .iter()
+            .map(|&node| mesh.nodes[node as usize])
+            .collect();
+        let displacement: Vec<[f64; 3]> = element
+            .nodes
+            .iter()
+            .map(|&node| {
+                model.dof_of_node[node as usize].map(|dof| dof.map_or(0.0, |dof| u[dof as usize]))
+            })
+            .collect();
+        let Some(gradient) =
+            element::centre_displacement_gradient(element.kind, &coords, &displacement)
         else {
             continue;
         };
@@ -84,7 +103,7 @@ pub fn largest_strain(model: &Model, u: &[f64]) -> (f64, usize) {
             .map(|ij| 0.5 * (gradient[ij / 3][ij % 3] + gradient[ij % 3][ij / 3]).abs())
             .fold(0.0, f64::max);
         if strain > largest.0 {
-            largest = (strain, element);
+            largest = (strain, index);
         }
     }
     largest

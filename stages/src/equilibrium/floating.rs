@@ -1,12 +1,11 @@
 //! The pressure on the pad backs and the floating bodies it pushes.
 //!
 //! - [`pressure_load`]: consistent nodal forces of a pressure p on the boundary faces whose
-//!   four nodes all lie in a node set. On a bilinear face x(ξ, η), the traction −p n pushes
-//!   into the body (n the outward normal) and node a receives
-//!   f_a = −p ∫ N_a (x_ξ × x_η) dξ dη. The integrand is of degree ≤ 2 in each of ξ, η, so
-//!   2 × 2 Gauss points integrate it exactly: Σ_a f_a = −p × (area vector) to roundoff, and
-//!   on a flat face each node receives p × area / 4 only for a parallelogram (a general
-//!   quadrilateral shifts load toward its larger corners).
+//!   nodes all lie in a node set, faces of any shape: node a receives
+//!   f_a = −p ∫ N_a (x_u × x_v) du dv, the traction −p n pushing into the body (n the outward
+//!   normal), by rules exact on straight-edged faces ([`crate::fem::faces`]): Σ_a f_a = −p ×
+//!   (area vector) to roundoff. On a flat bilinear face each node receives p × area / 4 only
+//!   for a parallelogram (a general quadrilateral shifts load toward its larger corners).
 //! - [`floating_bodies`]: the connected components of the elements (nodes shared) and, for
 //!   each, the rigid motions its clamps leave free. A rigid motion is u(x) = t + θ × (x − c)
 //!   (c the body's centroid); each clamped (node, axis) is a linear condition on (t, θ), and
@@ -25,7 +24,7 @@ use faer::Mat;
 
 use crate::artifact::mesh::{cross, dot, sub};
 use crate::artifact::{CscMatrix, Model};
-use crate::fem::faces::{Side, faces_within};
+use crate::fem::faces::{Side, area_vectors, faces_within};
 use crate::stage::StageError;
 
 /// The node set the pressure acts on.
@@ -53,7 +52,7 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
         .node_sets
         .get(set)
         .ok_or_else(|| StageError::new(format!("no node set `{set}` to apply the pressure on")))?;
-    // Candidate faces (all four nodes in the set); a face of two hexahedra is interior.
+    // Candidate faces (all their nodes in the set); a face of two elements is interior.
     let faces = faces_within(mesh, &Side::new(set, nodes.iter().copied()));
     let mut load = PressureLoad {
         forces: vec![0.0; model.n_dofs()],
@@ -64,12 +63,15 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
     };
     let mut clamped_resultant = [0.0; 3];
     for owners in faces.values() {
-        let [(hex_idx, face)] = owners[..] else {
+        let [face] = &owners[..] else {
             continue;
         };
-        let hex = mesh.hexes[hex_idx];
-        let corners = face.map(|node| mesh.nodes[node as usize]);
-        let (mut nodal, area_vector) = face_integrals(&corners);
+        let corners: Vec<[f64; 3]> = face
+            .nodes
+            .iter()
+            .map(|&node| mesh.nodes[node as usize])
+            .collect();
+        let (mut nodal, area_vector) = area_vectors(face.kind, &corners);
         // Orient outward: from the element's centroid toward the face's.
         let centroid = |points: &[[f64; 3]]| {
             let mut sum = [0.0; 3];
@@ -80,8 +82,12 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
             }
             sum
         };
-        let element_points: Vec<[f64; 3]> =
-            hex.iter().map(|&node| mesh.nodes[node as usize]).collect();
+        let element_points: Vec<[f64; 3]> = mesh
+            .elements
+            .nodes(face.element)
+            .iter()
+            .map(|&node| mesh.nodes[node as usize])
+            .collect();
         let outward = sub(centroid(&corners), centroid(&element_points));
         let sign = if dot(area_vector, outward) >= 0.0 {
             -pressure
@@ -96,7 +102,7 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
         load.area[side] += dot(area_vector, area_vector).sqrt();
         load.force[side] += resultant_z.abs();
         load.n_faces += 1;
-        for (node, force) in face.iter().zip(&nodal) {
+        for (node, force) in face.nodes.iter().zip(&nodal) {
             for axis in 0..3 {
                 match model.dof_of_node[*node as usize][axis] {
                     Some(dof) => load.forces[dof as usize] += force[axis],
@@ -108,47 +114,10 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
     load.on_clamped = dot(clamped_resultant, clamped_resultant).sqrt();
     if load.n_faces == 0 {
         return Err(StageError::new(format!(
-            "node set `{set}` holds no boundary face (four nodes of one element face) to apply the pressure on"
+            "node set `{set}` holds no boundary face (all the nodes of one element face) to apply the pressure on"
         )));
     }
     Ok(load)
-}
-
-/// ∫ N_a (x_ξ × x_η) dξ dη for the four nodes of a bilinear face, and their sum (the area
-/// vector), by 2 × 2 Gauss points (exact, see the module docs).
-fn face_integrals(corners: &[[f64; 3]; 4]) -> ([[f64; 3]; 4], [f64; 3]) {
-    const REFERENCE: [(f64, f64); 4] = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
-    let gauss = 1.0 / 3f64.sqrt();
-    let mut nodal = [[0.0; 3]; 4];
-    for (xi, eta) in [
-        (-gauss, -gauss),
-        (gauss, -gauss),
-        (gauss, gauss),
-        (-gauss, gauss),
-    ] {
-        let (mut x_xi, mut x_eta) = ([0.0; 3], [0.0; 3]);
-        for (corner, (xi_a, eta_a)) in corners.iter().zip(REFERENCE) {
-            for axis in 0..3 {
-                x_xi[axis] += corner[axis] * 0.25 * xi_a * (1.0 + eta * eta_a);
-                x_eta[axis] += corner[axis] * 0.25 * eta_a * (1.0 + xi * xi_a);
-            }
-        }
-        let normal = cross(x_xi, x_eta);
-        for (vector, (xi_a, eta_a)) in nodal.iter_mut().zip(REFERENCE) {
-            // Gauss weights are 1.
-            let shape = 0.25 * (1.0 + xi * xi_a) * (1.0 + eta * eta_a);
-            for axis in 0..3 {
-                vector[axis] += shape * normal[axis];
-            }
-        }
-    }
-    let mut total = [0.0; 3];
-    for vector in &nodal {
-        for axis in 0..3 {
-            total[axis] += vector[axis];
-        }
-    }
-    (nodal, total)
 }
 
 /// A connected body of elements that its clamps do not hold completely.
@@ -211,10 +180,10 @@ pub fn floating_bodies(model: &Model) -> Result<FloatingBodies, StageError> {
     }
     let mut elements_of_body = vec![0usize; n_bodies];
     let mut part_of_body = vec![None; n_bodies];
-    for (hex, part) in mesh.hexes.iter().zip(&mesh.hex_part) {
-        let body = body_of_node[hex[0] as usize];
+    for element in mesh.elements.iter() {
+        let body = body_of_node[element.nodes[0] as usize];
         elements_of_body[body] += 1;
-        part_of_body[body].get_or_insert(*part as usize);
+        part_of_body[body].get_or_insert(element.part as usize);
     }
     let mut bodies = Vec::new();
     let mut columns: Vec<Vec<f64>> = Vec::new();

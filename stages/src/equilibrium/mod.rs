@@ -198,7 +198,7 @@ impl Stage for SlidingEquilibrium {
         let contact = contact_table(model, &equilibrium);
         let (strain, element) = largest_strain(model, &equilibrium.u);
         if strain > SMALL_STRAIN {
-            let part = &model.mesh.parts[model.mesh.hex_part[element] as usize];
+            let part = &model.mesh.parts[model.mesh.elements.part(element) as usize];
             tracing::warn!(
                 "equilibrium: strains reach {:.2} % (element {element}, part `{part}`), beyond the small strains ({} %) the linear model assumes: lower the load",
                 100.0 * strain,

@@ -129,8 +129,7 @@ mod tests {
         // Two nodes of a block mesh, node 0 clamped in x: 5 DOFs.
         let mut mesh = block([1.0, 1.0, 1.0], [1, 1, 1], "steel");
         mesh.nodes.truncate(2);
-        mesh.hexes.clear();
-        mesh.hex_part.clear();
+        mesh.elements = Default::default();
         mesh.node_sets.clear();
         let dof_of_node = vec![[None, Some(0), Some(1)], [Some(2), Some(3), Some(4)]];
         let identity =

@@ -2,7 +2,7 @@
 //! element matrices, faces), the materials (Hooke's law, Rayleigh damping, density per part)
 //! and orthotropic elasticity with the frames that orient it.
 
+pub mod element;
 pub mod faces;
-pub mod hex8;
 pub mod material;
 pub mod orthotropic;

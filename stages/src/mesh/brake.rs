@@ -21,7 +21,7 @@ use std::f64::consts::PI;
 use super::contact_faces::FaceIntegrals;
 use super::structured::annulus;
 use crate::artifact::{Artifact, ArtifactType};
-use crate::artifact::{ContactPair, Mesh};
+use crate::artifact::{ContactPair, ElementKind, Mesh};
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
@@ -270,17 +270,20 @@ fn add_puck(
                 };
                 let corner =
                     |ddi: usize, ddj: usize, level: usize| puck_node(di + ddi, dj + ddj, level);
-                mesh.hexes.push([
-                    corner(0, 0, below),
-                    corner(1, 0, below),
-                    corner(1, 1, below),
-                    corner(0, 1, below),
-                    corner(0, 0, above),
-                    corner(1, 0, above),
-                    corner(1, 1, above),
-                    corner(0, 1, above),
-                ]);
-                mesh.hex_part.push(1);
+                mesh.elements.push(
+                    ElementKind::Hex8,
+                    1,
+                    &[
+                        corner(0, 0, below),
+                        corner(1, 0, below),
+                        corner(1, 1, below),
+                        corner(0, 1, below),
+                        corner(0, 0, above),
+                        corner(1, 0, above),
+                        corner(1, 1, above),
+                        corner(0, 1, above),
+                    ],
+                );
             }
         }
     }
@@ -377,7 +380,7 @@ impl Stage for MeshBrake {
                 "count",
                 vec![
                     mesh.n_nodes() as i64,
-                    mesh.hexes.len() as i64,
+                    mesh.elements.len() as i64,
                     mesh.n_dofs() as i64,
                     mesh.contact_pairs.len() as i64,
                 ],
@@ -446,7 +449,7 @@ mod tests {
     #[test]
     fn every_element_has_positive_volume_and_sets_are_named() {
         let mesh = brake(&coarse()).unwrap();
-        let volume = |hex: &[u32; 8]| {
+        let volume = |hex: &[u32]| {
             let p = |idx: usize| mesh.nodes[hex[idx] as usize];
             let (a, b, d, e) = (p(0), p(1), p(3), p(4));
             let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
@@ -455,7 +458,11 @@ mod tests {
             u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
                 + u[2] * (v[0] * w[1] - v[1] * w[0])
         };
-        assert!(mesh.hexes.iter().all(|hex| volume(hex) > 0.0));
+        assert!(
+            mesh.elements
+                .iter()
+                .all(|element| volume(element.nodes) > 0.0)
+        );
         for name in [
             "hub",
             "pad_backs",
@@ -467,7 +474,12 @@ mod tests {
             assert!(!mesh.node_sets[name].is_empty(), "{name}");
         }
         assert_eq!(mesh.parts, ["disc", "pad"]);
-        let pad_elements = mesh.hex_part.iter().filter(|part| **part == 1).count();
+        let pad_elements = mesh
+            .elements
+            .parts()
+            .iter()
+            .filter(|part| **part == 1)
+            .count();
         assert_eq!(pad_elements, 2 * 2 * 4 * 2);
     }
 

@@ -35,10 +35,15 @@ pub fn contact_sides(disc: &str, pad: &str, what: &str) -> Result<Option<[String
     }
 }
 
-/// `quad` ordered so that its normal points out of hexahedron `hex_idx`.
-pub fn outward(mesh: &Mesh, hex_idx: usize, mut quad: [u32; 4]) -> [u32; 4] {
+/// `quad` ordered so that its normal points out of element `element`.
+pub fn outward(mesh: &Mesh, element: usize, mut quad: [u32; 4]) -> [u32; 4] {
     let corners = quad.map(|node| mesh.nodes[node as usize]);
-    let hex_centre = centroid(mesh.hexes[hex_idx].iter().map(|n| mesh.nodes[*n as usize]));
+    let hex_centre = centroid(
+        mesh.elements
+            .nodes(element)
+            .iter()
+            .map(|n| mesh.nodes[*n as usize]),
+    );
     let (_, centre_normal) = quad_tangents(&corners, 0.0, 0.0);
     if dot(
         centre_normal,

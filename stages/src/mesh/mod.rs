@@ -6,18 +6,21 @@
 pub mod abaqus;
 pub mod brake;
 pub mod contact_faces;
+pub mod convert;
 pub mod gmsh;
 pub mod interface;
 pub mod structured;
 
 use std::collections::HashMap;
 
-/// The first hexahedron with the same nodes as an earlier one (in any order), with that
-/// earlier one: a duplicated element silently doubles its stiffness and mass.
-pub fn first_duplicate(hexes: &[[u32; 8]]) -> Option<(usize, usize)> {
-    let mut seen: HashMap<[u32; 8], usize> = HashMap::with_capacity(hexes.len());
-    for (idx, hex) in hexes.iter().enumerate() {
-        let mut key = *hex;
+use crate::artifact::Elements;
+
+/// The first element with the same nodes as an earlier one (in any order), with that earlier
+/// one: a duplicated element silently doubles its stiffness and mass.
+pub fn first_duplicate(elements: &Elements) -> Option<(usize, usize)> {
+    let mut seen: HashMap<Vec<u32>, usize> = HashMap::with_capacity(elements.len());
+    for (idx, element) in elements.iter().enumerate() {
+        let mut key = element.nodes.to_vec();
         key.sort_unstable();
         if let Some(first) = seen.insert(key, idx) {
             return Some((first, idx));

@@ -4,8 +4,8 @@
 
 use std::collections::BTreeMap;
 
-use crate::artifact::Mesh;
 use crate::artifact::mesh::ContactPair;
+use crate::artifact::{ElementKind, Elements, Mesh};
 
 /// A block [0, lx] × [0, ly] × [0, lz] with nx × ny × nz hexahedra, all in part `part`.
 /// Node sets: `x0`, `x1`, `y0`, `y1`, `z0`, `z1` (the six faces).
@@ -53,11 +53,9 @@ pub fn block(lengths: [f64; 3], counts: [usize; 3], part: &str) -> Mesh {
     face("y1", &|_, j, _| j == ny);
     face("z0", &|_, _, k| k == 0);
     face("z1", &|_, _, k| k == nz);
-    let n_hexes = hexes.len();
     Mesh {
         nodes,
-        hexes,
-        hex_part: vec![0; n_hexes],
+        elements: hexahedra(&hexes, 0),
         parts: vec![part.into()],
         node_sets,
         contact_pairs: Vec::new(),
@@ -119,15 +117,22 @@ pub fn annulus(
     set("outer", &|i, _| i == n_r);
     set("bottom", &|_, k| k == 0);
     set("top", &|_, k| k == n_z);
-    let n_hexes = hexes.len();
     Mesh {
         nodes,
-        hexes,
-        hex_part: vec![0; n_hexes],
+        elements: hexahedra(&hexes, 0),
         parts: vec![part.into()],
         node_sets,
         contact_pairs: Vec::new(),
     }
+}
+
+/// 8-node hexahedra, all in part `part`.
+pub fn hexahedra(hexes: &[[u32; 8]], part: u32) -> Elements {
+    let mut elements = Elements::new();
+    for hex in hexes {
+        elements.push(ElementKind::Hex8, part, hex);
+    }
+    elements
 }
 
 /// The eight nodes of the cell at offsets (di, dj, dk) ∈ {0, 1}³ in hexahedron order.
@@ -161,9 +166,7 @@ pub fn stacked_blocks(width: f64, l_disc: f64, l_pad: f64) -> Mesh {
             .iter()
             .map(|p| [p[0] + offset, p[1], p[2] + l_disc]),
     );
-    disc.hexes
-        .extend(pad.hexes.iter().map(|hex| hex.map(|node| node + n_disc)));
-    disc.hex_part.extend(vec![1; pad.hexes.len()]);
+    disc.elements.extend_shifted(&pad.elements, n_disc, 1);
     disc.parts.push("pad".into());
     let top = disc.node_sets["z1"].clone();
     let pad_bottom: Vec<u32> = pad.node_sets["z0"]
@@ -209,7 +212,7 @@ mod tests {
     use super::*;
 
     /// Volume of a hexahedron with planar faces, by splitting it into six tetrahedra.
-    fn hex_volume(mesh: &Mesh, hex: &[u32; 8]) -> f64 {
+    fn hex_volume(mesh: &Mesh, hex: &[u32]) -> f64 {
         let p = |idx: usize| mesh.nodes[hex[idx] as usize];
         let tet = |a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]| {
             let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
@@ -237,9 +240,9 @@ mod tests {
         let mesh = block([2.0, 0.5, 0.25], [8, 2, 1], "steel");
         assert_eq!(mesh.nodes.len(), 9 * 3 * 2);
         let volumes: Vec<f64> = mesh
-            .hexes
+            .elements
             .iter()
-            .map(|hex| hex_volume(&mesh, hex))
+            .map(|element| hex_volume(&mesh, element.nodes))
             .collect();
         assert!(volumes.iter().all(|volume| *volume > 0.0));
         assert!((volumes.iter().sum::<f64>() - 0.25).abs() < 1e-12);
@@ -250,13 +253,21 @@ mod tests {
     fn annulus_cells_are_positive_and_close_the_turn() {
         let mesh = annulus(0.1, 0.3, 0.0, 0.02, [4, 32, 2], "disc");
         assert_eq!(mesh.nodes.len(), 5 * 32 * 3);
-        assert!(mesh.hexes.iter().all(|hex| hex_volume(&mesh, hex) > 0.0));
+        assert!(
+            mesh.elements
+                .iter()
+                .all(|element| hex_volume(&mesh, element.nodes) > 0.0)
+        );
         // Chords underestimate the circle: area of the polygonal annulus.
         let polygon = 0.5
             * 32.0
             * (2.0 * std::f64::consts::PI / 32.0).sin()
             * (0.3f64.powi(2) - 0.1f64.powi(2));
-        let volume: f64 = mesh.hexes.iter().map(|hex| hex_volume(&mesh, hex)).sum();
+        let volume: f64 = mesh
+            .elements
+            .iter()
+            .map(|element| hex_volume(&mesh, element.nodes))
+            .sum();
         assert!((volume - polygon * 0.02).abs() < 1e-12 * volume.max(1.0));
         assert_eq!(mesh.node_sets["inner"].len(), 32 * 3);
     }

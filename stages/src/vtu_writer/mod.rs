@@ -15,13 +15,15 @@
 //!       <PointData>  arrays on nodes (below)
 //!       <CellData>   part: Int32, index into the part list of the comment above
 //!       <Points>     Float64 x 3, node coordinates (m)
-//!       <Cells>      connectivity: Int64, 8 per cell; offsets: Int64; types: UInt8, all 12
+//!       <Cells>      connectivity: Int64; offsets: Int64; types: UInt8, the cells' VTK types
 //!     </Piece>
 //!   </UnstructuredGrid>
 //! </VTKFile>
 //! ```
 //!
-//! Our hexahedron node order is VTK_HEXAHEDRON's (type 12), so connectivity is written as is.
+//! Cell types: `tet4` 10, `hex8` 12, `wedge6` 13, `tet10` 24, `hex20` 25, `wedge15` 26, with
+//! their nodes in VTK's order ([`crate::fem::element::formats`]: the same as squeal's but for
+//! the wedges' first triangle, which VTK turns the other way round).
 //! Numbers are written exactly (shortest representation that reads back to the same double).
 //!
 //! Point arrays of `vtu.mesh`: one UInt8 array per node set, named after it (1 on the set's
@@ -39,10 +41,8 @@ use std::fmt::Write;
 
 use crate::artifact::mesh::Mesh;
 use crate::artifact::{Equilibrium, Model, RealModes};
+use crate::fem::element::formats::{self, Format};
 use crate::value::StageError;
-
-/// VTK's cell type for an 8-node hexahedron.
-const VTK_HEXAHEDRON: u8 = 12;
 
 /// Point arrays `vtu.mesh` writes for contact pairs; node sets of these names are renamed.
 const CONTACT_ARRAYS: [&str; 3] = ["contact", "contact_normal", "contact_area"];
@@ -308,33 +308,9 @@ fn escape_attribute(text: &str) -> String {
 /// Checks every index of the mesh, so that writing it cannot go out of bounds.
 fn check_mesh(mesh: &Mesh) -> Result<(), String> {
     let n_nodes = mesh.n_nodes();
-    if let Some((hex_idx, _)) = mesh
-        .hexes
-        .iter()
-        .enumerate()
-        .find(|(_, hex)| hex.iter().any(|node| *node as usize >= n_nodes))
-    {
-        return Err(format!(
-            "mesh hexahedron {hex_idx} refers to a node beyond the {n_nodes} nodes"
-        ));
-    }
-    if mesh.hex_part.len() != mesh.hexes.len() {
-        return Err(format!(
-            "mesh has {} hexahedra but {} part indices",
-            mesh.hexes.len(),
-            mesh.hex_part.len()
-        ));
-    }
-    if let Some(part) = mesh
-        .hex_part
-        .iter()
-        .find(|part| **part as usize >= mesh.parts.len())
-    {
-        return Err(format!(
-            "mesh part index {part} is beyond its {} parts",
-            mesh.parts.len()
-        ));
-    }
+    mesh.elements
+        .check(n_nodes, mesh.parts.len())
+        .map_err(|err| format!("mesh: {err}"))?;
     for (name, nodes) in &mesh.node_sets {
         if nodes.iter().any(|node| *node as usize >= n_nodes) {
             return Err(format!(
@@ -354,11 +330,11 @@ fn check_mesh(mesh: &Mesh) -> Result<(), String> {
     Ok(())
 }
 
-/// The whole VTU document: the mesh's points, hexahedra and parts, plus `point_data`.
+/// The whole VTU document: the mesh's points, cells and parts, plus `point_data`.
 fn write_grid(mesh: &Mesh, point_data: &[DataArray]) -> Result<String, String> {
     check_mesh(mesh)?;
     let n_nodes = mesh.n_nodes();
-    let n_cells = mesh.hexes.len();
+    let n_cells = mesh.elements.len();
     // Roughly 25 bytes per number.
     let n_numbers = 3 * n_nodes
         + 10 * n_cells
@@ -399,7 +375,12 @@ fn write_grid(mesh: &Mesh, point_data: &[DataArray]) -> Result<String, String> {
     out.push_str("      </PointData>\n");
 
     out.push_str("      <CellData>\n");
-    let part: Vec<i32> = mesh.hex_part.iter().map(|part| *part as i32).collect();
+    let part: Vec<i32> = mesh
+        .elements
+        .parts()
+        .iter()
+        .map(|part| *part as i32)
+        .collect();
     DataArray::new("part", 1, Values::Int32(part)).write(&mut out, indent, 16)?;
     out.push_str("      </CellData>\n");
 
@@ -409,16 +390,17 @@ fn write_grid(mesh: &Mesh, point_data: &[DataArray]) -> Result<String, String> {
     out.push_str("      </Points>\n");
 
     out.push_str("      <Cells>\n");
-    let connectivity: Vec<i64> = mesh
-        .hexes
-        .iter()
-        .flatten()
-        .map(|node| i64::from(*node))
-        .collect();
+    let mut connectivity: Vec<i64> = Vec::with_capacity(mesh.elements.all_nodes().len());
+    let mut offsets: Vec<i64> = Vec::with_capacity(n_cells);
+    let mut types: Vec<u8> = Vec::with_capacity(n_cells);
+    for element in mesh.elements.iter() {
+        let nodes = formats::to_file(element.kind, Format::Vtk, element.nodes);
+        connectivity.extend(nodes.iter().map(|node| i64::from(*node)));
+        offsets.push(connectivity.len() as i64);
+        types.push(formats::vtk_cell_type(element.kind));
+    }
     DataArray::new("connectivity", 1, Values::Int64(connectivity)).write(&mut out, indent, 8)?;
-    let offsets: Vec<i64> = (1..=n_cells as i64).map(|cell| 8 * cell).collect();
     DataArray::new("offsets", 1, Values::Int64(offsets)).write(&mut out, indent, 16)?;
-    let types = vec![VTK_HEXAHEDRON; n_cells];
     DataArray::new("types", 1, Values::UInt8(types)).write(&mut out, indent, 16)?;
     out.push_str("      </Cells>\n");
 

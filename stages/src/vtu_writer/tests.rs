@@ -114,7 +114,12 @@ fn mesh_vtu_reads_back_cells_points_parts_and_sets() {
 
     let connectivity = array(&arrays, "Cells", "connectivity");
     assert_eq!(connectivity.attributes["type"], "Int64");
-    let expected: Vec<i64> = mesh.hexes.iter().flatten().map(|n| i64::from(*n)).collect();
+    let expected: Vec<i64> = mesh
+        .elements
+        .all_nodes()
+        .iter()
+        .map(|n| i64::from(*n))
+        .collect();
     assert_eq!(connectivity.ints(), expected);
     assert_eq!(array(&arrays, "Cells", "offsets").ints(), [8, 16, 24, 32]);
     let types = array(&arrays, "Cells", "types");
@@ -268,10 +273,103 @@ fn inconsistent_inputs_are_refused_in_one_line() {
     );
 
     let mut mesh = block([1.0, 1.0, 1.0], [1, 1, 1], "steel");
-    mesh.hexes[0][7] = 99;
+    mesh.elements.nodes_mut(0)[7] = 99;
     let err = mesh_vtu(&mesh).unwrap_err();
     assert!(
-        err.contains("hexahedron 0 refers to a node beyond the 8 nodes"),
+        err.contains("element 0 names node 99, but the mesh has 8 nodes"),
         "{err}"
     );
+}
+
+/// VTK's own description of its cells, written out here independently of squeal's tables:
+/// the cell type, the edge of each mid-edge node (VTK numbering), and whether the first
+/// face's right-hand normal points toward the remaining corners (tetrahedra and hexahedra) or
+/// away from them (wedges, whose first triangle VTK turns the other way round).
+fn vtk_cell(cell_type: u8) -> (usize, Vec<[usize; 2]>, bool) {
+    let tet = vec![[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
+    let wedge = vec![
+        [0, 1],
+        [1, 2],
+        [2, 0],
+        [3, 4],
+        [4, 5],
+        [5, 3],
+        [0, 3],
+        [1, 4],
+        [2, 5],
+    ];
+    let hex = vec![
+        [0, 1],
+        [1, 2],
+        [2, 3],
+        [3, 0],
+        [4, 5],
+        [5, 6],
+        [6, 7],
+        [7, 4],
+        [0, 4],
+        [1, 5],
+        [2, 6],
+        [3, 7],
+    ];
+    match cell_type {
+        10 => (4, vec![], true),
+        24 => (4, tet, true),
+        13 => (6, vec![], false),
+        26 => (6, wedge, false),
+        12 => (8, vec![], true),
+        25 => (8, hex, true),
+        other => panic!("unexpected VTK cell type {other}"),
+    }
+}
+
+#[test]
+fn cells_of_every_kind_follow_vtk_conventions() {
+    use crate::artifact::ElementKind;
+    use crate::artifact::mesh::{cross, dot, norm, sub};
+    use crate::mesh::convert::{split_hexahedra, with_mid_edge_nodes};
+    let hexes = block([0.2, 0.1, 0.05], [2, 1, 1], "steel");
+    let tets = split_hexahedra(&hexes, ElementKind::Tet4).unwrap();
+    let wedges = split_hexahedra(&hexes, ElementKind::Wedge6).unwrap();
+    for mesh in [
+        hexes.clone(),
+        with_mid_edge_nodes(&hexes),
+        tets.clone(),
+        with_mid_edge_nodes(&tets),
+        wedges.clone(),
+        with_mid_edge_nodes(&wedges),
+    ] {
+        let xml = mesh_vtu(&mesh).unwrap();
+        let (_, arrays) = parse_vtu(&xml);
+        let connectivity = array(&arrays, "Cells", "connectivity").ints();
+        let offsets = array(&arrays, "Cells", "offsets").ints();
+        let types = array(&arrays, "Cells", "types").ints();
+        assert_eq!(types.len(), mesh.elements.len());
+        let point = |node: i64| mesh.nodes[node as usize];
+        let mut start = 0;
+        for (cell, (&end, &cell_type)) in offsets.iter().zip(&types).enumerate() {
+            let nodes = &connectivity[start as usize..end as usize];
+            start = end;
+            let (n_corners, edges, toward) = vtk_cell(cell_type as u8);
+            assert_eq!(nodes.len(), n_corners + edges.len(), "cell {cell}");
+            // Orientation of the first face against the corner that follows it.
+            let [a, b, c] = [point(nodes[0]), point(nodes[1]), point(nodes[2])];
+            let normal = cross(sub(b, a), sub(c, a));
+            let other = point(nodes[if n_corners == 4 { 3 } else { n_corners / 2 }]);
+            assert_eq!(
+                dot(normal, sub(other, a)) > 0.0,
+                toward,
+                "cell {cell} type {cell_type}"
+            );
+            // Each mid-edge node at the middle of its VTK edge (the meshes are straight).
+            for (k, [p, q]) in edges.iter().enumerate() {
+                let middle: [f64; 3] =
+                    std::array::from_fn(|i| 0.5 * (point(nodes[*p])[i] + point(nodes[*q])[i]));
+                assert!(
+                    norm(sub(point(nodes[n_corners + k]), middle)) < 1e-15,
+                    "cell {cell}"
+                );
+            }
+        }
+    }
 }

@@ -14,6 +14,7 @@ mod bars_in_series;
 mod cantilever;
 mod conditioning;
 mod cwt;
+mod element_convergence;
 mod fit;
 mod hoffmann;
 mod krylov;

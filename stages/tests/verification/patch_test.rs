@@ -1,11 +1,14 @@
-//! The constant-strain patch test of the incompatible-mode hexahedron on a distorted mesh.
+//! The constant-strain patch test of every element kind on a distorted mesh: the
+//! incompatible-mode hexahedron, and the tetrahedra, wedges and 20-node hexahedra made from the
+//! same distorted cube (split, with mid-edge nodes at the middle of the distorted edges).
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 use serde::Deserialize;
+use squeal_stages::artifact::{ElementKind, Mesh};
 use squeal_stages::assemble::with_default_materials;
-use squeal_stages::fem::hex8;
-use squeal_stages::mesh::structured;
+use squeal_stages::fem::element::{self, hex8};
+use squeal_stages::mesh::{convert, structured};
 
 use crate::reference;
 
@@ -23,11 +26,8 @@ struct Patch {
     stress_tolerance: f64,
 }
 
-/// Moves the interior nodes of a 3×3×3 block, imposes a linear displacement on the boundary,
-/// solves for the interior: the solution must be the linear field, the strain constant.
-#[test]
-fn constant_strain_patch_test_on_a_distorted_mesh() {
-    let case: Patch = reference::load("patch_test");
+/// The distorted cube of 3×3×3 hexahedra as elements of `kind`.
+fn distorted_cube(case: &Patch, kind: ElementKind) -> Mesh {
     let mut mesh = structured::block([1.0, 1.0, 1.0], [3, 3, 3], "disc");
     let boundary: std::collections::BTreeSet<u32> = ["x0", "x1", "y0", "y1", "z0", "z1"]
         .iter()
@@ -43,6 +43,42 @@ fn constant_strain_patch_test_on_a_distorted_mesh() {
             mesh.nodes[node][direction] += shift(direction);
         }
     }
+    let linear = match kind {
+        ElementKind::Tet4 | ElementKind::Tet10 => {
+            convert::split_hexahedra(&mesh, ElementKind::Tet4).expect("a split kind")
+        }
+        ElementKind::Wedge6 | ElementKind::Wedge15 => {
+            convert::split_hexahedra(&mesh, ElementKind::Wedge6).expect("a split kind")
+        }
+        ElementKind::Hex8 | ElementKind::Hex20 => mesh,
+    };
+    if kind.n_nodes() > kind.n_corners() {
+        convert::with_mid_edge_nodes(&linear)
+    } else {
+        linear
+    }
+}
+
+/// Moves the interior nodes of a 3×3×3 block, imposes a linear displacement on the boundary,
+/// solves for the interior: the solution must be the linear field, the strain constant.
+#[test]
+fn constant_strain_patch_test_on_a_distorted_mesh() {
+    let case: Patch = reference::load("patch_test");
+    for kind in ElementKind::ALL {
+        patch_test(&case, kind);
+    }
+}
+
+fn patch_test(case: &Patch, kind: ElementKind) {
+    let mesh = distorted_cube(case, kind);
+    assert!(mesh.elements.iter().all(|element| element.kind == kind));
+    let boundary: std::collections::BTreeSet<u32> = ["x0", "x1", "y0", "y1", "z0", "z1"]
+        .iter()
+        .flat_map(|face| mesh.node_sets[*face].iter().copied())
+        .collect();
+    let interior: Vec<usize> = (0..mesh.n_nodes())
+        .filter(|node| !boundary.contains(&(*node as u32)))
+        .collect();
     let (gradient, offset) = (case.gradient, case.offset);
     let exact = |x: [f64; 3]| -> [f64; 3] {
         std::array::from_fn(|i| offset[i] + (0..3).map(|j| gradient[i][j] * x[j]).sum::<f64>())
@@ -84,7 +120,7 @@ fn constant_strain_patch_test_on_a_distorted_mesh() {
             let error = (displacement[3 * node + d] - want[d]).abs();
             assert!(
                 error <= case.displacement_tolerance * scale,
-                "node {node} dir {d}: error {error:e}"
+                "{kind} node {node} dir {d}: error {error:e}"
             );
         }
     }
@@ -106,18 +142,46 @@ fn constant_strain_patch_test_on_a_distorted_mesh() {
     };
     let expected_stress = stress(&expected_strain);
     let stress_scale = expected_stress.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-    for hex in &mesh.hexes {
-        let coords = hex.map(|node| mesh.nodes[node as usize]);
-        let element_displacement: [f64; 24] =
-            std::array::from_fn(|dof| displacement[3 * hex[dof / 3] as usize + dof % 3]);
-        let strains = hex8::gauss_point_strains(&coords, &D, &element_displacement)
-            .expect("no element is inverted");
+    for element in mesh.elements.iter() {
+        let coords: Vec<[f64; 3]> = element
+            .nodes
+            .iter()
+            .map(|&node| mesh.nodes[node as usize])
+            .collect();
+        let strains: Vec<[f64; 6]> = if kind == ElementKind::Hex8 {
+            // Every Gauss point, incompatible modes included.
+            let coords: [[f64; 3]; 8] = coords.try_into().expect("8 nodes");
+            let element_displacement: [f64; 24] = std::array::from_fn(|dof| {
+                displacement[3 * element.nodes[dof / 3] as usize + dof % 3]
+            });
+            hex8::gauss_point_strains(&coords, &D, &element_displacement)
+                .expect("no element is inverted")
+                .to_vec()
+        } else {
+            // The displacement is the linear field at every node, hence everywhere: the
+            // strain at the centre stands for all points.
+            let nodal: Vec<[f64; 3]> = element
+                .nodes
+                .iter()
+                .map(|&node| std::array::from_fn(|d| displacement[3 * node as usize + d]))
+                .collect();
+            let g = element::centre_displacement_gradient(kind, &coords, &nodal)
+                .expect("no element is inverted");
+            vec![[
+                g[0][0],
+                g[1][1],
+                g[2][2],
+                g[0][1] + g[1][0],
+                g[1][2] + g[2][1],
+                g[2][0] + g[0][2],
+            ]]
+        };
         for strain in strains {
             let got = stress(&strain);
             for s in 0..6 {
                 assert!(
                     (got[s] - expected_stress[s]).abs() <= case.stress_tolerance * stress_scale,
-                    "stress {s}: {} vs {}",
+                    "{kind} stress {s}: {} vs {}",
                     got[s],
                     expected_stress[s]
                 );

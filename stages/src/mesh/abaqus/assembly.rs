@@ -1,4 +1,4 @@
-//! Instances flattened into one model: every part's nodes and hexahedra placed (translated,
+//! Instances flattened into one model: every part's nodes and elements placed (translated,
 //! rotated) in instance then label order, its sets named `instance.set`, and the assembly's
 //! own sets resolved against the result.
 
@@ -8,16 +8,18 @@ use super::deck::{InpError, Source};
 use super::interpret::{
     Deck, Instance, Part, Sets, Surface, members, set_entries, surface_entries,
 };
+use crate::artifact::ElementKind;
 use crate::artifact::mesh::{cross, dot, norm, sub};
 
-/// The model flattened: every instance's nodes and hexahedra, in instance then label order.
+/// The model flattened: every instance's nodes and elements, in instance then label order.
 pub(super) struct Flat {
     pub(super) nodes: Vec<[f64; 3]>,
     /// `instance.label` (or `label` without parts), for messages.
     pub(super) node_names: Vec<String>,
-    pub(super) hexes: Vec<[usize; 8]>,
-    pub(super) hex_names: Vec<String>,
-    pub(super) hex_sources: Vec<Source>,
+    /// Each element's kind and nodes (squeal's order).
+    pub(super) elements: Vec<(ElementKind, Vec<usize>)>,
+    pub(super) element_names: Vec<String>,
+    pub(super) element_sources: Vec<Source>,
     pub(super) sets: Sets<usize>,
 }
 
@@ -26,9 +28,9 @@ impl Deck {
         let mut flat = Flat {
             nodes: Vec::new(),
             node_names: Vec::new(),
-            hexes: Vec::new(),
-            hex_names: Vec::new(),
-            hex_sources: Vec::new(),
+            elements: Vec::new(),
+            element_names: Vec::new(),
+            element_sources: Vec::new(),
             sets: Sets::default(),
         };
         let mut instance_names: Vec<String> = Vec::new();
@@ -62,7 +64,7 @@ impl Deck {
         let (node_index, element_index) = if self.assembly_blocks.is_empty() {
             (HashMap::new(), HashMap::new())
         } else {
-            (index(&flat.node_names), index(&flat.hex_names))
+            (index(&flat.node_names), index(&flat.element_names))
         };
         for block in &self.assembly_blocks {
             let instance = block.param("INSTANCE").map(str::to_lowercase);
@@ -129,7 +131,7 @@ impl Deck {
 }
 
 impl Flat {
-    /// Appends `part`'s nodes (placed by `instance`), hexahedra and sets.
+    /// Appends `part`'s nodes (placed by `instance`), elements and sets.
     fn add_instance(&mut self, instance: &Instance, part: &Part) -> Result<(), InpError> {
         let prefix = |name: &str| {
             if instance.name.is_empty() {
@@ -149,26 +151,30 @@ impl Flat {
             self.nodes.push(instance.place(*x));
             self.node_names.push(prefix(&node.to_string()));
         }
-        let element_offset = self.hexes.len();
+        let element_offset = self.elements.len();
         let element_index: HashMap<u64, usize> = part
-            .hexes
+            .elements
             .keys()
             .enumerate()
             .map(|(idx, element)| (*element, element_offset + idx))
             .collect();
-        for (element, (nodes, at)) in &part.hexes {
-            let mut hex = [0; 8];
-            for (slot, node) in hex.iter_mut().zip(nodes) {
-                *slot = *node_index.get(node).ok_or_else(|| {
-                    InpError::at(
-                        at,
-                        format!("element {element} refers to node {node}, which no *NODE defines"),
-                    )
-                })?;
-            }
-            self.hexes.push(hex);
-            self.hex_names.push(prefix(&element.to_string()));
-            self.hex_sources.push(at.clone());
+        for (element, (kind, nodes, at)) in &part.elements {
+            let indices = nodes
+                .iter()
+                .map(|node| {
+                    node_index.get(node).copied().ok_or_else(|| {
+                        InpError::at(
+                            at,
+                            format!(
+                                "element {element} refers to node {node}, which no *NODE defines"
+                            ),
+                        )
+                    })
+                })
+                .collect::<Result<Vec<usize>, InpError>>()?;
+            self.elements.push((*kind, indices));
+            self.element_names.push(prefix(&element.to_string()));
+            self.element_sources.push(at.clone());
         }
         let nodes_of = |labels: &[u64], set: &str| -> Result<Vec<usize>, InpError> {
             labels
@@ -189,7 +195,7 @@ impl Flat {
                 .map(|element| {
                     element_index.get(element).copied().ok_or_else(|| {
                         InpError::whole(format!(
-                            "set `{}`: element {element} is not a hexahedron of its part",
+                            "set `{}`: element {element} is not an element of its part",
                             prefix(set)
                         ))
                     })
@@ -225,7 +231,7 @@ impl Flat {
         if !instance.name.is_empty() {
             // An instance is itself a set of its nodes and of its elements.
             let nodes = (node_offset..self.nodes.len()).collect();
-            let elements = (element_offset..self.hexes.len()).collect();
+            let elements = (element_offset..self.elements.len()).collect();
             self.sets.nsets.insert(instance.name.clone(), nodes);
             self.sets.elsets.insert(instance.name.clone(), elements);
         }

@@ -1,4 +1,4 @@
-//! The flattened model into a [`Mesh`]: hexahedra in the parts named, node sets, contact
+//! The flattened model into a [`Mesh`]: elements in the parts named, node sets, contact
 //! pairs.
 
 use std::collections::BTreeMap;
@@ -7,21 +7,21 @@ use super::ReadOptions;
 use super::assembly::Flat;
 use super::deck::InpError;
 use super::interpret::{Deck, Surface};
-use crate::artifact::mesh::{ContactPair, Mesh};
-use crate::fem::faces::{HEX_FACES, Side, faces_within};
-use crate::fem::hex8::first_inverted_corner;
+use crate::artifact::mesh::{ContactPair, Elements, Mesh};
+use crate::fem::element::topology::{self, FaceKind};
+use crate::fem::element::{Location, first_inverted};
+use crate::fem::faces::{Side, faces_within};
 use crate::mesh::interface::{self, ContactSides};
 
-/// The deck's mesh: hexahedra in the parts of `options`, node sets, contact pairs.
+/// The deck's mesh: elements in the parts of `options`, node sets, contact pairs.
 pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> {
     let flat = deck.flatten()?;
-    if flat.hexes.is_empty() {
-        return Err(InpError::whole(
-            "no hexahedra: the deck defines no *ELEMENT",
-        ));
+    if flat.elements.is_empty() {
+        return Err(InpError::whole("no elements: the deck defines no *ELEMENT"));
     }
-    // Parts: element sets; every hexahedron in exactly one.
-    let mut hex_part: Vec<Option<u32>> = vec![None; flat.hexes.len()];
+    check_surface_faces(&flat)?;
+    // Parts: element sets; every element in exactly one.
+    let mut element_part: Vec<Option<u32>> = vec![None; flat.elements.len()];
     for (part_idx, part) in options.parts.iter().enumerate() {
         let members = flat.sets.elsets.get(part).ok_or_else(|| {
             InpError::whole(format!(
@@ -30,23 +30,23 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
             ))
         })?;
         for &element in members {
-            if let Some(other) = hex_part[element].replace(part_idx as u32)
+            if let Some(other) = element_part[element].replace(part_idx as u32)
                 && other != part_idx as u32
             {
                 return Err(InpError::at(
-                    &flat.hex_sources[element],
+                    &flat.element_sources[element],
                     format!(
                         "element {} is in parts `{}` and `{part}`: each element is in one part",
-                        flat.hex_names[element], options.parts[other as usize]
+                        flat.element_names[element], options.parts[other as usize]
                     ),
                 ));
             }
         }
     }
-    // Only nodes of hexahedra carry stiffness: number them in flattened order.
+    // Only nodes of elements carry stiffness: number them in flattened order.
     let mut used = vec![false; flat.nodes.len()];
-    for hex in &flat.hexes {
-        for node in hex {
+    for (_, nodes) in &flat.elements {
+        for node in nodes {
             used[*node] = true;
         }
     }
@@ -58,51 +58,56 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
             nodes.push(*x);
         }
     }
-    let mut hexes = Vec::with_capacity(flat.hexes.len());
-    for (element, hex) in flat.hexes.iter().enumerate() {
-        if hex_part[element].is_none() {
+    let mut elements = Elements::new();
+    for (element, (kind, element_nodes)) in flat.elements.iter().enumerate() {
+        let Some(part) = element_part[element] else {
             return Err(InpError::at(
-                &flat.hex_sources[element],
+                &flat.element_sources[element],
                 format!(
                     "element {} is in none of the parts {}: add it to one of their element sets",
-                    flat.hex_names[element],
+                    flat.element_names[element],
                     options.parts.join(", ")
                 ),
             ));
-        }
-        let hex = hex.map(|node| index_of[node].expect("nodes of hexahedra are kept"));
-        let corners = hex.map(|node| nodes[node as usize]);
-        if let Some(corner) = first_inverted_corner(&corners) {
+        };
+        let kept: Vec<u32> = element_nodes
+            .iter()
+            .map(|node| index_of[*node].expect("nodes of elements are kept"))
+            .collect();
+        let coords: Vec<[f64; 3]> = kept.iter().map(|&node| nodes[node as usize]).collect();
+        if let Some(inverted) = first_inverted(*kind, &coords) {
+            let place = match inverted.location {
+                Location::Corner(node) | Location::Node(node) => {
+                    format!("its node {}", flat.node_names[element_nodes[node]])
+                }
+                other => other.to_string(),
+            };
             return Err(InpError::at(
-                &flat.hex_sources[element],
+                &flat.element_sources[element],
                 format!(
-                    "element {} is inverted or degenerate (det J <= 0 at its node {}): check its node order",
-                    flat.hex_names[element], flat.node_names[flat.hexes[element][corner]]
+                    "element {} is inverted or degenerate (det J <= 0 at {place}): check its node order",
+                    flat.element_names[element]
                 ),
             ));
         }
-        hexes.push(hex);
+        elements.push(*kind, part, &kept);
     }
-    if let Some((first, second)) = crate::mesh::first_duplicate(&hexes) {
+    if let Some((first, second)) = crate::mesh::first_duplicate(&elements) {
         return Err(InpError::at(
-            &flat.hex_sources[second],
+            &flat.element_sources[second],
             format!(
                 "element {} has the nodes of element {}: a duplicated element doubles its stiffness and mass",
-                flat.hex_names[second], flat.hex_names[first]
+                flat.element_names[second], flat.element_names[first]
             ),
         ));
     }
-    let hex_part: Vec<u32> = hex_part
-        .into_iter()
-        .map(|part| part.expect("checked above"))
-        .collect();
     let kept = |set: &str, members: &[usize]| -> Result<Vec<u32>, InpError> {
         let mut kept: Vec<u32> = members
             .iter()
             .map(|node| {
                 index_of[*node].ok_or_else(|| {
                     InpError::whole(format!(
-                        "set `{set}`: node {} belongs to no hexahedron",
+                        "set `{set}`: node {} belongs to no element",
                         flat.node_names[*node]
                     ))
                 })
@@ -125,8 +130,7 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
     }
     let mut mesh = Mesh {
         nodes,
-        hexes,
-        hex_part,
+        elements,
         parts: options.parts.clone(),
         node_sets,
         contact_pairs: Vec::new(),
@@ -146,12 +150,42 @@ fn names<'a>(names: impl Iterator<Item = &'a String>) -> String {
     }
 }
 
+/// Every element face a surface names exists on its element's kind (a tetrahedron has S1..S4,
+/// a wedge S1..S5, a hexahedron S1..S6).
+fn check_surface_faces(flat: &Flat) -> Result<(), InpError> {
+    for (name, surface) in &flat.sets.surfaces {
+        let Surface::Faces(faces) = surface else {
+            continue;
+        };
+        for &(element, face) in faces {
+            let (kind, _) = &flat.elements[element];
+            let n_faces = topology::n_faces(*kind);
+            if face >= n_faces {
+                return Err(InpError::at(
+                    &flat.element_sources[element],
+                    format!(
+                        "surface `{name}`: element {} ({kind}) has faces S1 to S{n_faces}, not S{}",
+                        flat.element_names[element],
+                        face + 1
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 fn surface_nodes(flat: &Flat, surface: &Surface<usize>) -> Vec<usize> {
     match surface {
         Surface::Nodes(nodes) => nodes.clone(),
         Surface::Faces(faces) => faces
             .iter()
-            .flat_map(|(element, face)| HEX_FACES[*face].map(|local| flat.hexes[*element][local]))
+            .flat_map(|(element, face)| {
+                let (kind, nodes) = &flat.elements[*element];
+                topology::face_nodes(*kind, *face)
+                    .into_iter()
+                    .map(|local| nodes[local])
+            })
             .collect(),
     }
 }
@@ -188,25 +222,36 @@ fn contact_pairs(
     let disc = side(flat, index_of, &contact.disc);
     let pad = side(flat, index_of, &contact.pad);
     // The disc's faces: a surface's own, or every boundary face of a node set.
-    let disc_faces: Vec<[u32; 4]> = match flat.sets.surfaces.get(&contact.disc) {
+    let faces: Vec<crate::fem::faces::ElementFace> = match flat.sets.surfaces.get(&contact.disc) {
         Some(Surface::Faces(faces)) => faces
             .iter()
-            .map(|(element, face)| {
-                let quad = HEX_FACES[*face].map(|local| mesh.hexes[*element][local]);
-                interface::outward(mesh, *element, quad)
-            })
+            .map(|(element, face)| crate::fem::faces::element_face(mesh, *element, *face))
             .collect(),
         _ => faces_within(mesh, &disc)
             .into_values()
-            .filter_map(|owners| match owners[..] {
-                [(hex_idx, quad)] => Some(interface::outward(mesh, hex_idx, quad)),
-                _ => None,
-            })
+            .filter_map(|mut owners| (owners.len() == 1).then(|| owners.remove(0)))
             .collect(),
     };
+    let mut disc_faces: Vec<[u32; 4]> = Vec::with_capacity(faces.len());
+    for face in faces {
+        let Ok(quad) = <[u32; 4]>::try_from(face.nodes.as_slice()) else {
+            return Err(InpError::at(
+                &flat.element_sources[face.element],
+                format!(
+                    "contact_disc `{}`: face S{} of element {} is a {}: node-to-node contact faces must be 4-node quadrangles (quad4)",
+                    contact.disc,
+                    face.face + 1,
+                    flat.element_names[face.element],
+                    face.kind
+                ),
+            ));
+        };
+        debug_assert_eq!(face.kind, FaceKind::Quad4);
+        disc_faces.push(interface::outward(mesh, face.element, quad));
+    }
     if disc_faces.is_empty() {
         return Err(InpError::whole(format!(
-            "contact_disc `{}` holds no face of a hexahedron on the boundary",
+            "contact_disc `{}` holds no element face on the boundary",
             contact.disc
         )));
     }

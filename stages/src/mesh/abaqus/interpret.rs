@@ -1,13 +1,46 @@
-//! The keyword blocks interpreted: the parts' nodes, hexahedra, sets and surfaces, the
+//! The keyword blocks interpreted: the parts' nodes, solid elements, sets and surfaces, the
 //! instances that place them, and the assembly's own set definitions.
 
 use std::collections::BTreeMap;
 
 use super::deck::{Block, DataLine, InpError, Source, label, number};
+use crate::artifact::ElementKind;
 use crate::artifact::mesh::{norm, sub};
+use crate::fem::element::formats::{self, Format};
 
-/// Element types read as 8-node hexahedra (squeal's own incompatible-mode element).
-const HEXAHEDRA: [&str; 6] = ["C3D8", "C3D8I", "C3D8R", "C3D8H", "C3D8IH", "C3D8RH"];
+/// Element types and the kind each becomes. Reduced integration (R), hybrid (H) and modified
+/// (M) variants are read as squeal's full element of the same nodes: squeal integrates each
+/// kind by its own rule, and the 8-node hexahedra are its incompatible-mode element.
+const SOLID_TYPES: [(&str, ElementKind); 20] = [
+    ("C3D8", ElementKind::Hex8),
+    ("C3D8I", ElementKind::Hex8),
+    ("C3D8R", ElementKind::Hex8),
+    ("C3D8H", ElementKind::Hex8),
+    ("C3D8IH", ElementKind::Hex8),
+    ("C3D8RH", ElementKind::Hex8),
+    ("C3D20", ElementKind::Hex20),
+    ("C3D20R", ElementKind::Hex20),
+    ("C3D20H", ElementKind::Hex20),
+    ("C3D20RH", ElementKind::Hex20),
+    ("C3D4", ElementKind::Tet4),
+    ("C3D4H", ElementKind::Tet4),
+    ("C3D10", ElementKind::Tet10),
+    ("C3D10H", ElementKind::Tet10),
+    ("C3D10M", ElementKind::Tet10),
+    ("C3D10MH", ElementKind::Tet10),
+    ("C3D6", ElementKind::Wedge6),
+    ("C3D6H", ElementKind::Wedge6),
+    ("C3D15", ElementKind::Wedge15),
+    ("C3D15H", ElementKind::Wedge15),
+];
+
+/// The kind of an Abaqus element type.
+pub(super) fn solid_kind(element_type: &str) -> Option<ElementKind> {
+    SOLID_TYPES
+        .iter()
+        .find(|(name, _)| *name == element_type)
+        .map(|(_, kind)| *kind)
+}
 
 /// Keywords that carry no mesh (materials, sections, loads, steps: the stages set those),
 /// skipped with their data lines; a `*STEP` is skipped to its `*END STEP`.
@@ -28,14 +61,15 @@ const NOT_MESH: [&str; 14] = [
     "TIE",
 ];
 
-/// A surface: faces of elements (`TYPE=ELEMENT`, face 0..5 for S1..S6) or nodes.
+/// A surface: faces of elements (`TYPE=ELEMENT`, face 0..5 for S1..S6, checked against the
+/// element's kind when flattened) or nodes.
 #[derive(Debug, Clone)]
 pub(super) enum Surface<L> {
     Faces(Vec<(L, usize)>),
     Nodes(Vec<L>),
 }
 
-/// Nodes, hexahedra and named sets, labelled by `L`: a part's own labels (`u64`) or, once
+/// Nodes, elements and named sets, labelled by `L`: a part's own labels (`u64`) or, once
 /// flattened, indices into the model.
 #[derive(Debug, Clone)]
 pub(super) struct Sets<L> {
@@ -57,7 +91,8 @@ impl<L> Default for Sets<L> {
 #[derive(Debug, Default)]
 pub(super) struct Part {
     pub(super) nodes: BTreeMap<u64, ([f64; 3], Source)>,
-    pub(super) hexes: BTreeMap<u64, ([u64; 8], Source)>,
+    /// Elements by label: kind, nodes (squeal's order) and where defined.
+    pub(super) elements: BTreeMap<u64, (ElementKind, Vec<u64>, Source)>,
     pub(super) sets: Sets<u64>,
 }
 
@@ -294,15 +329,17 @@ fn read_nodes(part: &mut Part, block: &Block) -> Result<(), InpError> {
 fn read_elements(part: &mut Part, block: &Block) -> Result<(), InpError> {
     block.only_params(&["TYPE", "ELSET"])?;
     let element_type = block.required("TYPE")?.to_uppercase();
-    if !HEXAHEDRA.contains(&element_type.as_str()) {
+    let Some(kind) = solid_kind(&element_type) else {
+        let known: Vec<&str> = SOLID_TYPES.iter().map(|(name, _)| *name).collect();
         return Err(InpError::at(
             &block.at,
             format!(
-                "element type {element_type} is not supported: squeal reads 8-node hexahedra ({})",
-                HEXAHEDRA.join(", ")
+                "element type {element_type} is not supported: squeal reads solid elements ({})",
+                known.join(", ")
             ),
         ));
-    }
+    };
+    let n_nodes = kind.n_nodes();
     let mut labels = Vec::new();
     // An element's numbers may continue on the next line after a trailing comma.
     let mut pending: Vec<(&str, &Source)> = Vec::new();
@@ -314,25 +351,26 @@ fn read_elements(part: &mut Part, block: &Block) -> Result<(), InpError> {
                 .map(|field| (field.as_str(), &line.at)),
         );
         let continues = line.fields.last().is_some_and(String::is_empty);
-        if continues && pending.len() < 9 {
+        if continues && pending.len() < 1 + n_nodes {
             continue;
         }
         let at = pending.first().map_or(&line.at, |(_, at)| *at).clone();
-        if pending.len() != 9 {
+        if pending.len() != 1 + n_nodes {
             return Err(InpError::at(
                 &at,
                 format!(
-                    "{element_type}: a label and 8 nodes expected, found {} values",
+                    "{element_type}: a label and {n_nodes} nodes expected, found {} values",
                     pending.len()
                 ),
             ));
         }
         let element = label(pending[0].0, &at, "element label")?;
-        let mut nodes = [0; 8];
-        for (slot, (field, at)) in nodes.iter_mut().zip(&pending[1..]) {
-            *slot = label(field, at, "node label")?;
+        let mut file_nodes = Vec::with_capacity(n_nodes);
+        for (field, at) in &pending[1..] {
+            file_nodes.push(label(field, at, "node label")?);
         }
-        if let Some((_, first)) = part.hexes.insert(element, (nodes, at.clone())) {
+        let nodes = formats::from_file(kind, Format::Abaqus, &file_nodes);
+        if let Some((_, _, first)) = part.elements.insert(element, (kind, nodes, at.clone())) {
             return Err(InpError::at(
                 &at,
                 format!("element {element} is defined twice (first at {first})"),
@@ -449,7 +487,7 @@ fn face_index(field: &str, at: &Source) -> Result<usize, InpError> {
         "S6" => Ok(5),
         other => Err(InpError::at(
             at,
-            format!("face `{other}` of a hexahedron: S1 to S6 expected"),
+            format!("face `{other}` of an element: S1 to S6 expected"),
         )),
     }
 }

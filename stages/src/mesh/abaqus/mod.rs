@@ -1,13 +1,13 @@
-//! `mesh.abaqus`: import a hexahedral mesh from an Abaqus input file (`.inp`).
+//! `mesh.abaqus`: import a mesh of solid elements from an Abaqus input file (`.inp`).
 //!
 //! # What is read
 //!
 //! | keyword | read as |
 //! |---|---|
 //! | `*NODE` (`NSET=`) | nodes, `label, x, y, z` |
-//! | `*ELEMENT, TYPE=C3D8`, `C3D8I`, `C3D8R` (`ELSET=`) | 8-node hexahedra, `label, n1..n8` (a line ending with a comma continues on the next) |
+//! | `*ELEMENT, TYPE=` (`ELSET=`) C3D4, C3D10, C3D6, C3D15, C3D8, C3D20 and their `I`, `R`, `H`, `M` variants | solid elements, `label, n1..nN` (a line ending with a comma continues on the next) |
 //! | `*NSET`, `*ELSET` (`GENERATE`, `INSTANCE=` in the assembly) | labels, names of sets defined above, or `first, last, increment` ranges |
-//! | `*SURFACE, TYPE=ELEMENT` | `element set or label, S1..S6`: faces of hexahedra |
+//! | `*SURFACE, TYPE=ELEMENT` | `element set or label, S1..S6`: element faces (S1..S4 on tetrahedra, S1..S5 on wedges) |
 //! | `*SURFACE, TYPE=NODE` | node sets or labels |
 //! | `*INCLUDE, INPUT=` | the file, relative to the including one, read in place |
 //! | `*PART` / `*END PART` | a part's nodes, elements and sets |
@@ -26,15 +26,20 @@
 //!   label order), and its sets under `instance.set`; an instance is itself a node and element
 //!   set named after it. A deck without parts is one implicit instance whose names are as
 //!   written. Names are case-insensitive in Abaqus, so squeal lower-cases them.
-//! - C3D8, C3D8I and C3D8R all become squeal's incompatible-mode hexahedron (the node order is
-//!   Abaqus's: 1–4 one face, 5–8 the opposite one), checked right-handed.
+//! - Element types become squeal's kinds, node orders Abaqus's (which are squeal's):
+//!   C3D4(H) `tet4`, C3D10(H, M, MH) `tet10`, C3D6(H) `wedge6`, C3D15(H) `wedge15`, C3D8(I, R,
+//!   H, IH, RH) squeal's incompatible-mode `hex8`, C3D20(R, H, RH) `hex20`. Squeal integrates
+//!   each kind by its own rule: reduced-integration and hybrid variants are read for their
+//!   nodes. Every element is checked right-handed (det J > 0 at its nodes and quadrature
+//!   points).
 //! - Parts: the element sets named by `parts` (default `disc, pad`, the part names that
 //!   `assemble` gives materials to); every element must be in exactly one.
-//! - Node sets: every `*NSET`, and the nodes of every `*SURFACE`. Nodes of no hexahedron
-//!   are dropped; a set holding one is an error.
+//! - Node sets: every `*NSET`, and the nodes of every `*SURFACE`. Nodes of no element are
+//!   dropped; a set holding one is an error.
 //! - Contact pairs: as `mesh.gmsh` builds them ([`crate::mesh::interface`]), between the
 //!   surfaces or node sets named by `contact_disc` and `contact_pad`. The disc's faces are a
-//!   surface's own faces, or every boundary face whose four nodes are in the node set.
+//!   surface's own faces, or every boundary face whose nodes are all in the node set; they
+//!   must be 4-node quadrangles (node-to-node contact).
 
 use std::path::{Path, PathBuf};
 
@@ -108,7 +113,7 @@ impl Stage for AbaqusImport {
         1
     }
     fn doc(&self) -> &'static str {
-        "Import a hexahedral Abaqus input file (.inp: C3D8/C3D8I/C3D8R, sets, surfaces, includes, parts and instances flattened) with contact pairs; reads a file, so never cached"
+        "Import an Abaqus input file (.inp: C3D4/C3D10/C3D6/C3D15/C3D8/C3D20 and variants, sets, surfaces, includes, parts and instances flattened) with contact pairs; reads a file, so never cached"
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -117,7 +122,7 @@ impl Stage for AbaqusImport {
         vec![PortSpec::one(
             "mesh",
             ArtifactType::Mesh,
-            "hexahedra, parts, node sets and contact pairs",
+            "solid elements, parts, node sets and contact pairs",
         )]
     }
     fn pure(&self) -> bool {

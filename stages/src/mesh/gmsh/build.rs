@@ -1,13 +1,13 @@
-//! The records into a [`Mesh`]: renumbered nodes, hexahedra checked right-handed, parts,
+//! The records into a [`Mesh`]: renumbered nodes, elements checked right-handed, parts,
 //! node sets, and the contact pairs with the disc's normals and tributary areas.
 
 use std::collections::{BTreeMap, HashMap};
 
 use super::parse::{BoundaryGroup, Elements, GroupKey, Nodes, element_type_name};
 use super::{MshError, ReadOptions};
-use crate::artifact::mesh::{ContactPair, Mesh};
+use crate::artifact::mesh::{ContactPair, Elements as MeshElements, Mesh};
+use crate::fem::element::{Location, first_inverted};
 use crate::fem::faces::{Side, faces_within};
-use crate::fem::hex8::first_inverted_corner;
 use crate::mesh::interface::{self, ContactSides};
 
 pub(super) fn build_mesh(
@@ -15,8 +15,12 @@ pub(super) fn build_mesh(
     elements: Elements,
     options: &ReadOptions,
 ) -> Result<Mesh, MshError> {
-    // Only nodes of hexahedra carry stiffness; number them by increasing Gmsh tag.
-    let mut used_tags: Vec<u64> = elements.hexes.iter().flat_map(|hex| hex.nodes).collect();
+    // Only nodes of solid elements carry stiffness; number them by increasing Gmsh tag.
+    let mut used_tags: Vec<u64> = elements
+        .solids
+        .iter()
+        .flat_map(|solid| solid.nodes.iter().copied())
+        .collect();
     used_tags.sort_unstable();
     used_tags.dedup();
     let index_of_tag: HashMap<u64, u32> = used_tags
@@ -40,30 +44,41 @@ pub(super) fn build_mesh(
         part_of_group.insert(*key, part as u32);
     }
 
-    let mut hexes = Vec::with_capacity(elements.hexes.len());
-    let mut hex_part = Vec::with_capacity(elements.hexes.len());
-    for record in &elements.hexes {
-        let hex = record.nodes.map(|tag| index_of_tag[&tag]);
-        let corners = hex.map(|node| mesh_nodes[node as usize]);
-        if let Some(corner) = first_inverted_corner(&corners) {
+    let mut mesh_elements = MeshElements::new();
+    for record in &elements.solids {
+        let nodes: Vec<u32> = record.nodes.iter().map(|tag| index_of_tag[tag]).collect();
+        let coords: Vec<[f64; 3]> = nodes
+            .iter()
+            .map(|&node| mesh_nodes[node as usize])
+            .collect();
+        if let Some(inverted) = first_inverted(record.kind, &coords) {
+            let place = match inverted.location {
+                Location::Corner(node) | Location::Node(node) => {
+                    format!("its node {}", record.nodes[node])
+                }
+                other => other.to_string(),
+            };
             return Err(MshError::at(
                 record.line,
                 format!(
-                    "hexahedron {} is inverted or degenerate (det J <= 0 at its node {}): check its node order",
-                    record.tag, record.nodes[corner]
+                    "{} {} is inverted or degenerate (det J <= 0 at {place}): check its node order",
+                    element_noun(record.element_type),
+                    record.tag
                 ),
             ));
         }
-        hexes.push(hex);
-        hex_part.push(part_of_group[&record.group]);
+        mesh_elements.push(record.kind, part_of_group[&record.group], &nodes);
     }
-    if let Some((first, second)) = crate::mesh::first_duplicate(&hexes) {
-        let (first, second) = (&elements.hexes[first], &elements.hexes[second]);
+    if let Some((first, second)) = crate::mesh::first_duplicate(&mesh_elements) {
+        let (first, second) = (&elements.solids[first], &elements.solids[second]);
         return Err(MshError::at(
             second.line,
             format!(
-                "hexahedron {} has the nodes of hexahedron {}: a duplicated element doubles its stiffness and mass",
-                second.tag, first.tag
+                "{} {} has the nodes of {} {}: a duplicated element doubles its stiffness and mass",
+                element_noun(second.element_type),
+                second.tag,
+                element_noun(first.element_type),
+                first.tag
             ),
         ));
     }
@@ -74,7 +89,7 @@ pub(super) fn build_mesh(
         for tag in &group.node_tags {
             let Some(&index) = index_of_tag.get(tag) else {
                 return Err(MshError::whole_file(format!(
-                    "physical group `{name}`: node {tag} belongs to no hexahedron"
+                    "physical group `{name}`: node {tag} belongs to no solid element"
                 )));
             };
             set.push(index);
@@ -87,8 +102,7 @@ pub(super) fn build_mesh(
 
     let mut mesh = Mesh {
         nodes: mesh_nodes,
-        hexes,
-        hex_part,
+        elements: mesh_elements,
         parts,
         node_sets,
         contact_pairs: Vec::new(),
@@ -132,7 +146,7 @@ fn contact_group<'e>(
         return Err(MshError::at(
             line,
             format!(
-                "{param} `{name}`: element {element_tag} is a {}: contact faces must be quadrangles (faces of hexahedra)",
+                "{param} `{name}`: element {element_tag} is a {}: node-to-node contact faces must be 4-node quadrangles",
                 element_type_name(element_type)
             ),
         ));
@@ -184,7 +198,7 @@ pub(super) fn pair_contact_nodes(
     })
 }
 
-/// The disc's contact quadrangles, each oriented out of the hexahedron it bounds.
+/// The disc's contact quadrangles, each oriented out of the element it bounds.
 fn disc_faces(
     mesh: &Mesh,
     disc_group: &BoundaryGroup,
@@ -199,19 +213,19 @@ fn disc_faces(
             let quad = quad_tags.map(|tag| index_of_tag[&tag]);
             let mut key = quad;
             key.sort_unstable();
-            match faces.get(&key).map_or(&[][..], Vec::as_slice) {
-                [(hex_idx, _)] => Ok(interface::outward(mesh, *hex_idx, quad)),
+            match faces.get(&key[..]).map_or(&[][..], Vec::as_slice) {
+                [face] => Ok(interface::outward(mesh, face.element, quad)),
                 [] => Err(MshError::at(
                     *line,
                     format!(
-                        "contact_disc `{}`: element {element_tag} is not a face of any hexahedron",
+                        "contact_disc `{}`: element {element_tag} is not a face of any solid element",
                         disc.name
                     ),
                 )),
                 owners => Err(MshError::at(
                     *line,
                     format!(
-                        "contact_disc `{}`: element {element_tag} is a face of {} hexahedra: it must lie on the disc's boundary",
+                        "contact_disc `{}`: element {element_tag} is a face of {} elements: it must lie on the disc's boundary",
                         disc.name,
                         owners.len()
                     ),
@@ -219,4 +233,18 @@ fn disc_faces(
             }
         })
         .collect()
+}
+
+/// How a message names a solid element of a Gmsh type ("hexahedron" for 8-node hexahedra, as
+/// always).
+fn element_noun(element_type: u32) -> &'static str {
+    match element_type {
+        4 => "4-node tetrahedron",
+        5 => "hexahedron",
+        6 => "6-node prism",
+        11 => "10-node tetrahedron",
+        17 => "20-node hexahedron",
+        18 => "15-node prism",
+        _ => "element",
+    }
 }

@@ -1,4 +1,4 @@
-//! `mesh.gmsh`: import a hexahedral mesh written by Gmsh (MSH 4.1, ASCII).
+//! `mesh.gmsh`: import a mesh of solid elements written by Gmsh (MSH 4.1, ASCII).
 //!
 //! # What is read
 //!
@@ -18,17 +18,18 @@
 //!
 //! # What it becomes
 //!
-//! - 8-node hexahedra (Gmsh element type 5) become [`Mesh::hexes`]. Gmsh's hexahedron node
-//!   order is ours (node 0 at (−1, −1, −1), 1 (1, −1, −1), 2 (1, 1, −1), 3 (−1, 1, −1), 4..7
-//!   the same at ζ = 1), so connectivity is copied as is. Every hexahedron must be right-handed
-//!   (det J > 0 at its eight corners).
-//! - The physical volume of each hexahedron's entity is its part; the part names are the
-//!   group names (`disc`, `pad`), which name materials downstream. A hexahedron in no physical
+//! - Solid elements become [`Mesh::elements`]: 4- and 10-node tetrahedra (Gmsh types 4, 11),
+//!   8- and 20-node hexahedra (5, 17), 6- and 15-node prisms (6, 18), mixed freely. Corners
+//!   are in Gmsh's order, which is squeal's; mid-edge nodes are renumbered to squeal's order
+//!   ([`crate::fem::element::formats`]). Every element must be right-handed (det J > 0 at its
+//!   nodes and quadrature points).
+//! - The physical volume of each element's entity is its part; the part names are the group
+//!   names (`disc`, `pad`), which name materials downstream. An element in no physical
 //!   volume, or in two, is an error.
 //! - Each named physical surface, curve or point becomes a node set holding every node of its
 //!   elements (groups of different dimensions with one name are merged).
 //! - Nodes are renumbered from 0 in increasing Gmsh tag order; nodes that belong to no
-//!   hexahedron (geometry points, isolated nodes) are dropped, since they would carry no
+//!   solid element (geometry points, isolated nodes) are dropped, since they would carry no
 //!   stiffness.
 //! - Contact pairs: the nodes of physical surface `contact_disc` are paired with the
 //!   coincident (distinct) nodes of `contact_pad`: the interface must be conforming with its
@@ -39,8 +40,10 @@
 //!   ([`super::contact_faces`]).
 //!
 //! What is refused, each with one line naming the file, the line and the element type or group:
-//! binary files, MSH 2.x and 4.0, partitioned meshes, tetrahedra, prisms, pyramids and
-//! second-order elements, unnamed physical groups, missing contact groups, unmatched or
+//! binary files, MSH 2.x and 4.0, partitioned meshes, pyramids and elements of third order or
+//! with face and volume nodes (27-node hexahedra, 18-node prisms), unnamed physical groups,
+//! missing contact groups, contact surfaces of other faces than 4-node quadrangles
+//! (node-to-node contact; independent meshes come with mortar contact), unmatched or
 //! ambiguous contact nodes, interfaces whose nodes are shared rather than duplicated.
 
 use std::collections::HashMap;
@@ -60,9 +63,6 @@ use parse::{
     check_format_header, parse_elements, parse_entities, parse_nodes, parse_physical_names,
     split_sections,
 };
-
-/// Gmsh element type of the 8-node hexahedron.
-const GMSH_HEXAHEDRON: u32 = 5;
 
 /// Options of [`read_msh`]; `contact: None` reads no contact pairs.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -134,7 +134,7 @@ impl Stage for GmshImport {
         1
     }
     fn doc(&self) -> &'static str {
-        "Import a hexahedral Gmsh mesh (MSH 4.1 ASCII) with parts, node sets and contact pairs; reads a file, so never cached"
+        "Import a Gmsh mesh (MSH 4.1 ASCII) of tetrahedra, hexahedra and prisms with parts, node sets and contact pairs; reads a file, so never cached"
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -143,7 +143,7 @@ impl Stage for GmshImport {
         vec![PortSpec::one(
             "mesh",
             ArtifactType::Mesh,
-            "hexahedra, parts, node sets and contact pairs",
+            "solid elements, parts, node sets and contact pairs",
         )]
     }
     fn pure(&self) -> bool {

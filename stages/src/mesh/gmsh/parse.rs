@@ -3,7 +3,9 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use super::{GMSH_HEXAHEDRON, MshError};
+use super::MshError;
+use crate::artifact::ElementKind;
+use crate::fem::element::formats::{self, Format};
 
 /// Checks `$MeshFormat` / `4.1 0 8` at the top of the file.
 pub(super) fn check_format_header(text: &str) -> Result<(), MshError> {
@@ -343,22 +345,41 @@ pub(super) fn element_type_name(element_type: u32) -> String {
     format!("{name} (Gmsh type {element_type})")
 }
 
-/// The first-order element types accepted on points, curves and surfaces: node count, dimension.
+/// The element types accepted on points, curves and surfaces: node count, dimension.
 fn boundary_element_shape(element_type: u32) -> Option<(usize, u32)> {
     match element_type {
         15 => Some((1, 0)),
         1 => Some((2, 1)),
+        8 => Some((3, 1)),
         2 => Some((3, 2)),
         3 => Some((4, 2)),
+        9 => Some((6, 2)),
+        16 => Some((8, 2)),
         _ => None,
     }
 }
 
-/// A hexahedron as read: Gmsh tags, the line it is on, its physical volume.
-pub(super) struct HexRecord {
+/// The solid element types squeal takes, by Gmsh type.
+pub(super) fn solid_kind(element_type: u32) -> Option<ElementKind> {
+    match element_type {
+        4 => Some(ElementKind::Tet4),
+        5 => Some(ElementKind::Hex8),
+        6 => Some(ElementKind::Wedge6),
+        11 => Some(ElementKind::Tet10),
+        17 => Some(ElementKind::Hex20),
+        18 => Some(ElementKind::Wedge15),
+        _ => None,
+    }
+}
+
+/// A solid element as read: its Gmsh tag and type, the line it is on, its node tags in
+/// squeal's order, its physical volume.
+pub(super) struct SolidRecord {
     pub(super) tag: u64,
+    pub(super) element_type: u32,
+    pub(super) kind: ElementKind,
     pub(super) line: usize,
-    pub(super) nodes: [u64; 8],
+    pub(super) nodes: Vec<u64>,
     pub(super) group: GroupKey,
 }
 
@@ -373,8 +394,8 @@ pub(super) struct BoundaryGroup {
 }
 
 pub(super) struct Elements {
-    pub(super) hexes: Vec<HexRecord>,
-    /// Physical volumes holding hexahedra, by group key, with their names.
+    pub(super) solids: Vec<SolidRecord>,
+    /// Physical volumes holding solid elements, by group key, with their names.
     pub(super) volume_names: BTreeMap<GroupKey, String>,
     /// Named physical groups of dimension 0..2.
     pub(super) boundary_groups: BTreeMap<GroupKey, (String, BoundaryGroup)>,
@@ -415,33 +436,33 @@ fn capitalised(word: &str) -> String {
         .unwrap_or_default()
 }
 
-/// The physical volume of a block of hexahedra: exactly one, with a name.
+/// The kind and physical volume of a block of solid elements: exactly one, with a name.
 fn volume_group(
     entity_tag: i64,
     element_type: u32,
     physicals: &[i64],
     names: &HashMap<GroupKey, String>,
     block_line: usize,
-) -> Result<(GroupKey, String), MshError> {
-    if element_type != GMSH_HEXAHEDRON {
+) -> Result<(ElementKind, GroupKey, String), MshError> {
+    let Some(kind) = solid_kind(element_type) else {
         return Err(MshError::at(
             block_line,
             format!(
-                "volume {entity_tag}: {} elements are not supported, only 8-node hexahedra (type 5)",
+                "volume {entity_tag}: {} elements are not supported, only tetrahedra (types 4, 11), hexahedra (5, 17) and prisms (6, 18)",
                 element_type_name(element_type)
             ),
         ));
-    }
+    };
     match physicals {
         [] => Err(MshError::at(
             block_line,
             format!(
-                "the hexahedra of volume {entity_tag} are in no physical volume: add it to one, whose name is its part (Physical Volume(\"disc\") = {{{entity_tag}}})"
+                "the elements of volume {entity_tag} are in no physical volume: add it to one, whose name is its part (Physical Volume(\"disc\") = {{{entity_tag}}})"
             ),
         )),
         [physical] => {
             let key = (3, *physical);
-            Ok((key, group_name(names, key, block_line)?))
+            Ok((kind, key, group_name(names, key, block_line)?))
         }
         several => {
             let listed: Vec<String> = several
@@ -451,7 +472,7 @@ fn volume_group(
             Err(MshError::at(
                 block_line,
                 format!(
-                    "volume {entity_tag} is in {} physical volumes ({}): its hexahedra need exactly one part",
+                    "volume {entity_tag} is in {} physical volumes ({}): its elements need exactly one part",
                     several.len(),
                     listed.join(", ")
                 ),
@@ -477,7 +498,7 @@ fn boundary_nodes_per_element(
             Err(MshError::at(
                 block_line,
                 format!(
-                    "{word} {entity_tag}: {} elements are not supported on a {word}, only first-order points, lines, triangles and quadrangles",
+                    "{word} {entity_tag}: {} elements are not supported on a {word}, only points, lines, triangles and quadrangles (first or second order)",
                     element_type_name(element_type)
                 ),
             ))
@@ -531,7 +552,7 @@ pub(super) fn parse_elements(
     let n_blocks: usize = parse_number(header.first(), header_line, "number of entity blocks")?;
     let n_elements: usize = parse_number(header.get(1), header_line, "number of elements")?;
     let mut elements = Elements {
-        hexes: Vec::new(),
+        solids: Vec::new(),
         volume_names: BTreeMap::new(),
         boundary_groups: BTreeMap::new(),
     };
@@ -553,10 +574,13 @@ pub(super) fn parse_elements(
         let physicals = entities
             .get(&(dim, entity_tag))
             .map_or(&[][..], Vec::as_slice);
+        let mut solid = None;
         let n_nodes = if dim == 3 {
-            let (key, name) = volume_group(entity_tag, element_type, physicals, names, block_line)?;
+            let (kind, key, name) =
+                volume_group(entity_tag, element_type, physicals, names, block_line)?;
             elements.volume_names.insert(key, name);
-            8
+            solid = Some(kind);
+            kind.n_nodes()
         } else {
             boundary_nodes_per_element(dim, entity_tag, element_type, physicals, block_line)?
         };
@@ -580,11 +604,13 @@ pub(super) fn parse_elements(
             }
             let (element_tag, node_tags) =
                 parse_element_line(&fields, line_no, element_type, n_nodes, nodes)?;
-            if dim == 3 {
-                elements.hexes.push(HexRecord {
+            if let Some(kind) = solid {
+                elements.solids.push(SolidRecord {
                     tag: element_tag,
+                    element_type,
+                    kind,
                     line: line_no,
-                    nodes: node_tags.try_into().expect("eight node tags"),
+                    nodes: formats::from_file(kind, Format::Gmsh, &node_tags),
                     group: groups[0],
                 });
                 continue;
@@ -612,9 +638,9 @@ pub(super) fn parse_elements(
         ));
     }
     cursor.finish()?;
-    if elements.hexes.is_empty() {
+    if elements.solids.is_empty() {
         return Err(MshError::whole_file(
-            "no hexahedra: the mesh has no 3D elements in a physical volume",
+            "no solid elements: the mesh has no 3D elements in a physical volume",
         ));
     }
     Ok(elements)

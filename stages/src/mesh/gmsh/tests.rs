@@ -42,10 +42,10 @@ fn block_reads_hexes_part_and_face_set() {
     let mesh = read_msh(&data("block_2x1x1.msh"), &ReadOptions::default()).unwrap();
     assert_eq!(mesh.nodes.len(), 12);
     assert_eq!(mesh.parts, ["steel"]);
-    assert_eq!(mesh.hex_part, [0, 0]);
+    assert_eq!(mesh.elements.parts(), [0, 0]);
     // Tags 1..12 become 0..11; connectivity is copied in Gmsh order.
-    assert_eq!(mesh.hexes[0], [0, 4, 6, 1, 3, 8, 10, 2]);
-    assert_eq!(mesh.hexes[1], [4, 5, 7, 6, 8, 9, 11, 10]);
+    assert_eq!(mesh.elements.nodes(0), [0, 4, 6, 1, 3, 8, 10, 2]);
+    assert_eq!(mesh.elements.nodes(1), [4, 5, 7, 6, 8, 9, 11, 10]);
     assert_eq!(mesh.nodes[5], [2.0, 0.0, 0.0]);
     assert_eq!(mesh.node_sets.keys().collect::<Vec<_>>(), ["x0"]);
     assert_eq!(mesh.node_sets["x0"], [0, 1, 2, 3]);
@@ -61,7 +61,7 @@ fn block_reads_hexes_part_and_face_set() {
 fn two_parts_pair_duplicated_interface_nodes() {
     let mesh = read_msh(&data("two_part.msh"), &with_contact()).unwrap();
     assert_eq!(mesh.parts, ["disc", "pad"]);
-    assert_eq!(mesh.hex_part, [0, 0, 1, 1]);
+    assert_eq!(mesh.elements.parts(), [0, 0, 1, 1]);
     assert_eq!(mesh.nodes.len(), 24);
     assert_eq!(mesh.contact_pairs.len(), 6);
     for pair in &mesh.contact_pairs {
@@ -118,7 +118,11 @@ fn parse_elements_of(text: &str) -> Elements {
 
 fn tags_to_indices(text: &str) -> HashMap<u64, u32> {
     let elements = parse_elements_of(text);
-    let mut tags: Vec<u64> = elements.hexes.iter().flat_map(|hex| hex.nodes).collect();
+    let mut tags: Vec<u64> = elements
+        .solids
+        .iter()
+        .flat_map(|solid| solid.nodes.iter().copied())
+        .collect();
     tags.sort_unstable();
     tags.dedup();
     tags.into_iter().zip(0..).collect()
@@ -130,7 +134,7 @@ fn file_written_by_gmsh_reads_the_same() {
     // classified on points, curves and surfaces, lines end with a space.
     let mesh = read_msh(&data("two_part_gmsh.msh"), &with_contact()).unwrap();
     assert_eq!(mesh.parts, ["disc", "pad"]);
-    assert_eq!(mesh.hexes.len(), 4);
+    assert_eq!(mesh.elements.len(), 4);
     assert_eq!(mesh.nodes.len(), 24);
     assert_eq!(mesh.contact_pairs.len(), 6);
     let total: f64 = mesh.contact_pairs.iter().map(|pair| pair.area).sum();
@@ -255,13 +259,13 @@ fn unsupported_formats_are_refused_on_their_header_line() {
 fn unsupported_elements_are_named() {
     let block = data("block_2x1x1.msh");
     let none = ReadOptions::default();
-    // A tetrahedron block.
-    let tets = block.replace("3 1 5 2\n", "3 1 4 2\n");
+    // A pyramid block.
+    let pyramids = block.replace("3 1 5 2\n", "3 1 7 2\n");
     check_error(
-        &tets,
+        &pyramids,
         &none,
-        Some(line_of(&tets, "3 1 4 2")),
-        "volume 1: 4-node tetrahedron (Gmsh type 4) elements are not supported",
+        Some(line_of(&pyramids, "3 1 7 2")),
+        "volume 1: 5-node pyramid (Gmsh type 7) elements are not supported, only tetrahedra (types 4, 11), hexahedra (5, 17) and prisms (6, 18)",
     );
     // A second-order hexahedron block.
     let quadratic = block.replace("3 1 5 2\n", "3 1 12 2\n");

@@ -2,7 +2,7 @@
 //! and its consistent mass matrix.
 //!
 //! # Geometry
-//! Trilinear map from the reference cube (ξ, η, ζ) ∈ [−1, 1]³, node order of [`crate::artifact::Mesh`]:
+//! Trilinear map from the reference cube (ξ, η, ζ) ∈ [−1, 1]³, node order of [`crate::artifact::mesh`]:
 //!
 //! ```text
 //! N_a(ξ) = ⅛ (1 + ξ ξ_a)(1 + η η_a)(1 + ζ ζ_a),   x(ξ) = Σ_a N_a(ξ) x_a
@@ -47,6 +47,8 @@
 // Index loops follow the index notation of the element formulas (K_ij = Σ_s B_si (DB)_sj).
 #![allow(clippy::needless_range_loop)]
 
+use super::{Degenerate, ElementMatrices, Location, determinant, inverse, jacobian, packed_index};
+
 /// Reference coordinates (ξ, η, ζ) of the eight nodes.
 pub const NODE_REFERENCE: [[f64; 3]; 8] = [
     [-1.0, -1.0, -1.0],
@@ -61,55 +63,6 @@ pub const NODE_REFERENCE: [[f64; 3]; 8] = [
 
 /// 1/√3: the 2-point Gauss abscissa (weights 1).
 const GAUSS_ABSCISSA: f64 = 0.577_350_269_189_625_8;
-
-/// Length of the packed upper triangle of the 24×24 stiffness.
-pub const PACKED_STIFFNESS_LEN: usize = 24 * 25 / 2;
-/// Length of the packed upper triangle of the 8×8 scalar mass.
-pub const PACKED_MASS_LEN: usize = 8 * 9 / 2;
-
-/// Index of entry (i, j) in a packed upper triangle stored by columns.
-#[inline]
-pub fn packed_index(row: usize, col: usize) -> usize {
-    let (low, high) = if row <= col { (row, col) } else { (col, row) };
-    high * (high + 1) / 2 + low
-}
-
-/// Where an element's Jacobian determinant was found non-positive.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Location {
-    Corner(usize),
-    GaussPoint(usize),
-    Centre,
-}
-
-impl std::fmt::Display for Location {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Location::Corner(corner) => write!(f, "corner {corner}"),
-            Location::GaussPoint(point) => write!(f, "Gauss point {point}"),
-            Location::Centre => f.write_str("centre"),
-        }
-    }
-}
-
-/// An inverted or degenerate element: `det J ≤ 0` somewhere.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Degenerate {
-    pub det_j: f64,
-    pub location: Location,
-}
-
-/// The matrices of one element.
-#[derive(Debug, Clone)]
-pub struct ElementMatrices {
-    /// Condensed stiffness `K` (24×24, DOF `3 a + d` for node `a`, direction `d`), packed upper
-    /// triangle; exactly symmetric.
-    pub stiffness: [f64; PACKED_STIFFNESS_LEN],
-    /// `ρ ∫ N_a N_b dV` (8×8), packed upper triangle; the mass is this times `I₃`.
-    pub mass: [f64; PACKED_MASS_LEN],
-    /// `∫ dV` (m³).
-    pub volume: f64,
-}
 
 /// Shape functions `N_a(ξ)`.
 pub fn shape_values(xi: [f64; 3]) -> [f64; 8] {
@@ -135,47 +88,6 @@ pub fn shape_gradients(xi: [f64; 3]) -> [[f64; 3]; 8] {
 /// The eight Gauss points of the 2×2×2 rule, in node order.
 pub fn gauss_points() -> [[f64; 3]; 8] {
     std::array::from_fn(|g| NODE_REFERENCE[g].map(|sign| sign * GAUSS_ABSCISSA))
-}
-
-/// `J_ij = ∂x_j/∂ξ_i`.
-fn jacobian(coords: &[[f64; 3]; 8], gradients: &[[f64; 3]; 8]) -> [[f64; 3]; 3] {
-    let mut J = [[0.0; 3]; 3];
-    for (gradient, x) in gradients.iter().zip(coords) {
-        for i in 0..3 {
-            for j in 0..3 {
-                J[i][j] += gradient[i] * x[j];
-            }
-        }
-    }
-    J
-}
-
-fn determinant(J: &[[f64; 3]; 3]) -> f64 {
-    J[0][0] * (J[1][1] * J[2][2] - J[1][2] * J[2][1])
-        - J[0][1] * (J[1][0] * J[2][2] - J[1][2] * J[2][0])
-        + J[0][2] * (J[1][0] * J[2][1] - J[1][1] * J[2][0])
-}
-
-fn inverse(J: &[[f64; 3]; 3], det: f64) -> [[f64; 3]; 3] {
-    let cofactor =
-        |r0: usize, r1: usize, c0: usize, c1: usize| J[r0][c0] * J[r1][c1] - J[r0][c1] * J[r1][c0];
-    [
-        [
-            cofactor(1, 2, 1, 2) / det,
-            -cofactor(0, 2, 1, 2) / det,
-            cofactor(0, 1, 1, 2) / det,
-        ],
-        [
-            -cofactor(1, 2, 0, 2) / det,
-            cofactor(0, 2, 0, 2) / det,
-            -cofactor(0, 1, 0, 2) / det,
-        ],
-        [
-            cofactor(1, 2, 0, 1) / det,
-            -cofactor(0, 2, 0, 1) / det,
-            cofactor(0, 1, 0, 1) / det,
-        ],
-    ]
 }
 
 /// Fills the 6×(3·n) strain-displacement matrix of node-like functions with physical gradients
@@ -392,14 +304,14 @@ pub fn element_matrices(
             K[row][col] -= sum;
         }
     }
-    let mut stiffness = [0.0; PACKED_STIFFNESS_LEN];
+    let mut stiffness = vec![0.0; 24 * 25 / 2];
     for col in 0..24 {
         for row in 0..=col {
             // Averaging both triangles makes the assembled K exactly symmetric.
             stiffness[packed_index(row, col)] = 0.5 * (K[row][col] + K[col][row]);
         }
     }
-    let mut mass = [0.0; PACKED_MASS_LEN];
+    let mut mass = vec![0.0; 8 * 9 / 2];
     for b in 0..8 {
         for a in 0..=b {
             mass[packed_index(a, b)] = 0.5 * (element.mass[a][b] + element.mass[b][a]);
@@ -437,67 +349,6 @@ pub fn gauss_point_strains(
             compatible + incompatible
         })
     }))
-}
-
-/// The displacement gradient `∂u_i/∂x_j` at the element's centre, from its nodal
-/// displacements: the compatible part of the strain, a material-free estimate of its size.
-/// `None` for an element inverted at its centre.
-pub fn centre_displacement_gradient(
-    coords: &[[f64; 3]; 8],
-    displacement: &[[f64; 3]; 8],
-) -> Option<[[f64; 3]; 3]> {
-    let gradients = shape_gradients([0.0; 3]);
-    let J = jacobian(coords, &gradients);
-    let det = determinant(&J);
-    if det <= 0.0 {
-        return None;
-    }
-    // ∇_ξ N = J ∇_x N.
-    let inverse = inverse(&J, det);
-    let mut gradient = [[0.0; 3]; 3];
-    for (u, reference) in displacement.iter().zip(&gradients) {
-        let physical: [f64; 3] =
-            std::array::from_fn(|j| (0..3).map(|k| inverse[j][k] * reference[k]).sum());
-        for i in 0..3 {
-            for j in 0..3 {
-                gradient[i][j] += u[i] * physical[j];
-            }
-        }
-    }
-    Some(gradient)
-}
-
-/// `det J` of the trilinear map at reference point `xi`.
-pub fn det_j_at(coords: &[[f64; 3]; 8], xi: [f64; 3]) -> f64 {
-    determinant(&jacobian(coords, &shape_gradients(xi)))
-}
-
-/// The first corner where `det J <= 0`: the element is inverted or degenerate there.
-pub fn first_inverted_corner(coords: &[[f64; 3]; 8]) -> Option<usize> {
-    (0..8).find(|&corner| det_j_at(coords, NODE_REFERENCE[corner]) <= 0.0)
-}
-
-/// The smallest `det J` over the corners and Gauss points, with where it occurs.
-pub fn min_det_j(coords: &[[f64; 3]; 8]) -> (f64, Location) {
-    let corners = NODE_REFERENCE
-        .iter()
-        .enumerate()
-        .map(|(corner, xi)| (xi, Location::Corner(corner)));
-    let points = gauss_points();
-    let gauss = points
-        .iter()
-        .enumerate()
-        .map(|(point, xi)| (xi, Location::GaussPoint(point)));
-    corners
-        .chain(gauss)
-        .map(|(xi, location)| (det_j_at(coords, *xi), location))
-        .fold((f64::INFINITY, Location::Centre), |best, candidate| {
-            if candidate.0 < best.0 {
-                candidate
-            } else {
-                best
-            }
-        })
 }
 
 #[cfg(test)]

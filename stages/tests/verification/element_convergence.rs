@@ -1,0 +1,86 @@
+//! Convergence of every element kind: the first bending frequency of a free stubby beam under
+//! uniform refinement, the observed order against finite-element theory.
+
+use serde::Deserialize;
+use squeal_stages::artifact::{ElementKind, Mesh};
+use squeal_stages::assemble::with_default_materials;
+use squeal_stages::mesh::{convert, structured};
+
+use crate::real_modes::{check_residuals_and_normalisation, frequencies_hz, lowest};
+use crate::reference;
+
+/// A structured block of hexahedra as elements of `kind` (split, then mid-edge nodes).
+pub fn block_of(kind: ElementKind, lengths: [f64; 3], counts: [usize; 3]) -> Mesh {
+    let hexes = structured::block(lengths, counts, "disc");
+    let linear = match kind {
+        ElementKind::Tet4 | ElementKind::Tet10 => {
+            convert::split_hexahedra(&hexes, ElementKind::Tet4).expect("a split kind")
+        }
+        ElementKind::Wedge6 | ElementKind::Wedge15 => {
+            convert::split_hexahedra(&hexes, ElementKind::Wedge6).expect("a split kind")
+        }
+        ElementKind::Hex8 | ElementKind::Hex20 => hexes,
+    };
+    if kind.n_nodes() > kind.n_corners() {
+        convert::with_mid_edge_nodes(&linear)
+    } else {
+        linear
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Orders {
+    length_m: f64,
+    side_m: f64,
+    /// Hexahedral cells (along, across, across) of the coarsest mesh; each next mesh halves h.
+    coarsest: [usize; 3],
+    n_meshes: usize,
+    /// Expected order of the frequency error, by kind name.
+    expected: std::collections::BTreeMap<String, f64>,
+    order_tolerance: f64,
+    /// Largest relative difference between the second-order kinds on the finest mesh.
+    second_order_agreement: f64,
+}
+
+#[test]
+fn every_kind_converges_at_its_order_on_a_free_beam() {
+    let case: Orders = reference::load("element_orders");
+    let mut finest = Vec::new();
+    for kind in ElementKind::ALL {
+        let frequencies: Vec<f64> = (0..case.n_meshes)
+            .map(|level| {
+                let counts = case.coarsest.map(|n| n << level);
+                let mesh = block_of(kind, [case.length_m, case.side_m, case.side_m], counts);
+                let (model, _) = with_default_materials(&mesh, "", &[]).expect("assembly");
+                let solution = lowest(&model, 8);
+                check_residuals_and_normalisation(&model, &solution);
+                // Six rigid-body modes, then the first bending pair.
+                frequencies_hz(&solution)[6]
+            })
+            .collect();
+        // Observed order from three successive meshes: p = log2(|f_h − f_h/2| / |f_h/2 − f_h/4|).
+        let orders: Vec<f64> = frequencies
+            .windows(3)
+            .map(|f| ((f[0] - f[1]).abs() / (f[1] - f[2]).abs()).log2())
+            .collect();
+        let observed = *orders.last().expect("three meshes at least");
+        let expected = case.expected[kind.name()];
+        assert!(
+            (observed - expected).abs() < case.order_tolerance
+                && (observed - expected).abs() < (orders[0] - expected).abs(),
+            "{kind}: orders {orders:?} should approach {expected} (frequencies {frequencies:?})"
+        );
+        if kind.n_nodes() > kind.n_corners() {
+            finest.push((kind, *frequencies.last().expect("meshes")));
+        }
+    }
+    let (_, first) = finest[0];
+    for (kind, frequency) in &finest {
+        let difference = (frequency - first).abs() / first;
+        assert!(
+            difference < case.second_order_agreement,
+            "{kind}: {frequency} Hz against {first} Hz"
+        );
+    }
+}
