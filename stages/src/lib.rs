@@ -56,6 +56,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(mesh::brake::MeshBrake),
         Arc::new(mesh::gmsh::GmshImport),
         Arc::new(mesh::abaqus::AbaqusImport),
+        Arc::new(mesh::nastran::NastranImport),
         Arc::new(assemble::Assemble),
         Arc::new(modes::Modes),
         Arc::new(equilibrium::SlidingEquilibrium),

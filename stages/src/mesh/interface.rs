@@ -8,7 +8,8 @@
 
 use std::collections::HashMap;
 
-use crate::fem::faces::Side;
+use crate::fem::element::topology::FaceKind;
+use crate::fem::faces::{ElementFace, Side, faces_within};
 
 use super::contact_faces::{FaceIntegrals, quad_tangents};
 use crate::artifact::mesh::{ContactPair, Mesh, dot, norm, sub};
@@ -53,6 +54,26 @@ pub fn outward(mesh: &Mesh, element: usize, mut quad: [u32; 4]) -> [u32; 4] {
         quad.reverse();
     }
     quad
+}
+
+/// The boundary faces (of one element) whose nodes are all in `side`.
+pub fn boundary_faces(mesh: &Mesh, side: &Side) -> Vec<ElementFace> {
+    faces_within(mesh, side)
+        .into_values()
+        .filter_map(|mut owners| (owners.len() == 1).then(|| owners.remove(0)))
+        .collect()
+}
+
+/// `faces` as the disc's contact quadrangles, each oriented out of its element; node-to-node
+/// contact takes 4-node quadrangles only: the first face of another shape is the error.
+pub fn contact_quads(mesh: &Mesh, faces: Vec<ElementFace>) -> Result<Vec<[u32; 4]>, ElementFace> {
+    faces
+        .into_iter()
+        .map(|face| match <[u32; 4]>::try_from(face.nodes.as_slice()) {
+            Ok(quad) if face.kind == FaceKind::Quad4 => Ok(outward(mesh, face.element, quad)),
+            _ => Err(face),
+        })
+        .collect()
 }
 
 /// Pairs the nodes of `disc` and `pad`; `disc_faces` are the disc's contact faces, oriented

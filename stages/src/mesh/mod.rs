@@ -7,8 +7,10 @@ pub mod abaqus;
 pub mod brake;
 pub mod contact_faces;
 pub mod convert;
+pub mod deck_error;
 pub mod gmsh;
 pub mod interface;
+pub mod nastran;
 pub mod structured;
 
 use std::collections::HashMap;

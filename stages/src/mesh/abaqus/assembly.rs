@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use super::deck::{InpError, Source};
+use super::deck::{DeckError, Source};
 use super::interpret::{
     Deck, Instance, Part, Sets, Surface, members, set_entries, surface_entries,
 };
@@ -24,7 +24,7 @@ pub(super) struct Flat {
 }
 
 impl Deck {
-    pub(super) fn flatten(&self) -> Result<Flat, InpError> {
+    pub(super) fn flatten(&self) -> Result<Flat, DeckError> {
         let mut flat = Flat {
             nodes: Vec::new(),
             node_names: Vec::new(),
@@ -36,10 +36,10 @@ impl Deck {
         let mut instance_names: Vec<String> = Vec::new();
         for instance in &self.instances {
             let part = self.parts.get(&instance.part).ok_or_else(|| {
-                InpError::at(&instance.at, format!("no part named `{}`", instance.part))
+                DeckError::at(&instance.at, format!("no part named `{}`", instance.part))
             })?;
             if instance_names.contains(&instance.name) {
-                return Err(InpError::at(
+                return Err(DeckError::at(
                     &instance.at,
                     format!("instance `{}` is defined twice", instance.name),
                 ));
@@ -53,7 +53,7 @@ impl Deck {
 
     /// The assembly's own sets and surfaces: labels of the instance its `INSTANCE=` names,
     /// or names of flattened sets (`instance.set`).
-    fn assembly_sets(&self, flat: &mut Flat, instance_names: &[String]) -> Result<(), InpError> {
+    fn assembly_sets(&self, flat: &mut Flat, instance_names: &[String]) -> Result<(), DeckError> {
         let index = |names: &[String]| -> HashMap<String, usize> {
             names
                 .iter()
@@ -71,7 +71,7 @@ impl Deck {
             if let Some(name) = &instance
                 && !instance_names.contains(name)
             {
-                return Err(InpError::at(
+                return Err(DeckError::at(
                     &block.at,
                     format!("no instance named `{name}`"),
                 ));
@@ -79,16 +79,16 @@ impl Deck {
             let global = |names: &HashMap<String, usize>,
                           label_of: &str,
                           at: &Source|
-             -> Result<usize, InpError> {
+             -> Result<usize, DeckError> {
                 let Some(instance) = &instance else {
-                    return Err(InpError::at(
+                    return Err(DeckError::at(
                         at,
                         "a label in an assembly-level set needs the set's INSTANCE= parameter",
                     ));
                 };
                 let wanted = format!("{instance}.{label_of}");
                 names.get(&wanted).copied().ok_or_else(|| {
-                    InpError::at(at, format!("instance `{instance}` has no {label_of}"))
+                    DeckError::at(at, format!("instance `{instance}` has no {label_of}"))
                 })
             };
             let node = |value: u64, at: &Source| global(&node_index, &value.to_string(), at);
@@ -132,7 +132,7 @@ impl Deck {
 
 impl Flat {
     /// Appends `part`'s nodes (placed by `instance`), elements and sets.
-    fn add_instance(&mut self, instance: &Instance, part: &Part) -> Result<(), InpError> {
+    fn add_instance(&mut self, instance: &Instance, part: &Part) -> Result<(), DeckError> {
         let prefix = |name: &str| {
             if instance.name.is_empty() {
                 name.to_string()
@@ -163,7 +163,7 @@ impl Flat {
                 .iter()
                 .map(|node| {
                     node_index.get(node).copied().ok_or_else(|| {
-                        InpError::at(
+                        DeckError::at(
                             at,
                             format!(
                                 "element {element} refers to node {node}, which no *NODE defines"
@@ -171,17 +171,17 @@ impl Flat {
                         )
                     })
                 })
-                .collect::<Result<Vec<usize>, InpError>>()?;
+                .collect::<Result<Vec<usize>, DeckError>>()?;
             self.elements.push((*kind, indices));
             self.element_names.push(prefix(&element.to_string()));
             self.element_sources.push(at.clone());
         }
-        let nodes_of = |labels: &[u64], set: &str| -> Result<Vec<usize>, InpError> {
+        let nodes_of = |labels: &[u64], set: &str| -> Result<Vec<usize>, DeckError> {
             labels
                 .iter()
                 .map(|node| {
                     node_index.get(node).copied().ok_or_else(|| {
-                        InpError::whole(format!(
+                        DeckError::whole(format!(
                             "node set `{}`: node {node} is not defined",
                             prefix(set)
                         ))
@@ -189,12 +189,12 @@ impl Flat {
                 })
                 .collect()
         };
-        let elements_of = |labels: &[u64], set: &str| -> Result<Vec<usize>, InpError> {
+        let elements_of = |labels: &[u64], set: &str| -> Result<Vec<usize>, DeckError> {
             labels
                 .iter()
                 .map(|element| {
                     element_index.get(element).copied().ok_or_else(|| {
-                        InpError::whole(format!(
+                        DeckError::whole(format!(
                             "set `{}`: element {element} is not an element of its part",
                             prefix(set)
                         ))

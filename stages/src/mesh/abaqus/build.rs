@@ -5,26 +5,28 @@ use std::collections::BTreeMap;
 
 use super::ReadOptions;
 use super::assembly::Flat;
-use super::deck::InpError;
+use super::deck::DeckError;
 use super::interpret::{Deck, Surface};
 use crate::artifact::mesh::{ContactPair, Elements, Mesh};
-use crate::fem::element::topology::{self, FaceKind};
+use crate::fem::element::topology;
 use crate::fem::element::{Location, first_inverted};
-use crate::fem::faces::{Side, faces_within};
+use crate::fem::faces::{ElementFace, Side, element_face};
 use crate::mesh::interface::{self, ContactSides};
 
 /// The deck's mesh: elements in the parts of `options`, node sets, contact pairs.
-pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> {
+pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, DeckError> {
     let flat = deck.flatten()?;
     if flat.elements.is_empty() {
-        return Err(InpError::whole("no elements: the deck defines no *ELEMENT"));
+        return Err(DeckError::whole(
+            "no elements: the deck defines no *ELEMENT",
+        ));
     }
     check_surface_faces(&flat)?;
     // Parts: element sets; every element in exactly one.
     let mut element_part: Vec<Option<u32>> = vec![None; flat.elements.len()];
     for (part_idx, part) in options.parts.iter().enumerate() {
         let members = flat.sets.elsets.get(part).ok_or_else(|| {
-            InpError::whole(format!(
+            DeckError::whole(format!(
                 "parts: no element set or instance named `{part}` (element sets: {})",
                 names(flat.sets.elsets.keys())
             ))
@@ -33,7 +35,7 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
             if let Some(other) = element_part[element].replace(part_idx as u32)
                 && other != part_idx as u32
             {
-                return Err(InpError::at(
+                return Err(DeckError::at(
                     &flat.element_sources[element],
                     format!(
                         "element {} is in parts `{}` and `{part}`: each element is in one part",
@@ -61,7 +63,7 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
     let mut elements = Elements::new();
     for (element, (kind, element_nodes)) in flat.elements.iter().enumerate() {
         let Some(part) = element_part[element] else {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &flat.element_sources[element],
                 format!(
                     "element {} is in none of the parts {}: add it to one of their element sets",
@@ -82,7 +84,7 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
                 }
                 other => other.to_string(),
             };
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &flat.element_sources[element],
                 format!(
                     "element {} is inverted or degenerate (det J <= 0 at {place}): check its node order",
@@ -93,7 +95,7 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
         elements.push(*kind, part, &kept);
     }
     if let Some((first, second)) = crate::mesh::first_duplicate(&elements) {
-        return Err(InpError::at(
+        return Err(DeckError::at(
             &flat.element_sources[second],
             format!(
                 "element {} has the nodes of element {}: a duplicated element doubles its stiffness and mass",
@@ -101,12 +103,12 @@ pub fn build_mesh(deck: &Deck, options: &ReadOptions) -> Result<Mesh, InpError> 
             ),
         ));
     }
-    let kept = |set: &str, members: &[usize]| -> Result<Vec<u32>, InpError> {
+    let kept = |set: &str, members: &[usize]| -> Result<Vec<u32>, DeckError> {
         let mut kept: Vec<u32> = members
             .iter()
             .map(|node| {
                 index_of[*node].ok_or_else(|| {
-                    InpError::whole(format!(
+                    DeckError::whole(format!(
                         "set `{set}`: node {} belongs to no element",
                         flat.node_names[*node]
                     ))
@@ -152,7 +154,7 @@ fn names<'a>(names: impl Iterator<Item = &'a String>) -> String {
 
 /// Every element face a surface names exists on its element's kind (a tetrahedron has S1..S4,
 /// a wedge S1..S5, a hexahedron S1..S6).
-fn check_surface_faces(flat: &Flat) -> Result<(), InpError> {
+fn check_surface_faces(flat: &Flat) -> Result<(), DeckError> {
     for (name, surface) in &flat.sets.surfaces {
         let Surface::Faces(faces) = surface else {
             continue;
@@ -161,7 +163,7 @@ fn check_surface_faces(flat: &Flat) -> Result<(), InpError> {
             let (kind, _) = &flat.elements[element];
             let n_faces = topology::n_faces(*kind);
             if face >= n_faces {
-                return Err(InpError::at(
+                return Err(DeckError::at(
                     &flat.element_sources[element],
                     format!(
                         "surface `{name}`: element {} ({kind}) has faces S1 to S{n_faces}, not S{}",
@@ -205,12 +207,12 @@ fn contact_pairs(
     flat: &Flat,
     index_of: &[Option<u32>],
     contact: &ContactSides,
-) -> Result<Vec<ContactPair>, InpError> {
+) -> Result<Vec<ContactPair>, DeckError> {
     let find = |name: &str, param: &str| {
         if flat.sets.surfaces.contains_key(name) || flat.sets.nsets.contains_key(name) {
             Ok(())
         } else {
-            Err(InpError::whole(format!(
+            Err(DeckError::whole(format!(
                 "{param}: no surface or node set named `{name}` (surfaces: {}; node sets: {}); set contact_disc and contact_pad to \"\" for a mesh without contact",
                 names(flat.sets.surfaces.keys()),
                 names(flat.sets.nsets.keys())
@@ -222,35 +224,27 @@ fn contact_pairs(
     let disc = side(flat, index_of, &contact.disc);
     let pad = side(flat, index_of, &contact.pad);
     // The disc's faces: a surface's own, or every boundary face of a node set.
-    let faces: Vec<crate::fem::faces::ElementFace> = match flat.sets.surfaces.get(&contact.disc) {
+    let faces: Vec<ElementFace> = match flat.sets.surfaces.get(&contact.disc) {
         Some(Surface::Faces(faces)) => faces
             .iter()
-            .map(|(element, face)| crate::fem::faces::element_face(mesh, *element, *face))
+            .map(|(element, face)| element_face(mesh, *element, *face))
             .collect(),
-        _ => faces_within(mesh, &disc)
-            .into_values()
-            .filter_map(|mut owners| (owners.len() == 1).then(|| owners.remove(0)))
-            .collect(),
+        _ => interface::boundary_faces(mesh, &disc),
     };
-    let mut disc_faces: Vec<[u32; 4]> = Vec::with_capacity(faces.len());
-    for face in faces {
-        let Ok(quad) = <[u32; 4]>::try_from(face.nodes.as_slice()) else {
-            return Err(InpError::at(
-                &flat.element_sources[face.element],
-                format!(
-                    "contact_disc `{}`: face S{} of element {} is a {}: node-to-node contact faces must be 4-node quadrangles (quad4)",
-                    contact.disc,
-                    face.face + 1,
-                    flat.element_names[face.element],
-                    face.kind
-                ),
-            ));
-        };
-        debug_assert_eq!(face.kind, FaceKind::Quad4);
-        disc_faces.push(interface::outward(mesh, face.element, quad));
-    }
+    let disc_faces = interface::contact_quads(mesh, faces).map_err(|face| {
+        DeckError::at(
+            &flat.element_sources[face.element],
+            format!(
+                "contact_disc `{}`: face S{} of element {} is a {}: node-to-node contact faces must be 4-node quadrangles (quad4)",
+                contact.disc,
+                face.face + 1,
+                flat.element_names[face.element],
+                face.kind
+            ),
+        )
+    })?;
     if disc_faces.is_empty() {
-        return Err(InpError::whole(format!(
+        return Err(DeckError::whole(format!(
             "contact_disc `{}` holds no element face on the boundary",
             contact.disc
         )));
@@ -270,5 +264,5 @@ fn contact_pairs(
         contact.relative_tolerance,
         &node_name,
     )
-    .map_err(InpError::whole)
+    .map_err(DeckError::whole)
 }

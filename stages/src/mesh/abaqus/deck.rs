@@ -1,66 +1,13 @@
 //! An Abaqus input deck as keyword blocks: `*INCLUDE` expanded in place, comments (`**`) and
 //! blank lines dropped, keywords and parameter names upper-cased, data lines split on commas.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+pub use crate::mesh::deck_error::{DeckError, Source};
+
 /// Includes nested deeper than this are refused (an include cycle would never end).
 const MAX_INCLUDE_DEPTH: usize = 16;
-
-/// Where a line came from: its file (as the deck or its include named it) and 1-based line.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Source {
-    pub file: Arc<str>,
-    pub line: usize,
-}
-
-impl fmt::Display for Source {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}", self.file, self.line)
-    }
-}
-
-/// Why a deck could not be read: where (a line, or a whole file) and what is wrong.
-#[derive(Debug, Clone, PartialEq)]
-pub struct InpError {
-    pub at: String,
-    pub message: String,
-}
-
-impl InpError {
-    pub fn at(source: &Source, message: impl Into<String>) -> Self {
-        InpError {
-            at: source.to_string(),
-            message: message.into(),
-        }
-    }
-
-    pub fn file(file: &str, message: impl Into<String>) -> Self {
-        InpError {
-            at: file.to_string(),
-            message: message.into(),
-        }
-    }
-
-    /// A problem of the deck as a whole (its sets, parts, contact), placed at no line.
-    pub fn whole(message: impl Into<String>) -> Self {
-        InpError {
-            at: String::new(),
-            message: message.into(),
-        }
-    }
-}
-
-impl fmt::Display for InpError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.at.is_empty() {
-            f.write_str(&self.message)
-        } else {
-            write!(f, "{}: {}", self.at, self.message)
-        }
-    }
-}
 
 /// A keyword line and the data lines under it.
 #[derive(Debug, Clone)]
@@ -88,9 +35,9 @@ impl Block {
     }
 
     /// The parameter, required.
-    pub fn required(&self, name: &str) -> Result<&str, InpError> {
+    pub fn required(&self, name: &str) -> Result<&str, DeckError> {
         self.param(name).ok_or_else(|| {
-            InpError::at(
+            DeckError::at(
                 &self.at,
                 format!("*{} needs its {name}= parameter", self.keyword),
             )
@@ -99,13 +46,13 @@ impl Block {
 
     /// Refuses parameters outside `known`: one this reader ignored could change the mesh
     /// (`*NODE, SYSTEM=C` gives cylindrical coordinates).
-    pub fn only_params(&self, known: &[&str]) -> Result<(), InpError> {
+    pub fn only_params(&self, known: &[&str]) -> Result<(), DeckError> {
         match self
             .params
             .iter()
             .find(|(key, _)| !known.contains(&key.as_str()))
         {
-            Some((key, _)) => Err(InpError::at(
+            Some((key, _)) => Err(DeckError::at(
                 &self.at,
                 format!(
                     "*{} parameter {key} is not supported (supported: {})",
@@ -123,14 +70,14 @@ impl Block {
 }
 
 /// Reads the deck at `path` with its includes (paths relative to the including file).
-pub fn read_deck(path: &Path) -> Result<Vec<Block>, InpError> {
+pub fn read_deck(path: &Path) -> Result<Vec<Block>, DeckError> {
     let mut blocks = Vec::new();
     read_into(path, &path.display().to_string(), 0, &mut blocks)?;
     Ok(blocks)
 }
 
 /// Reads the deck text of `file` (its name in messages); `*INCLUDE` is resolved in `dir`.
-pub fn parse_deck(text: &str, file: &str, dir: &Path) -> Result<Vec<Block>, InpError> {
+pub fn parse_deck(text: &str, file: &str, dir: &Path) -> Result<Vec<Block>, DeckError> {
     let mut blocks = Vec::new();
     parse_into(text, file, dir, 0, &mut blocks)?;
     Ok(blocks)
@@ -143,10 +90,10 @@ fn read_into(
     name: &str,
     depth: usize,
     blocks: &mut Vec<Block>,
-) -> Result<(), InpError> {
-    let bytes = std::fs::read(path).map_err(|err| InpError::file(name, err.to_string()))?;
+) -> Result<(), DeckError> {
+    let bytes = std::fs::read(path).map_err(|err| DeckError::file(name, err.to_string()))?;
     let text = String::from_utf8(bytes)
-        .map_err(|_| InpError::file(name, "not UTF-8 text: is this an Abaqus input file?"))?;
+        .map_err(|_| DeckError::file(name, "not UTF-8 text: is this an Abaqus input file?"))?;
     let dir = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
     parse_into(&text, name, &dir, depth, blocks)
 }
@@ -157,7 +104,7 @@ fn parse_into(
     dir: &Path,
     depth: usize,
     blocks: &mut Vec<Block>,
-) -> Result<(), InpError> {
+) -> Result<(), DeckError> {
     let file: Arc<str> = file.into();
     for (idx, raw) in text.lines().enumerate() {
         let at = Source {
@@ -174,7 +121,7 @@ fn parse_into(
                 block.only_params(&["INPUT"])?;
                 let input = block.required("INPUT")?;
                 if depth + 1 > MAX_INCLUDE_DEPTH {
-                    return Err(InpError::at(
+                    return Err(DeckError::at(
                         &block.at,
                         format!(
                             "includes nest deeper than {MAX_INCLUDE_DEPTH}: do they include each other?"
@@ -184,7 +131,7 @@ fn parse_into(
                 let path = dir.join(input);
                 let name = path.display().to_string();
                 if !path.is_file() {
-                    return Err(InpError::at(
+                    return Err(DeckError::at(
                         &block.at,
                         format!("*INCLUDE: {name} is not a readable file"),
                     ));
@@ -202,7 +149,7 @@ fn parse_into(
         match blocks.last_mut() {
             Some(block) => block.data.push(DataLine { fields, at }),
             None => {
-                return Err(InpError::at(
+                return Err(DeckError::at(
                     &at,
                     "a data line outside any keyword: is a `*` missing above it?",
                 ));
@@ -212,7 +159,7 @@ fn parse_into(
     Ok(())
 }
 
-fn keyword_block(keyword_line: &str, at: Source) -> Result<Block, InpError> {
+fn keyword_block(keyword_line: &str, at: Source) -> Result<Block, DeckError> {
     let mut tokens = keyword_line.split(',');
     let keyword = tokens
         .next()
@@ -222,7 +169,7 @@ fn keyword_block(keyword_line: &str, at: Source) -> Result<Block, InpError> {
         .join(" ")
         .to_uppercase();
     if keyword.is_empty() {
-        return Err(InpError::at(&at, "a `*` without a keyword"));
+        return Err(DeckError::at(&at, "a `*` without a keyword"));
     }
     let mut params = Vec::new();
     for token in tokens {
@@ -243,20 +190,20 @@ fn keyword_block(keyword_line: &str, at: Source) -> Result<Block, InpError> {
 }
 
 /// A number as Abaqus writes it (Fortran's `1.5D+00` too).
-pub fn number(field: &str, at: &Source, what: &str) -> Result<f64, InpError> {
+pub fn number(field: &str, at: &Source, what: &str) -> Result<f64, DeckError> {
     field
         .replace(['D', 'd'], "e")
         .parse::<f64>()
         .ok()
         .filter(|value| value.is_finite())
-        .ok_or_else(|| InpError::at(at, format!("{what}: `{field}` is not a number")))
+        .ok_or_else(|| DeckError::at(at, format!("{what}: `{field}` is not a number")))
 }
 
 /// A positive integer label (node, element).
-pub fn label(field: &str, at: &Source, what: &str) -> Result<u64, InpError> {
+pub fn label(field: &str, at: &Source, what: &str) -> Result<u64, DeckError> {
     field
         .parse::<u64>()
         .ok()
         .filter(|label| *label > 0)
-        .ok_or_else(|| InpError::at(at, format!("{what}: `{field}` is not a positive integer")))
+        .ok_or_else(|| DeckError::at(at, format!("{what}: `{field}` is not a positive integer")))
 }

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::deck::{Block, DataLine, InpError, Source, label, number};
+use super::deck::{Block, DataLine, DeckError, Source, label, number};
 use crate::artifact::ElementKind;
 use crate::artifact::mesh::{norm, sub};
 use crate::fem::element::formats::{self, Format};
@@ -124,7 +124,7 @@ pub struct Deck {
     pub(super) uses_parts: bool,
 }
 
-pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
+pub fn interpret(blocks: Vec<Block>) -> Result<Deck, DeckError> {
     let mut deck = Deck {
         parts: BTreeMap::new(),
         part_order: Vec::new(),
@@ -150,7 +150,7 @@ pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
                 block.only_params(&["NAME"])?;
                 let name = block.required("NAME")?.to_lowercase();
                 if deck.parts.contains_key(&name) {
-                    return Err(InpError::at(
+                    return Err(DeckError::at(
                         &block.at,
                         format!("part `{name}` is defined twice"),
                     ));
@@ -177,7 +177,7 @@ pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
                     Scope::Part(name) => name.clone(),
                     _ => {
                         if deck.uses_parts {
-                            return Err(InpError::at(
+                            return Err(DeckError::at(
                                 &block.at,
                                 format!("*{keyword} outside a *PART in a deck that has parts"),
                             ));
@@ -204,7 +204,7 @@ pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
                         " (squeal reads the mesh: *NODE, *ELEMENT, *NSET, *ELSET, *SURFACE, *INCLUDE, *PART, *ASSEMBLY, *INSTANCE)"
                     }
                 };
-                return Err(InpError::at(
+                return Err(DeckError::at(
                     &block.at,
                     format!("keyword *{keyword} is not supported{hint}"),
                 ));
@@ -212,7 +212,7 @@ pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
         }
     }
     if deck.uses_parts && deck.parts.contains_key("") {
-        return Err(InpError::whole(
+        return Err(DeckError::whole(
             "nodes or elements both inside and outside *PART",
         ));
     }
@@ -229,7 +229,7 @@ pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
             },
         });
     } else if deck.instances.is_empty() {
-        return Err(InpError::whole(format!(
+        return Err(DeckError::whole(format!(
             "parts {} are defined but no *ASSEMBLY instances them",
             deck.part_order.join(", ")
         )));
@@ -237,14 +237,14 @@ pub fn interpret(blocks: Vec<Block>) -> Result<Deck, InpError> {
     Ok(deck)
 }
 
-fn instance(block: &Block) -> Result<Instance, InpError> {
+fn instance(block: &Block) -> Result<Instance, DeckError> {
     block.only_params(&["NAME", "PART"])?;
     let name = block.required("NAME")?.to_lowercase();
     let part = block.required("PART")?.to_lowercase();
-    let values = |line: &DataLine, count: usize, what: &str| -> Result<Vec<f64>, InpError> {
+    let values = |line: &DataLine, count: usize, what: &str| -> Result<Vec<f64>, DeckError> {
         let fields: Vec<&String> = line.fields.iter().filter(|f| !f.is_empty()).collect();
         if fields.len() != count {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &line.at,
                 format!(
                     "*INSTANCE {what}: {count} values expected, found {}",
@@ -268,7 +268,7 @@ fn instance(block: &Block) -> Result<Instance, InpError> {
                 let r = values(second, 7, "rotation (a, b, angle in degrees)")?;
                 let (a, b) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
                 if norm(sub(b, a)) == 0.0 {
-                    return Err(InpError::at(
+                    return Err(DeckError::at(
                         &second.at,
                         "*INSTANCE rotation: points a and b coincide",
                     ));
@@ -277,7 +277,7 @@ fn instance(block: &Block) -> Result<Instance, InpError> {
             }
         }
         [_, _, third, ..] => {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &third.at,
                 "*INSTANCE takes at most two data lines (translation, rotation)",
             ));
@@ -293,13 +293,13 @@ fn instance(block: &Block) -> Result<Instance, InpError> {
     })
 }
 
-fn read_nodes(part: &mut Part, block: &Block) -> Result<(), InpError> {
+fn read_nodes(part: &mut Part, block: &Block) -> Result<(), DeckError> {
     block.only_params(&["NSET"])?;
     let mut labels = Vec::with_capacity(block.data.len());
     for line in &block.data {
         let fields: Vec<&String> = line.fields.iter().filter(|f| !f.is_empty()).collect();
         if fields.len() != 4 {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &line.at,
                 format!(
                     "*NODE: label, x, y, z expected, found {} values",
@@ -313,7 +313,7 @@ fn read_nodes(part: &mut Part, block: &Block) -> Result<(), InpError> {
             x[axis] = number(fields[axis + 1], &line.at, "node coordinate")?;
         }
         if let Some((_, first)) = part.nodes.insert(node, (x, line.at.clone())) {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &line.at,
                 format!("node {node} is defined twice (first at {first})"),
             ));
@@ -326,12 +326,12 @@ fn read_nodes(part: &mut Part, block: &Block) -> Result<(), InpError> {
     Ok(())
 }
 
-fn read_elements(part: &mut Part, block: &Block) -> Result<(), InpError> {
+fn read_elements(part: &mut Part, block: &Block) -> Result<(), DeckError> {
     block.only_params(&["TYPE", "ELSET"])?;
     let element_type = block.required("TYPE")?.to_uppercase();
     let Some(kind) = solid_kind(&element_type) else {
         let known: Vec<&str> = SOLID_TYPES.iter().map(|(name, _)| *name).collect();
-        return Err(InpError::at(
+        return Err(DeckError::at(
             &block.at,
             format!(
                 "element type {element_type} is not supported: squeal reads solid elements ({})",
@@ -356,7 +356,7 @@ fn read_elements(part: &mut Part, block: &Block) -> Result<(), InpError> {
         }
         let at = pending.first().map_or(&line.at, |(_, at)| *at).clone();
         if pending.len() != 1 + n_nodes {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &at,
                 format!(
                     "{element_type}: a label and {n_nodes} nodes expected, found {} values",
@@ -371,7 +371,7 @@ fn read_elements(part: &mut Part, block: &Block) -> Result<(), InpError> {
         }
         let nodes = formats::from_file(kind, Format::Abaqus, &file_nodes);
         if let Some((_, _, first)) = part.elements.insert(element, (kind, nodes, at.clone())) {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &at,
                 format!("element {element} is defined twice (first at {first})"),
             ));
@@ -380,7 +380,7 @@ fn read_elements(part: &mut Part, block: &Block) -> Result<(), InpError> {
         pending.clear();
     }
     if let Some((_, at)) = pending.first() {
-        return Err(InpError::at(
+        return Err(DeckError::at(
             at,
             "the last element's line ends with a comma",
         ));
@@ -400,8 +400,8 @@ fn add_to<L>(sets: &mut BTreeMap<String, Vec<L>>, name: &str, labels: Vec<L>) {
 pub(super) fn set_entries<L: Clone>(
     block: &Block,
     sets: &BTreeMap<String, Vec<L>>,
-    labelled: &dyn Fn(u64, &Source) -> Result<L, InpError>,
-) -> Result<Vec<L>, InpError> {
+    labelled: &dyn Fn(u64, &Source) -> Result<L, DeckError>,
+) -> Result<Vec<L>, DeckError> {
     let mut entries = Vec::new();
     if block.param("GENERATE").is_some() {
         for line in &block.data {
@@ -414,14 +414,14 @@ pub(super) fn set_entries<L: Clone>(
                 [first, last] => (first, last, 1),
                 [first, last, step] => (first, last, step),
                 _ => {
-                    return Err(InpError::at(
+                    return Err(DeckError::at(
                         &line.at,
                         "GENERATE: first, last[, increment] expected",
                     ));
                 }
             };
             if last < first {
-                return Err(InpError::at(&line.at, "GENERATE: last is below first"));
+                return Err(DeckError::at(&line.at, "GENERATE: last is below first"));
             }
             let mut value = first;
             while value <= last {
@@ -445,18 +445,18 @@ pub(super) fn members<L: Clone>(
     field: &str,
     at: &Source,
     sets: &BTreeMap<String, Vec<L>>,
-    labelled: &dyn Fn(u64, &Source) -> Result<L, InpError>,
-) -> Result<Vec<L>, InpError> {
+    labelled: &dyn Fn(u64, &Source) -> Result<L, DeckError>,
+) -> Result<Vec<L>, DeckError> {
     if field.bytes().all(|byte| byte.is_ascii_digit()) {
         Ok(vec![labelled(label(field, at, "label")?, at)?])
     } else {
         sets.get(&field.to_lowercase())
             .cloned()
-            .ok_or_else(|| InpError::at(at, format!("no set named `{field}` is defined above")))
+            .ok_or_else(|| DeckError::at(at, format!("no set named `{field}` is defined above")))
     }
 }
 
-fn read_set(part: &mut Part, block: &Block) -> Result<(), InpError> {
+fn read_set(part: &mut Part, block: &Block) -> Result<(), DeckError> {
     let is_nset = block.keyword == "NSET";
     let name_param = if is_nset { "NSET" } else { "ELSET" };
     block.only_params(&[name_param, "GENERATE", "INTERNAL", "UNSORTED"])?;
@@ -477,7 +477,7 @@ fn read_set(part: &mut Part, block: &Block) -> Result<(), InpError> {
 }
 
 /// `S1`..`S6` as a face index.
-fn face_index(field: &str, at: &Source) -> Result<usize, InpError> {
+fn face_index(field: &str, at: &Source) -> Result<usize, DeckError> {
     match field.to_uppercase().as_str() {
         "S1" => Ok(0),
         "S2" => Ok(1),
@@ -485,7 +485,7 @@ fn face_index(field: &str, at: &Source) -> Result<usize, InpError> {
         "S4" => Ok(3),
         "S5" => Ok(4),
         "S6" => Ok(5),
-        other => Err(InpError::at(
+        other => Err(DeckError::at(
             at,
             format!("face `{other}` of an element: S1 to S6 expected"),
         )),
@@ -496,15 +496,15 @@ fn face_index(field: &str, at: &Source) -> Result<usize, InpError> {
 /// labels for `TYPE=NODE`.
 pub(super) fn surface_entries<L: Copy>(
     block: &Block,
-    elements: impl Fn(&str, &Source) -> Result<Vec<L>, InpError>,
-    nodes: impl Fn(&str, &Source) -> Result<Vec<L>, InpError>,
-) -> Result<Surface<L>, InpError> {
+    elements: impl Fn(&str, &Source) -> Result<Vec<L>, DeckError>,
+    nodes: impl Fn(&str, &Source) -> Result<Vec<L>, DeckError>,
+) -> Result<Surface<L>, DeckError> {
     block.only_params(&["NAME", "TYPE", "INTERNAL"])?;
     let of_nodes = match block.param("TYPE").map(str::to_uppercase).as_deref() {
         None | Some("ELEMENT") => false,
         Some("NODE") => true,
         Some(other) => {
-            return Err(InpError::at(
+            return Err(DeckError::at(
                 &block.at,
                 format!("*SURFACE TYPE={other} is not supported (ELEMENT or NODE)"),
             ));
@@ -523,7 +523,7 @@ pub(super) fn surface_entries<L: Copy>(
             let face = fields
                 .get(1)
                 .ok_or_else(|| {
-                    InpError::at(&line.at, "a face S1..S6 is needed after the element set")
+                    DeckError::at(&line.at, "a face S1..S6 is needed after the element set")
                 })
                 .and_then(|face| face_index(face, &line.at))?;
             faces.extend(
@@ -540,7 +540,7 @@ pub(super) fn surface_entries<L: Copy>(
     })
 }
 
-fn read_surface(part: &mut Part, block: &Block) -> Result<(), InpError> {
+fn read_surface(part: &mut Part, block: &Block) -> Result<(), DeckError> {
     let name = block.required("NAME")?.to_lowercase();
     let sets = &part.sets;
     let surface = surface_entries(

@@ -53,7 +53,7 @@ mod build;
 mod deck;
 mod interpret;
 
-pub use deck::InpError;
+pub use deck::DeckError;
 
 /// Options of [`read_inp`]: the element sets that are parts, and the contact sides.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,7 +64,7 @@ pub struct ReadOptions {
 }
 
 /// Reads the deck at `path` (with its includes) into a [`Mesh`].
-pub fn read_inp(path: &Path, options: &ReadOptions) -> Result<Mesh, InpError> {
+pub fn read_inp(path: &Path, options: &ReadOptions) -> Result<Mesh, DeckError> {
     let blocks = deck::read_deck(path)?;
     build::build_mesh(&interpret::interpret(blocks)?, options)
 }
@@ -75,7 +75,7 @@ pub fn read_inp_text(
     file: &str,
     dir: &Path,
     options: &ReadOptions,
-) -> Result<Mesh, InpError> {
+) -> Result<Mesh, DeckError> {
     let blocks = deck::parse_deck(text, file, dir)?;
     build::build_mesh(&interpret::interpret(blocks)?, options)
 }
