@@ -56,7 +56,7 @@ fn main() {
         };
         let (one, two) = (rate(1), rate(2));
         // The element matrices alone, on two threads: the part of assembly that is per element.
-        let D = squeal_stages::fem::material::Material {
+        let elasticity = squeal_stages::fem::material::Material {
             youngs_modulus: 2.02e11,
             poisson_ratio: 0.29,
             density: 7850.0,
@@ -76,7 +76,7 @@ fn main() {
                         .iter()
                         .map(|&n| mesh.nodes[n as usize])
                         .collect();
-                    element_matrices(element.kind, &coords, &D, 7850.0)
+                    element_matrices(element.kind, &coords, &elasticity, 7850.0)
                         .expect("valid")
                         .volume
                 })
