@@ -1,5 +1,6 @@
 //! Convergence of every element kind: the first bending frequency of a free stubby beam under
-//! uniform refinement, the observed order against finite-element theory.
+//! uniform refinement, the observed order against finite-element theory; and the frequencies
+//! of a second-order mesh against an independent finite-element code on the same mesh.
 
 use serde::Deserialize;
 use squeal_stages::artifact::{ElementKind, Mesh};
@@ -82,5 +83,44 @@ fn every_kind_converges_at_its_order_on_a_free_beam() {
             difference < case.second_order_agreement,
             "{kind}: {frequency} Hz against {first} Hz"
         );
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct IndependentCode {
+    /// The mesh file, in `stages/tests/data/elements/`.
+    mesh: String,
+    /// The elastic frequencies the independent code computes on it (Hz), after the six
+    /// rigid-body modes.
+    frequencies_hz: Vec<f64>,
+    /// |f − f_independent| / f_independent.
+    tolerance: f64,
+}
+
+#[test]
+fn a_second_order_mesh_gives_the_frequencies_of_an_independent_code() {
+    for case in ["scikit_fem_tet10"] {
+        let case: IndependentCode = reference::load(case);
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/elements")
+            .join(&case.mesh);
+        let text = std::fs::read_to_string(&path).expect("the test mesh");
+        let mesh = squeal_stages::mesh::gmsh::read_msh(&text, &Default::default()).expect("read");
+        let (model, _) = with_default_materials(&mesh, "", &[]).expect("assembly");
+        let solution = lowest(&model, 6 + case.frequencies_hz.len());
+        check_residuals_and_normalisation(&model, &solution);
+        let frequencies = frequencies_hz(&solution);
+        for (mode, (got, want)) in frequencies[6..]
+            .iter()
+            .zip(&case.frequencies_hz)
+            .enumerate()
+        {
+            assert!(
+                (got - want).abs() < case.tolerance * want,
+                "{}: elastic mode {mode}: {got} Hz against {want} Hz",
+                case.mesh
+            );
+        }
     }
 }
