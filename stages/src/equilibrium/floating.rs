@@ -30,6 +30,13 @@ use crate::stage::StageError;
 /// The node set the pressure acts on.
 pub const PRESSURE_SET: &str = "pad_backs";
 
+/// A pressure (Pa) on the boundary faces of a node set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PressureOn {
+    pub set: String,
+    pub pressure: f64,
+}
+
 /// The pressure load on a node set's faces.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PressureLoad {
@@ -379,23 +386,51 @@ pub(super) struct Floating {
     pub(super) bodies: Vec<FloatingBody>,
 }
 
-/// Checks that the pressure pushes floating bodies, every one of them, and nothing clamped.
+/// The pressure loads of several node sets, summed.
+fn pressure_loads(model: &Model, pressures: &[PressureOn]) -> Result<PressureLoad, StageError> {
+    let mut total: Option<PressureLoad> = None;
+    for on in pressures {
+        let load = pressure_load(model, on.pressure, &on.set)?;
+        total = Some(match total {
+            None => load,
+            Some(mut sum) => {
+                for (f, g) in sum.forces.iter_mut().zip(&load.forces) {
+                    *f += g;
+                }
+                for side in 0..2 {
+                    sum.area[side] += load.area[side];
+                    sum.force[side] += load.force[side];
+                }
+                sum.on_clamped += load.on_clamped;
+                sum.n_faces += load.n_faces;
+                sum
+            }
+        });
+    }
+    total.ok_or_else(|| StageError::new("load: pressure names no node set to press"))
+}
+
+/// Checks that the pressures push floating bodies, every one of them, and nothing clamped.
 pub(super) fn floating_under_pressure(
     model: &Model,
-    pressure: f64,
+    pressures: &[PressureOn],
 ) -> Result<Floating, StageError> {
+    let sets: Vec<&str> = pressures.iter().map(|on| on.set.as_str()).collect();
+    let first = sets.first().copied().unwrap_or(PRESSURE_SET);
     let bodies = floating_bodies(model)?;
     if bodies.bodies.is_empty() {
         return Err(StageError::new(format!(
-            "load: pressure needs pads free along the disc normal, but every body is held by its clamps: clamp the pad backs in-plane only (`clamped: \"hub, {PRESSURE_SET}:xy\"`)"
+            "load: pressure needs the bodies it pushes free along their normal, but every body is held by its clamps: clamp `{}` in-plane only (`clamped: \"hub, {first}:xy\"`)",
+            sets.join("`, `")
         )));
     }
-    let load = pressure_load(model, pressure, PRESSURE_SET)?;
+    let load = pressure_loads(model, pressures)?;
     let total = load.force[0] + load.force[1];
     if load.on_clamped > 1e-9 * total {
         return Err(StageError::new(format!(
-            "{:.3e} N of the {total:.3e} N pressure resultant falls on clamped DOFs of `{PRESSURE_SET}`: clamp the pad backs in-plane only (`{PRESSURE_SET}:xy`) so that they are free along the normal",
-            load.on_clamped
+            "{:.3e} N of the {total:.3e} N pressure resultant falls on clamped DOFs of `{}`: clamp them in-plane only (`{first}:xy`) so that they are free along the normal",
+            load.on_clamped,
+            sets.join("`, `")
         )));
     }
     for body in &bodies.bodies {
@@ -450,7 +485,7 @@ pub(super) fn check_contact_holds(B: &Mat<f64>, bodies: &[FloatingBody]) -> Resu
         let smallest = svd.S()[k - 1];
         if !(smallest > 1e-10 * largest) {
             return Err(StageError::new(format!(
-                "{body}: its contact pairs do not hold all its free rigid motions (a motion moves none of them along the normal): guide it in-plane (`{PRESSURE_SET}:xy`)"
+                "{body}: its contact pairs do not hold all its free rigid motions (a motion moves none of them along the normal): guide it in-plane (`{PRESSURE_SET}:xy`, or its own loaded set's)"
             )));
         }
     }

@@ -26,7 +26,9 @@
 //!
 //! The backs are guided in-plane (`clamped: "hub, pad_backs:xy"`) and a pressure p acts on
 //! the back faces (node set `pad_backs`), F its consistent nodal forces
-//! ([`floating::pressure_load`]). Each pad puck is then a floating body: K is singular, its
+//! ([`floating::pressure_load`]). Any node sets may be pressed instead, each by its own
+//! pressure (`pressure_sets: [pistons_inner, "pistons_outer=1.2e6"]`: the pistons' faces of a
+//! caliper), on faces of any element kind; F is the sum of their loads. Each pad puck is then a floating body: K is singular, its
 //! kernel spanned by the columns of R, the rigid motions the clamps leave free
 //! ([`floating::floating_bodies`]: for a puck, the normal translation and two tilts about
 //! in-plane axes through its back). Pin k_b DOFs of each body (k_b its number of motions,
@@ -58,6 +60,8 @@
 //!   model:       { ..., params: { clamped: "hub, pad_backs:xy" } }
 //!   equilibrium: { ..., params: { load: pressure, pressure: 1 MPa, mu: 0.38 } }
 //! ```
+//!
+//! The summary's `pressure_Pa` is the largest of the pressures applied.
 
 mod checks;
 mod figure;
@@ -72,7 +76,7 @@ use crate::contact::lcp::LcpSettings;
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 
 pub use checks::{SMALL_STRAIN, back_reactions, largest_strain};
-pub use floating::{AppliedPressure, PRESSURE_SET};
+pub use floating::{AppliedPressure, PRESSURE_SET, PressureOn};
 pub use solve::{Load, Report, Solver, solve};
 use tables::summary_table;
 pub use tables::{contact_table, side_force};
@@ -100,10 +104,12 @@ crate::stage_params! {
         #[unit = "m"]
         #[min = 0.0]
         interference: f64 = 1e-4,
-        /// load: pressure — pressure on the pad back faces
+        /// load: pressure — pressure on the boundary faces of `pressure_sets`
         #[unit = "Pa"]
         #[min = 0.0]
         pressure: f64 = 1e6,
+        /// load: pressure — node sets whose boundary faces it presses (the pad backs, the pistons' faces); `set=p` gives a set its own pressure (Pa)
+        pressure_sets: Vec<String> = vec!["pad_backs".into()],
         /// semi-smooth Newton, or the paper's fixed point
         solver: Solver = Solver::SemismoothNewton,
         /// complementarity residual to reach
@@ -120,6 +126,37 @@ crate::stage_params! {
 
 /// The `equilibrium` stage.
 pub struct SlidingEquilibrium;
+
+/// The pressure of each of `pressure_sets`: `set` takes `pressure`, `set=p` its own `p` (Pa).
+fn pressures_on(params: &EquilibriumParams) -> Result<Vec<PressureOn>, StageError> {
+    params
+        .pressure_sets
+        .iter()
+        .map(|item| {
+            let (set, pressure) = match item.split_once('=') {
+                None => (item.trim(), params.pressure),
+                Some((set, value)) => {
+                    let pressure: f64 = value.trim().parse().map_err(|_| {
+                        StageError::new(format!(
+                            "pressure_sets: `{item}`: `{}` is not a pressure in Pa (write `set=1.5e6`)",
+                            value.trim()
+                        ))
+                    })?;
+                    (set.trim(), pressure)
+                }
+            };
+            if !(pressure.is_finite() && pressure >= 0.0) {
+                return Err(StageError::new(format!(
+                    "pressure_sets: `{item}`: the pressure must be finite and not negative"
+                )));
+            }
+            Ok(PressureOn {
+                set: set.to_string(),
+                pressure,
+            })
+        })
+        .collect()
+}
 
 impl HasParams for SlidingEquilibrium {
     type Params = EquilibriumParams;
@@ -185,7 +222,7 @@ impl Stage for SlidingEquilibrium {
         };
         let load = match params.load {
             LoadKind::Interference => Load::Interference(params.interference),
-            LoadKind::Pressure => Load::Pressure(params.pressure),
+            LoadKind::Pressure => Load::Pressure(pressures_on(&params)?),
         };
         let (equilibrium, report) = solve(
             model,

@@ -5,7 +5,9 @@ use faer::Mat;
 use squeal_linalg::ldlt::{Factor, ShiftedPencil};
 
 use super::floating::check_contact_holds;
-use super::floating::{AppliedPressure, Floating, body_list, floating_under_pressure, pin};
+use super::floating::{
+    AppliedPressure, Floating, PressureOn, body_list, floating_under_pressure, pin,
+};
 use crate::artifact::{ContactFrames, Equilibrium, Model};
 use crate::contact;
 use crate::contact::lcp::{self, Balance, LcpSettings, LcpSolution};
@@ -22,12 +24,23 @@ crate::choice! {
 }
 
 /// What presses the pads onto the disc.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Load {
     /// Clamped backs pushed toward the disc by this much (m).
     Interference(f64),
-    /// This pressure (Pa) on the back faces ([`PRESSURE_SET`](super::floating::PRESSURE_SET)), backs free along the normal.
-    Pressure(f64),
+    /// Pressures on the boundary faces of node sets (the pad backs, the pistons' faces), the
+    /// bodies they push free along the normal.
+    Pressure(Vec<PressureOn>),
+}
+
+impl Load {
+    /// `pressure` (Pa) on the pad backs ([`PRESSURE_SET`](super::floating::PRESSURE_SET)).
+    pub fn on_pad_backs(pressure: f64) -> Load {
+        Load::Pressure(vec![PressureOn {
+            set: super::floating::PRESSURE_SET.to_string(),
+            pressure,
+        }])
+    }
 }
 
 /// What the solve reports besides the equilibrium.
@@ -64,9 +77,9 @@ pub fn solve(
     let columns = contact::h_columns(model, &frames);
 
     let clock = std::time::Instant::now();
-    let (floating, interference) = match load {
-        Load::Interference(delta) => (None, delta),
-        Load::Pressure(pressure) => (Some(floating_under_pressure(model, pressure)?), 0.0),
+    let (floating, interference) = match &load {
+        Load::Interference(delta) => (None, *delta),
+        Load::Pressure(pressures) => (Some(floating_under_pressure(model, pressures)?), 0.0),
     };
     let pinned_K = floating
         .as_ref()

@@ -77,11 +77,17 @@ pub(super) fn summary_table(
     max_strain: f64,
 ) -> Table {
     let total: f64 = equilibrium.r_n.iter().sum();
-    let (load, mut quantities) = match (report.load, report.applied) {
-        (Load::Pressure(pressure), Some(applied)) => (
+    let largest = |pressures: &[super::PressureOn]| {
+        pressures
+            .iter()
+            .map(|on| on.pressure)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let (load, mut quantities) = match (&report.load, report.applied) {
+        (Load::Pressure(pressures), Some(applied)) => (
             "pressure",
             vec![
-                ("pressure_Pa", pressure),
+                ("pressure_Pa", largest(pressures)),
                 ("pressure_force_upper_N", applied.force[0]),
                 ("pressure_force_lower_N", applied.force[1]),
                 ("back_area_upper_m2", applied.area[0]),
@@ -89,8 +95,10 @@ pub(super) fn summary_table(
                 ("floating_bodies", applied.floating_bodies as f64),
             ],
         ),
-        (Load::Pressure(pressure), None) => ("pressure", vec![("pressure_Pa", pressure)]),
-        (Load::Interference(delta), _) => ("interference", vec![("interference_m", delta)]),
+        (Load::Pressure(pressures), None) => {
+            ("pressure", vec![("pressure_Pa", largest(pressures))])
+        }
+        (Load::Interference(delta), _) => ("interference", vec![("interference_m", *delta)]),
     };
     quantities.extend([
         ("iterations", report.lcp.iterations as f64),

@@ -194,7 +194,15 @@ fn pressed(
     solver: Solver,
     settings: &LcpSettings,
 ) -> (Equilibrium, Report) {
-    solve(model, mu, 4.0, Load::Pressure(PRESSURE), solver, settings).unwrap()
+    solve(
+        model,
+        mu,
+        4.0,
+        Load::on_pad_backs(PRESSURE),
+        solver,
+        settings,
+    )
+    .unwrap()
 }
 
 /// Contact area per side from the mesh's tributary areas: a puck is a prism, so its back
@@ -359,7 +367,7 @@ fn two_blocks_pressed_by_a_pressure_match_the_uniaxial_solution() {
             &model,
             0.0,
             4.0,
-            Load::Pressure(pressure),
+            Load::on_pad_backs(pressure),
             solver,
             &settings,
         )
@@ -396,7 +404,7 @@ fn a_pressure_on_fully_clamped_backs_is_an_error() {
         &model,
         0.38,
         4.0,
-        Load::Pressure(PRESSURE),
+        Load::on_pad_backs(PRESSURE),
         Solver::SemismoothNewton,
         &settings(),
     )
@@ -408,7 +416,7 @@ fn a_pressure_on_fully_clamped_backs_is_an_error() {
         &model,
         0.38,
         4.0,
-        Load::Pressure(PRESSURE),
+        Load::on_pad_backs(PRESSURE),
         Solver::SemismoothNewton,
         &settings(),
     )
@@ -434,7 +442,7 @@ fn a_nonconverging_solver_under_a_pressure_reports_its_residual_history() {
         &model,
         0.38,
         4.0,
-        Load::Pressure(PRESSURE),
+        Load::on_pad_backs(PRESSURE),
         Solver::FixedPoint,
         &few,
     )
@@ -519,4 +527,84 @@ fn the_stage_runs_with_a_pressure_load() {
     };
     assert!(load.iter().all(|load| load == "pressure"));
     assert!(matches!(outputs["equilibrium"], Artifact::Equilibrium(_)));
+}
+
+/// The pad backs split into two node sets, the upper and the lower pads', each pressed by its
+/// own pressure: each pad carries its own pressure times its back area, and with equal
+/// pressures the equilibrium is the one of the single set.
+#[test]
+fn several_face_sets_carry_their_own_pressures() {
+    let mut mesh = coarse_brake();
+    let (upper, lower): (Vec<u32>, Vec<u32>) = mesh.node_sets[PRESSURE_SET]
+        .iter()
+        .partition(|&&node| mesh.nodes[node as usize][2] > 0.0);
+    mesh.node_sets.insert("upper_backs".into(), upper);
+    mesh.node_sets.insert("lower_backs".into(), lower);
+    let model = model(&mesh, "hub, pad_backs:xy", &[]);
+    let split = |upper: f64, lower: f64| {
+        Load::Pressure(vec![
+            PressureOn {
+                set: "upper_backs".into(),
+                pressure: upper,
+            },
+            PressureOn {
+                set: "lower_backs".into(),
+                pressure: lower,
+            },
+        ])
+    };
+    let solve_with = |load: Load| {
+        solve(
+            &model,
+            0.38,
+            4.0,
+            load,
+            Solver::SemismoothNewton,
+            &settings(),
+        )
+        .unwrap()
+    };
+    let (single, _) = solve_with(Load::on_pad_backs(PRESSURE));
+    let (both, _) = solve_with(split(PRESSURE, PRESSURE));
+    let scale = single.r_n.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+    for (a, b) in single.r_n.iter().zip(&both.r_n) {
+        assert!((a - b).abs() <= 1e-10 * scale, "{a} vs {b}");
+    }
+    let (uneven, report) = solve_with(split(PRESSURE, 2.0 * PRESSURE));
+    let applied = report.applied.expect("a pressure load");
+    for (side, upper, pressure) in [(0, true, PRESSURE), (1, false, 2.0 * PRESSURE)] {
+        let expected = pressure * pad_area(&mesh, upper);
+        assert!(
+            (applied.force[side] - expected).abs() <= 1e-9 * expected,
+            "side {side}"
+        );
+        let carried = side_force(&mesh, &uneven.r_n, upper);
+        assert!(
+            (carried - expected).abs() <= 1e-8 * expected,
+            "side {side}: {carried}"
+        );
+    }
+}
+
+#[test]
+fn a_pressure_set_written_wrong_is_an_error_naming_it() {
+    let params = Params::defaults(
+        &SlidingEquilibrium,
+        &[
+            ("load", Value::Str("pressure".into())),
+            ("pressure_sets", Value::Str("pad_backs=high".into())),
+        ],
+    );
+    let mesh = coarse_brake();
+    let model = model(&mesh, "hub, pad_backs:xy", &[]);
+    let inputs = Inputs(BTreeMap::from([(
+        "model".to_string(),
+        crate::stage::Input::One(std::sync::Arc::new(Artifact::Model(Box::new(model)))),
+    )]));
+    let err = SlidingEquilibrium.run(&params, &inputs).unwrap_err();
+    assert!(
+        err.message
+            .contains("pressure_sets: `pad_backs=high`: `high` is not a pressure in Pa"),
+        "{err}"
+    );
 }

@@ -456,13 +456,14 @@ pub fn build_mesh(cards: &[Card], options: &ReadOptions) -> Result<Mesh, DeckErr
     for solid in &solids {
         let label = format!("{} {}", solid_card(solid.kind), solid.id);
         let part = *part_of.get(&solid.property).ok_or_else(|| {
+            let why = if options.parts.is_empty() {
+                "no PSOLID defines it".to_string()
+            } else {
+                format!("no part takes it (parts: {})", options.parts.join(", "))
+            };
             DeckError::at(
                 &solid.at,
-                format!(
-                    "{label}: its property {} is in no part (parts: {})",
-                    solid.property,
-                    options.parts.join(", ")
-                ),
+                format!("{label}: property {}: {why}", solid.property),
             )
         })?;
         if let Some(missing) = solid.grids.iter().find(|id| !grids.contains_key(id)) {

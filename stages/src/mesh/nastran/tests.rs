@@ -208,6 +208,11 @@ fn every_unsupported_or_malformed_card_is_refused_with_its_file_and_line() {
             "free.bdf:21",
             "grid point 88 belongs to no element",
         ),
+        (
+            with("PSOLID,1,1", "PSOLID,2,1"),
+            "free.bdf:15",
+            "CHEXA 1: property 1: no PSOLID defines it",
+        ),
     ];
     for (text, at, expected) in cases {
         let err = read_bdf_text(&text, "free.bdf", &data_dir(), &ReadOptions::default())
