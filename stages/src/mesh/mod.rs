@@ -30,3 +30,6 @@ pub fn first_duplicate(elements: &Elements) -> Option<(usize, usize)> {
     }
     None
 }
+
+#[cfg(test)]
+mod fuzz_tests;
