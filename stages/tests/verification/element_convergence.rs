@@ -1,6 +1,7 @@
 //! Convergence of every element kind: the first bending frequency of a free stubby beam under
-//! uniform refinement, the observed order against finite-element theory; and the frequencies
-//! of a second-order mesh against an independent finite-element code on the same mesh.
+//! uniform refinement, the observed order against finite-element theory; a free annular disc
+//! in 10-node tetrahedra against 20-node hexahedra; and the frequencies of a second-order
+//! mesh against an independent finite-element code on the same mesh.
 
 use serde::Deserialize;
 use squeal_stages::artifact::{ElementKind, Mesh};
@@ -125,4 +126,56 @@ fn a_second_order_mesh_gives_the_frequencies_of_an_independent_code() {
             );
         }
     }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FreeDisc {
+    inner_radius_m: f64,
+    outer_radius_m: f64,
+    thickness_m: f64,
+    /// Hexahedral cells: radial, around, through the thickness.
+    cells: [usize; 3],
+    n_frequencies: usize,
+    /// Largest |f_tet10 − f_hex20| / f_hex20 over the frequencies.
+    tolerance: f64,
+}
+
+#[test]
+fn a_free_annular_disc_rings_alike_in_10_node_tetrahedra_and_20_node_hexahedra() {
+    let case: FreeDisc = reference::load("free_disc_tet10_hex20");
+    let frequencies = |kind: ElementKind| -> Vec<f64> {
+        let hexes = structured::annulus(
+            case.inner_radius_m,
+            case.outer_radius_m,
+            0.0,
+            case.thickness_m,
+            case.cells,
+            "disc",
+        );
+        let linear = match kind {
+            ElementKind::Tet10 => {
+                convert::split_hexahedra(&hexes, ElementKind::Tet4).expect("a split kind")
+            }
+            _ => hexes,
+        };
+        let mesh = convert::with_mid_edge_nodes(&linear);
+        let (model, _) = with_default_materials(&mesh, "", &[]).expect("assembly");
+        let solution = lowest(&model, 6 + case.n_frequencies);
+        check_residuals_and_normalisation(&model, &solution);
+        frequencies_hz(&solution)[6..].to_vec()
+    };
+    let (tet10, hex20) = (
+        frequencies(ElementKind::Tet10),
+        frequencies(ElementKind::Hex20),
+    );
+    let worst = tet10
+        .iter()
+        .zip(&hex20)
+        .map(|(t, h)| (t - h).abs() / h)
+        .fold(0.0, f64::max);
+    assert!(
+        worst < case.tolerance,
+        "tet10 {tet10:?} against hex20 {hex20:?}"
+    );
 }
