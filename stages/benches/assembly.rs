@@ -9,21 +9,7 @@ use squeal_stages::mesh::{convert, structured};
 
 /// A 0.4 × 0.1 × 0.05 m block of `cells` hexahedral cells as elements of `kind`.
 fn block_of(kind: ElementKind, cells: [usize; 3]) -> Mesh {
-    let hexes = structured::block([0.4, 0.1, 0.05], cells, "disc");
-    let linear = match kind {
-        ElementKind::Tet4 | ElementKind::Tet10 => {
-            convert::split_hexahedra(&hexes, ElementKind::Tet4).expect("a split kind")
-        }
-        ElementKind::Wedge6 | ElementKind::Wedge15 => {
-            convert::split_hexahedra(&hexes, ElementKind::Wedge6).expect("a split kind")
-        }
-        ElementKind::Hex8 | ElementKind::Hex20 => hexes,
-    };
-    if kind.n_nodes() > kind.n_corners() {
-        convert::with_mid_edge_nodes(&linear)
-    } else {
-        linear
-    }
+    convert::as_kind(&structured::block([0.4, 0.1, 0.05], cells, "disc"), kind)
 }
 
 fn main() {

@@ -50,6 +50,22 @@ pub fn split_hexahedra(mesh: &Mesh, kind: ElementKind) -> Option<Mesh> {
     })
 }
 
+/// A mesh of 8-node hexahedra as elements of `kind`, on the same nodes: split into
+/// tetrahedra or wedges, then given mid-edge nodes for the second-order kinds.
+pub fn as_kind(hexes: &Mesh, kind: ElementKind) -> Mesh {
+    let linear = match kind {
+        ElementKind::Tet4 | ElementKind::Tet10 => split_hexahedra(hexes, ElementKind::Tet4),
+        ElementKind::Wedge6 | ElementKind::Wedge15 => split_hexahedra(hexes, ElementKind::Wedge6),
+        ElementKind::Hex8 | ElementKind::Hex20 => None,
+    }
+    .unwrap_or_else(|| hexes.clone());
+    if kind.n_nodes() > kind.n_corners() {
+        with_mid_edge_nodes(&linear)
+    } else {
+        linear
+    }
+}
+
 /// The second-order kind of a first-order one.
 pub fn second_order(kind: ElementKind) -> ElementKind {
     match kind {

@@ -39,6 +39,16 @@ impl DeckError {
         }
     }
 
+    /// The message a stage gives: located at its line, or at the deck `path` for a problem of
+    /// the deck as a whole.
+    pub fn in_file(&self, path: &std::path::Path) -> String {
+        if self.at.is_empty() {
+            format!("{}: {}", path.display(), self.message)
+        } else {
+            self.to_string()
+        }
+    }
+
     /// A problem of the deck as a whole (its sets, parts, contact), placed at no line.
     pub fn whole(message: impl Into<String>) -> Self {
         DeckError {

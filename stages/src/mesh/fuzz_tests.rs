@@ -70,12 +70,12 @@ fn data(name: &str) -> String {
 /// one: none may panic, every message is one line.
 fn campaign(name: &str, text: &str, mutants: usize, read: &dyn Fn(&str) -> Option<String>) {
     let mut rng = Lcg(0x5eed_0000 + name.len() as u64);
-    let (mut read_ok, mut refused) = (0, 0);
+    let mut refused = 0;
     for _ in 0..mutants {
         let mutant = mutate(text, &mut rng);
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read(&mutant)));
         match outcome {
-            Ok(None) => read_ok += 1,
+            Ok(None) => {}
             Ok(Some(message)) => {
                 assert!(
                     !message.is_empty() && !message.contains('\n'),
@@ -86,7 +86,6 @@ fn campaign(name: &str, text: &str, mutants: usize, read: &dyn Fn(&str) -> Optio
             Err(_) => panic!("{name}: a mutant panicked the reader:\n{mutant}"),
         }
     }
-    assert_eq!(read_ok + refused, mutants);
     assert!(
         refused > 0,
         "{name}: no mutant was refused: the mutations do nothing"

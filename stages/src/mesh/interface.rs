@@ -8,7 +8,6 @@
 
 use std::collections::HashMap;
 
-use crate::fem::element::topology::FaceKind;
 use crate::fem::faces::{ElementFace, Side, faces_within};
 
 use super::contact_faces::{FaceIntegrals, quad_tangents};
@@ -70,8 +69,8 @@ pub fn contact_quads(mesh: &Mesh, faces: Vec<ElementFace>) -> Result<Vec<[u32; 4
     faces
         .into_iter()
         .map(|face| match <[u32; 4]>::try_from(face.nodes.as_slice()) {
-            Ok(quad) if face.kind == FaceKind::Quad4 => Ok(outward(mesh, face.element, quad)),
-            _ => Err(face),
+            Ok(quad) => Ok(outward(mesh, face.element, quad)),
+            Err(_) => Err(face),
         })
         .collect()
 }

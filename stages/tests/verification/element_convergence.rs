@@ -13,21 +13,7 @@ use crate::reference;
 
 /// A structured block of hexahedra as elements of `kind` (split, then mid-edge nodes).
 pub fn block_of(kind: ElementKind, lengths: [f64; 3], counts: [usize; 3]) -> Mesh {
-    let hexes = structured::block(lengths, counts, "disc");
-    let linear = match kind {
-        ElementKind::Tet4 | ElementKind::Tet10 => {
-            convert::split_hexahedra(&hexes, ElementKind::Tet4).expect("a split kind")
-        }
-        ElementKind::Wedge6 | ElementKind::Wedge15 => {
-            convert::split_hexahedra(&hexes, ElementKind::Wedge6).expect("a split kind")
-        }
-        ElementKind::Hex8 | ElementKind::Hex20 => hexes,
-    };
-    if kind.n_nodes() > kind.n_corners() {
-        convert::with_mid_edge_nodes(&linear)
-    } else {
-        linear
-    }
+    convert::as_kind(&structured::block(lengths, counts, "disc"), kind)
 }
 
 #[derive(Deserialize)]
@@ -153,13 +139,7 @@ fn a_free_annular_disc_rings_alike_in_10_node_tetrahedra_and_20_node_hexahedra()
             case.cells,
             "disc",
         );
-        let linear = match kind {
-            ElementKind::Tet10 => {
-                convert::split_hexahedra(&hexes, ElementKind::Tet4).expect("a split kind")
-            }
-            _ => hexes,
-        };
-        let mesh = convert::with_mid_edge_nodes(&linear);
+        let mesh = convert::as_kind(&hexes, kind);
         let (model, _) = with_default_materials(&mesh, "", &[]).expect("assembly");
         let solution = lowest(&model, 6 + case.n_frequencies);
         check_residuals_and_normalisation(&model, &solution);

@@ -43,20 +43,7 @@ fn distorted_cube(case: &Patch, kind: ElementKind) -> Mesh {
             mesh.nodes[node][direction] += shift(direction);
         }
     }
-    let linear = match kind {
-        ElementKind::Tet4 | ElementKind::Tet10 => {
-            convert::split_hexahedra(&mesh, ElementKind::Tet4).expect("a split kind")
-        }
-        ElementKind::Wedge6 | ElementKind::Wedge15 => {
-            convert::split_hexahedra(&mesh, ElementKind::Wedge6).expect("a split kind")
-        }
-        ElementKind::Hex8 | ElementKind::Hex20 => mesh,
-    };
-    if kind.n_nodes() > kind.n_corners() {
-        convert::with_mid_edge_nodes(&linear)
-    } else {
-        linear
-    }
+    convert::as_kind(&mesh, kind)
 }
 
 /// Moves the interior nodes of a 3×3×3 block, imposes a linear displacement on the boundary,

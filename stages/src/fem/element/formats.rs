@@ -1,4 +1,5 @@
-//! Node orders of the file formats squeal reads and writes, for every kind.
+//! Node orders of the file formats squeal reads and writes, for every kind. Abaqus and VTK list
+//! mid-edge nodes by squeal's edges ([`edges`]); the others' are written out here.
 //!
 //! A format numbers an element's corners and mid-edge nodes its own way. Each format's order
 //! is given as data: its corners (squeal's corner for each of the file's) and, for quadratic
@@ -10,7 +11,7 @@
 
 use crate::artifact::ElementKind;
 
-use super::topology::mid_edge_node;
+use super::topology::{edges, mid_edge_node};
 
 /// A file format with its own node orders.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,20 +27,8 @@ const SAME_WEDGE: [usize; 6] = [0, 1, 2, 3, 4, 5];
 const VTK_WEDGE: [usize; 6] = [0, 2, 1, 3, 5, 4];
 const SAME_HEX: [usize; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
 
-const TET_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
 const GMSH_TET_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [2, 3], [1, 3]];
 
-const WEDGE_EDGES: [[usize; 2]; 9] = [
-    [0, 1],
-    [1, 2],
-    [2, 0],
-    [3, 4],
-    [4, 5],
-    [5, 3],
-    [0, 3],
-    [1, 4],
-    [2, 5],
-];
 const GMSH_WEDGE_EDGES: [[usize; 2]; 9] = [
     [0, 1],
     [0, 2],
@@ -63,20 +52,6 @@ const NASTRAN_WEDGE_EDGES: [[usize; 2]; 9] = [
     [5, 3],
 ];
 
-const HEX_EDGES: [[usize; 2]; 12] = [
-    [0, 1],
-    [1, 2],
-    [2, 3],
-    [3, 0],
-    [4, 5],
-    [5, 6],
-    [6, 7],
-    [7, 4],
-    [0, 4],
-    [1, 5],
-    [2, 6],
-    [3, 7],
-];
 const GMSH_HEX_EDGES: [[usize; 2]; 12] = [
     [0, 1],
     [0, 3],
@@ -113,17 +88,17 @@ fn file_order(kind: ElementKind, format: Format) -> (&'static [usize], &'static 
     match (kind, format) {
         (Tet4, _) => (&SAME_TET, &[]),
         (Tet10, Gmsh) => (&SAME_TET, &GMSH_TET_EDGES),
-        (Tet10, _) => (&SAME_TET, &TET_EDGES),
+        (Tet10, _) => (&SAME_TET, edges(Tet10)),
         (Wedge6, Vtk) => (&VTK_WEDGE, &[]),
         (Wedge6, _) => (&SAME_WEDGE, &[]),
         (Wedge15, Gmsh) => (&SAME_WEDGE, &GMSH_WEDGE_EDGES),
         (Wedge15, Nastran) => (&SAME_WEDGE, &NASTRAN_WEDGE_EDGES),
-        (Wedge15, Vtk) => (&VTK_WEDGE, &WEDGE_EDGES),
-        (Wedge15, Abaqus) => (&SAME_WEDGE, &WEDGE_EDGES),
+        (Wedge15, Vtk) => (&VTK_WEDGE, edges(Wedge15)),
+        (Wedge15, Abaqus) => (&SAME_WEDGE, edges(Wedge15)),
         (Hex8, _) => (&SAME_HEX, &[]),
         (Hex20, Gmsh) => (&SAME_HEX, &GMSH_HEX_EDGES),
         (Hex20, Nastran) => (&SAME_HEX, &NASTRAN_HEX_EDGES),
-        (Hex20, _) => (&SAME_HEX, &HEX_EDGES),
+        (Hex20, _) => (&SAME_HEX, edges(Hex20)),
     }
 }
 

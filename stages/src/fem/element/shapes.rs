@@ -29,7 +29,7 @@
 use crate::artifact::ElementKind;
 
 use super::hex8;
-use super::topology::reference_node;
+use super::topology::{edges, reference_node};
 
 /// Values and reference gradients of the shape functions of `kind` at `xi`, into slices of
 /// `kind.n_nodes()` entries.
@@ -60,9 +60,6 @@ fn tetrahedral([r, s, t]: [f64; 3]) -> ([f64; 4], [[f64; 3]; 4]) {
     )
 }
 
-/// The corners of each mid-edge node of the 10-node tetrahedron.
-const TET10_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
-
 fn tet4(xi: [f64; 3], values: &mut [f64], gradients: &mut [[f64; 3]]) {
     let (l, dl) = tetrahedral(xi);
     values.copy_from_slice(&l);
@@ -75,7 +72,7 @@ fn tet10(xi: [f64; 3], values: &mut [f64], gradients: &mut [[f64; 3]]) {
         values[a] = l[a] * (2.0 * l[a] - 1.0);
         gradients[a] = dl[a].map(|d| (4.0 * l[a] - 1.0) * d);
     }
-    for (k, [a, b]) in TET10_EDGES.into_iter().enumerate() {
+    for (k, &[a, b]) in edges(ElementKind::Tet10).iter().enumerate() {
         values[4 + k] = 4.0 * l[a] * l[b];
         gradients[4 + k] = std::array::from_fn(|i| 4.0 * (l[b] * dl[a][i] + l[a] * dl[b][i]));
     }
@@ -103,9 +100,6 @@ fn wedge6(xi: [f64; 3], values: &mut [f64], gradients: &mut [[f64; 3]]) {
     }
 }
 
-/// The triangle corners of each mid-edge node of the 15-node wedge at one level.
-const TRIANGLE_EDGES: [[usize; 2]; 3] = [[0, 1], [1, 2], [2, 0]];
-
 fn wedge15(xi: [f64; 3], values: &mut [f64], gradients: &mut [[f64; 3]]) {
     let (l, dl) = triangular(xi);
     let zeta = xi[2];
@@ -123,7 +117,8 @@ fn wedge15(xi: [f64; 3], values: &mut [f64], gradients: &mut [[f64; 3]]) {
                 0.5 * l[a] * (2.0 * l[a] - 1.0) * side + l[a] * zeta,
             ];
         }
-        for (k, [a, b]) in TRIANGLE_EDGES.into_iter().enumerate() {
+        // The wedge's first three edges are its bottom triangle's.
+        for (k, &[a, b]) in edges(ElementKind::Wedge15)[..3].iter().enumerate() {
             let node = 6 + 3 * level + k;
             values[node] = 2.0 * l[a] * l[b] * h;
             gradients[node] = [

@@ -130,7 +130,6 @@ impl Stage for AbaqusImport {
     }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
         let params = params.read::<Self>()?;
-        let path = params.path.display();
         let parts: Vec<String> = params
             .parts
             .iter()
@@ -151,13 +150,8 @@ impl Stage for AbaqusImport {
             pad: pad.to_lowercase(),
             relative_tolerance: params.contact_tolerance,
         });
-        let mesh = read_inp(&params.path, &ReadOptions { parts, contact }).map_err(|err| {
-            StageError::new(if err.at.is_empty() {
-                format!("{path}: {}", err.message)
-            } else {
-                err.to_string()
-            })
-        })?;
+        let mesh = read_inp(&params.path, &ReadOptions { parts, contact })
+            .map_err(|err| StageError::new(err.in_file(&params.path)))?;
         Ok(Outputs::from([(
             "mesh".to_string(),
             Artifact::Mesh(Box::new(mesh)),

@@ -115,7 +115,6 @@ impl Stage for NastranImport {
     }
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
         let params = params.read::<Self>()?;
-        let path = params.path.display();
         let contact =
             interface::contact_sides(&params.contact_disc, &params.contact_pad, "a node set")?.map(
                 |[disc, pad]| ContactSides {
@@ -128,13 +127,8 @@ impl Stage for NastranImport {
             parts: params.parts.clone(),
             contact,
         };
-        let mesh = read_bdf(&params.path, &options).map_err(|err| {
-            StageError::new(if err.at.is_empty() {
-                format!("{path}: {}", err.message)
-            } else {
-                err.to_string()
-            })
-        })?;
+        let mesh = read_bdf(&params.path, &options)
+            .map_err(|err| StageError::new(err.in_file(&params.path)))?;
         Ok(Outputs::from([(
             "mesh".to_string(),
             Artifact::Mesh(Box::new(mesh)),
