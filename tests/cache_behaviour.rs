@@ -5,7 +5,7 @@ mod common;
 
 use std::time::Duration;
 
-use common::{Workspace, ran, read_parquet, statuses, strings};
+use common::{Workspace, floats, ran, read_parquet, statuses, strings};
 
 /// Five stages in a chain; `round` makes small changes upstream invisible downstream.
 const CHAIN: &str = "\
@@ -286,4 +286,51 @@ fn gc_keeps_what_a_study_references() {
     assert!(gc.status.success());
     workspace.run_ok(&["run", "chain.yaml", "--out", "out"]);
     assert_eq!(ran(&workspace.path().join("out")).len(), 5);
+}
+
+/// A list input takes one artifact from each stage listed, in order; a swept one fans the
+/// consumer out, and editing one listed stage reruns the consumer only.
+#[test]
+fn a_list_input_joins_each_listed_stage_and_fans_out_over_a_sweep() {
+    let workspace = Workspace::new();
+    workspace.write(
+        "list.yaml",
+        "\
+study: list
+stages:
+  a:
+    kind: test.constant
+    params: { value: 1.0, rows: 2 }
+  b:
+    kind: test.constant
+    params: { rows: 2 }
+    matrix: { value: [10.0, 20.0] }
+  c:
+    kind: test.constant
+    params: { value: 100.0, rows: 2 }
+  total:
+    kind: test.total
+    inputs: { tables: [a.table, b.table, c.table] }
+    params: { offset: 0.5 }
+",
+    );
+    workspace.run_ok(&["run", "list.yaml", "--out", "out"]);
+    let out = workspace.path().join("out");
+    assert_eq!(
+        ran(&out),
+        [
+            "a",
+            "b[value=10]",
+            "b[value=20]",
+            "c",
+            "total[value=10]",
+            "total[value=20]"
+        ]
+    );
+    for (value, expected) in [(10, 111.5), (20, 121.5)] {
+        let table = read_parquet(&out.join(format!("total/value={value}/table.parquet")));
+        assert_eq!(floats(&table, "x"), [expected, expected]);
+    }
+    workspace.run_ok(&["run", "list.yaml", "--out", "out", "--set", "c.value=200"]);
+    assert_eq!(ran(&out), ["c", "total[value=10]", "total[value=20]"]);
 }

@@ -166,6 +166,26 @@ fn references() {
         "1:19: targets[1]: no stage named `spectrum`",
     );
     check_file(
+        "list_into_one_port.yaml",
+        "6:22: stages.scaled.inputs.table: input `table` takes one `stage.output`, not a list",
+    );
+    check_file(
+        "empty_list_input.yaml",
+        "6:23: stages.total.inputs.tables: the list is empty",
+    );
+    check_file(
+        "list_item_dangling.yaml",
+        "9:11: stages.total.inputs.tables[1]: no stage named `sauce`",
+    );
+    check_file(
+        "listed_twice.yaml",
+        "6:38: stages.total.inputs.tables[1]: `source.table` is listed twice",
+    );
+    check_file(
+        "list_input_wrong_shape.yaml",
+        "6:23: stages.total.inputs.tables: invalid type: map, expected `stage.output` or a list of them",
+    );
+    check_file(
         "wrong_output_type.yaml",
         "9:22: stages.scaled.inputs.table: `view.mesh` is a document, but input `table` takes a table",
     );

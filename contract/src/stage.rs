@@ -20,6 +20,10 @@ pub enum Arity {
     One,
     /// Every point of a swept upstream at once, each with its sweep coordinates (a gather).
     Many,
+    /// One artifact from each of the stages a study lists (`[steel.material, lining.material]`),
+    /// in the list's order; each is joined as a one-artifact input is, so a swept one fans
+    /// this stage out. Read with [`Inputs::many`], the coordinates empty unless a gather's.
+    List,
 }
 
 /// A declared input or output.
@@ -54,6 +58,14 @@ impl PortSpec {
         }
     }
 
+    /// A port that takes a list of references (see [`Arity::List`]).
+    pub fn list(name: &'static str, ty: ArtifactType, doc: &'static str) -> Self {
+        PortSpec {
+            arity: Arity::List,
+            ..PortSpec::one(name, ty, doc)
+        }
+    }
+
     /// This input may be left unconnected; the stage reads it with [`Inputs::get_optional`].
     pub fn optional(mut self) -> Self {
         self.optional = true;
@@ -84,7 +96,9 @@ impl Inputs {
     pub fn many(&self, port: &str) -> Result<&[(Coords, Arc<Artifact>)], StageError> {
         match self.0.get(port) {
             Some(Input::Many(points)) => Ok(points),
-            Some(Input::One(_)) => Err(StageError::new(format!("input `{port}` is not a gather"))),
+            Some(Input::One(_)) => Err(StageError::new(format!(
+                "input `{port}` is neither a gather nor a list"
+            ))),
             None => Err(StageError::new(format!("input `{port}` is missing"))),
         }
     }
@@ -112,6 +126,26 @@ impl Inputs {
         } else {
             Ok(None)
         }
+    }
+
+    /// The values of a list (or gather) input, typed, in the study's order; empty when the
+    /// study leaves the port unconnected.
+    pub fn get_list<T: ArtifactValue>(&self, port: &str) -> Result<Vec<&T>, StageError> {
+        if !self.0.contains_key(port) {
+            return Ok(Vec::new());
+        }
+        self.many(port)?
+            .iter()
+            .map(|(_, artifact)| {
+                T::from_artifact(artifact).ok_or_else(|| {
+                    StageError::new(format!(
+                        "input `{port}` holds a {}, expected {}",
+                        artifact.artifact_type(),
+                        T::TYPE
+                    ))
+                })
+            })
+            .collect()
     }
 }
 

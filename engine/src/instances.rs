@@ -22,11 +22,13 @@ pub struct Axis {
 }
 
 #[derive(Debug, Clone)]
+/// One connection of an instance: a port fed by one stage's output. A list port
+/// ([`Arity::List`]) has one connection per stage listed, all under its name, in order.
 pub struct InstanceInput {
     pub port: String,
     pub output: String,
     pub arity: Arity,
-    /// Upstream instance indices: exactly one for [`Arity::One`].
+    /// Upstream instance indices: exactly one for [`Arity::One`] and [`Arity::List`].
     pub from: Vec<usize>,
 }
 
@@ -99,7 +101,11 @@ impl Instances {
             let decl = &study.stages[stage_idx];
             // Join the one-artifact inputs on shared axes.
             let mut combos: Vec<Combo> = vec![(Vec::new(), Vec::new())];
-            for input in decl.inputs.iter().filter(|input| input.arity == Arity::One) {
+            for input in decl
+                .inputs
+                .iter()
+                .filter(|input| input.arity != Arity::Many)
+            {
                 let upstream = &instances.of_stage[input.from];
                 combos = join(&instances.list, &combos, upstream);
             }
@@ -131,8 +137,8 @@ impl Instances {
                     .iter()
                     .map(|input| {
                         let from = match input.arity {
-                            Arity::One => {
-                                vec![one_from.next().expect("one upstream per one-input")]
+                            Arity::One | Arity::List => {
+                                vec![one_from.next().expect("one upstream per joined input")]
                             }
                             Arity::Many => instances.of_stage[input.from]
                                 .iter()

@@ -67,24 +67,18 @@ impl Context<'_> {
         outputs_of: &dyn Fn(usize) -> Option<BTreeMap<String, Digest>>,
     ) -> ResolvedInputs {
         let instance = &self.instances.list[idx];
-        instance
-            .inputs
-            .iter()
-            .map(|input| {
-                let artifacts = input
-                    .from
-                    .iter()
-                    .map(|&up| ResolvedInput {
-                        reference: format!("{}.{}", self.instances.list[up].name, input.output),
-                        instance: up,
-                        output: input.output.clone(),
-                        digest: outputs_of(up)
-                            .and_then(|outputs| outputs.get(&input.output).copied()),
-                    })
-                    .collect();
-                (input.port.clone(), artifacts)
-            })
-            .collect()
+        let mut resolved = ResolvedInputs::new();
+        for input in &instance.inputs {
+            // A list port's connections gather under its name, in order.
+            let artifacts = resolved.entry(input.port.clone()).or_default();
+            artifacts.extend(input.from.iter().map(|&up| ResolvedInput {
+                reference: format!("{}.{}", self.instances.list[up].name, input.output),
+                instance: up,
+                output: input.output.clone(),
+                digest: outputs_of(up).and_then(|outputs| outputs.get(&input.output).copied()),
+            }));
+        }
+        resolved
     }
 
     /// The coordinates that identify upstream instance `up` among the artifacts `idx` receives:

@@ -7,7 +7,7 @@
 use std::fmt;
 
 use serde::Deserialize;
-use serde::de::{MapAccess, Visitor};
+use serde::de::{MapAccess, SeqAccess, Visitor};
 use serde_saphyr::Spanned;
 
 /// Where a spec problem is.
@@ -167,6 +167,36 @@ impl<'de, V: Deserialize<'de>> Deserialize<'de> for OrderedMap<V> {
     }
 }
 
+/// What an input port is connected to: one `stage.output`, or a list of them (each located).
+#[derive(Debug, Clone, PartialEq)]
+pub enum RawInput {
+    One(String),
+    List(Vec<Spanned<String>>),
+}
+
+impl<'de> Deserialize<'de> for RawInput {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct InputVisitor;
+        impl<'de> Visitor<'de> for InputVisitor {
+            type Value = RawInput;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("`stage.output` or a list of them")
+            }
+            fn visit_str<E: serde::de::Error>(self, value: &str) -> Result<RawInput, E> {
+                Ok(RawInput::One(value.to_string()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<RawInput, A::Error> {
+                let mut references = Vec::new();
+                while let Some(reference) = seq.next_element()? {
+                    references.push(reference);
+                }
+                Ok(RawInput::List(references))
+            }
+        }
+        deserializer.deserialize_any(InputVisitor)
+    }
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawStudy {
@@ -212,9 +242,9 @@ pub struct RawStage {
     pub kind: Spanned<String>,
     #[serde(default)]
     pub params: OrderedMap<Spanned<RawValue>>,
-    /// Input port → `stage.output`.
+    /// Input port → `stage.output`, or a list of them for a list port.
     #[serde(default)]
-    pub inputs: OrderedMap<Spanned<String>>,
+    pub inputs: OrderedMap<Spanned<RawInput>>,
     /// Swept parameter → values; several entries sweep their cartesian product.
     #[serde(default)]
     pub matrix: OrderedMap<Spanned<RawSweep>>,

@@ -7,10 +7,10 @@ use std::sync::Arc;
 
 use petgraph::graph::{DiGraph, NodeIndex};
 use serde_saphyr::Spanned;
-use squeal_contract::{Arity, ParamSpec, ParamType, Stage, Value};
+use squeal_contract::{Arity, ParamSpec, ParamType, PortSpec, Stage, Value};
 
 use crate::resources::{JobDefaults, StageResources};
-use crate::spec::{self, Located, Location, RawStage, RawSweep, RawValue, SpecError};
+use crate::spec::{self, Located, Location, RawInput, RawStage, RawSweep, RawValue, SpecError};
 use crate::units;
 
 /// The stage kinds a study may use, by kind name.
@@ -407,18 +407,12 @@ impl Validator<'_> {
         stage: &dyn Stage,
         raw: &RawStage,
     ) -> Result<Vec<InputDecl>, SpecError> {
-        let Validator {
-            file,
-            registry,
-            raw_stages,
-            stage_index,
-            ..
-        } = *self;
+        let file = self.file;
         let ports = stage.inputs();
         let mut inputs = Vec::new();
-        for (port_name, reference) in &raw.inputs.0 {
+        for (port_name, connection) in &raw.inputs.0 {
             let input_path = format!("{path}.inputs.{port_name}");
-            let reference = spec::located(file, reference.clone());
+            let connection = spec::located(file, connection.clone());
             let port = ports
                 .iter()
                 .find(|port| port.name == port_name)
@@ -429,7 +423,7 @@ impl Validator<'_> {
                     } else {
                         known.join(", ")
                     };
-                    reference.error(
+                    connection.error(
                         &input_path,
                         format!(
                             "`{}` has no input `{port_name}` (inputs: {known})",
@@ -437,57 +431,47 @@ impl Validator<'_> {
                         ),
                     )
                 })?;
-            let (from_name, output) = reference
-                .value
-                .split_once('.')
-                .ok_or_else(|| reference.error(&input_path, "expected `stage.output`"))?;
-            let from = *stage_index.get(from_name).ok_or_else(|| {
-                reference.error(&input_path, format!("no stage named `{from_name}`"))
-            })?;
-            let mut output = output;
-            // The upstream kind was validated or will be: look it up without failing twice.
-            if let Some(upstream) = registry.get(&raw_stages[from].1.kind.value) {
-                if let Some((_, new)) = upstream
-                    .renamed_outputs()
-                    .iter()
-                    .find(|(old, _)| *old == output)
-                {
-                    let message = format!(
-                        "output `{from_name}.{output}` is now `{from_name}.{new}`; \
-                         the old name is read until the next release"
-                    );
-                    tracing::warn!("{}", reference.error(&input_path, message));
-                    output = new;
+            let references = match (&connection.value, port.arity) {
+                (RawInput::One(reference), _) => vec![Located {
+                    location: connection.location.clone(),
+                    value: reference.clone(),
+                }],
+                (RawInput::List(references), Arity::List) => {
+                    if references.is_empty() {
+                        return Err(connection.error(&input_path, "the list is empty"));
+                    }
+                    references
+                        .iter()
+                        .map(|reference| spec::located(file, reference.clone()))
+                        .collect()
                 }
-                let out = crate::ports::outputs_of(upstream.as_ref())
-                    .find(|out| out.name == output)
-                    .ok_or_else(|| {
-                        let known: Vec<&str> =
-                            upstream.outputs().iter().map(|out| out.name).collect();
-                        reference.error(
-                            &input_path,
-                            format!(
-                                "stage `{from_name}` has no output `{output}` (outputs: {})",
-                                known.join(", ")
-                            ),
-                        )
-                    })?;
-                if out.ty != port.ty {
-                    return Err(reference.error(
+                (RawInput::List(_), _) => {
+                    return Err(connection.error(
                         &input_path,
-                        format!(
-                            "`{from_name}.{output}` is a {}, but input `{port_name}` takes a {}",
-                            out.ty, port.ty
-                        ),
+                        format!("input `{port_name}` takes one `stage.output`, not a list"),
                     ));
                 }
+            };
+            for (item, reference) in references.iter().enumerate() {
+                let item_path = match connection.value {
+                    RawInput::One(_) => input_path.clone(),
+                    RawInput::List(_) => format!("{input_path}[{item}]"),
+                };
+                let (from, output) = self.resolve(&item_path, reference, port)?;
+                if inputs
+                    .iter()
+                    .any(|input: &InputDecl| input.port == port.name && input.from == from)
+                {
+                    return Err(reference
+                        .error(&item_path, format!("`{}` is listed twice", reference.value)));
+                }
+                inputs.push(InputDecl {
+                    port: port_name.clone(),
+                    from,
+                    output,
+                    arity: port.arity,
+                });
             }
-            inputs.push(InputDecl {
-                port: port_name.clone(),
-                from,
-                output: output.into(),
-                arity: port.arity,
-            });
         }
         for port in ports.iter().filter(|port| !port.optional) {
             if !inputs.iter().any(|input| input.port == port.name) {
@@ -498,6 +482,68 @@ impl Validator<'_> {
             }
         }
         Ok(inputs)
+    }
+
+    /// The upstream stage and output that `reference` (`stage.output`) names, checked against
+    /// the port it feeds.
+    fn resolve(
+        &self,
+        input_path: &str,
+        reference: &Located<String>,
+        port: &PortSpec,
+    ) -> Result<(usize, String), SpecError> {
+        let Validator {
+            registry,
+            raw_stages,
+            stage_index,
+            ..
+        } = *self;
+        let port_name = port.name;
+        let (from_name, output) = reference
+            .value
+            .split_once('.')
+            .ok_or_else(|| reference.error(input_path, "expected `stage.output`"))?;
+        let from = *stage_index
+            .get(from_name)
+            .ok_or_else(|| reference.error(input_path, format!("no stage named `{from_name}`")))?;
+        let mut output = output;
+        // The upstream kind was validated or will be: look it up without failing twice.
+        if let Some(upstream) = registry.get(&raw_stages[from].1.kind.value) {
+            if let Some((_, new)) = upstream
+                .renamed_outputs()
+                .iter()
+                .find(|(old, _)| *old == output)
+            {
+                let message = format!(
+                    "output `{from_name}.{output}` is now `{from_name}.{new}`; \
+                     the old name is read until the next release"
+                );
+                tracing::warn!("{}", reference.error(input_path, message));
+                output = new;
+            }
+            let out = crate::ports::outputs_of(upstream.as_ref())
+                .find(|out| out.name == output)
+                .ok_or_else(|| {
+                    let known: Vec<&str> = upstream.outputs().iter().map(|out| out.name).collect();
+                    reference.error(
+                        input_path,
+                        format!(
+                            "stage `{from_name}` has no output `{output}` (outputs: {})",
+                            known.join(", ")
+                        ),
+                    )
+                })?;
+            if out.ty != port.ty {
+                return Err(reference.error(
+                    input_path,
+                    format!(
+                        "`{from_name}.{output}` is a {}, but input `{port_name}` takes a {}",
+                        out.ty, port.ty
+                    ),
+                ));
+            }
+        }
+        Ok((from, output.into()))
     }
 }
 

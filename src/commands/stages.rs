@@ -26,10 +26,10 @@ pub fn stages(registry: &Registry) -> ExitCode {
             stage.doc()
         );
         for port in stage.inputs() {
-            let many = if port.arity == squeal_stages::Arity::Many {
-                ", gathers a sweep"
-            } else {
-                ""
+            let many = match port.arity {
+                squeal_stages::Arity::One => "",
+                squeal_stages::Arity::Many => ", gathers a sweep",
+                squeal_stages::Arity::List => ", a list of references",
             };
             let optional = if port.optional { ", optional" } else { "" };
             println!(

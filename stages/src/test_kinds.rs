@@ -1,5 +1,5 @@
-//! Stage kinds for exercising the engine: a constant source, arithmetic (of one input, and a
-//! sum of two, for DAGs that join), rounding (whose output
+//! Stage kinds for exercising the engine: a constant source, arithmetic (of one input, a sum
+//! of two for DAGs that join, and a total over a list of inputs), rounding (whose output
 //! often does not change when its input does, which exercises early cutoff), a sleep and a
 //! failure. Registered only when a test asks for them (`SQUEAL_TEST_KINDS=1`).
 
@@ -16,6 +16,7 @@ pub fn kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(Constant),
         Arc::new(Affine),
         Arc::new(Sum),
+        Arc::new(Total),
         Arc::new(Round),
         Arc::new(Sleep),
         Arc::new(Fail),
@@ -146,6 +147,51 @@ impl Stage for Sum {
         Ok(x_table(
             a.iter().zip(&b).map(|(a, b)| a + b + offset).collect(),
         ))
+    }
+}
+
+pub struct Total;
+
+impl HasParams for Total {
+    type Params = SumParams;
+}
+
+impl Stage for Total {
+    fn kind(&self) -> &'static str {
+        "test.total"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn doc(&self) -> &'static str {
+        "Test list input: x -> the sum of every listed table's x + offset, row by row"
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        vec![PortSpec::list(
+            "tables",
+            ArtifactType::Table,
+            "tables with an f64 column `x`",
+        )]
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        output_port()
+    }
+    fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
+        let SumParams { offset } = params.read::<Self>()?;
+        let mut total: Option<Vec<f64>> = None;
+        for table in inputs.get_list::<Table>("tables")? {
+            let Some(ColumnData::F64(values)) = table.column("x") else {
+                return Err(StageError::new("a listed table has no f64 column `x`"));
+            };
+            let total = total.get_or_insert_with(|| vec![offset; values.len()]);
+            if total.len() != values.len() {
+                return Err(StageError::new("the listed tables differ in length"));
+            }
+            for (sum, value) in total.iter_mut().zip(values) {
+                *sum += value;
+            }
+        }
+        Ok(x_table(total.unwrap_or_default()))
     }
 }
 

@@ -55,8 +55,13 @@ pub(super) fn execute(
     let instance = &context.instances.list[idx];
     let stage = &context.study.stages[instance.stage].stage;
     let mut stage_inputs = Inputs::default();
-    for input in &instance.inputs {
-        let (port, artifacts) = (&input.port, &inputs[&input.port]);
+    for (port, artifacts) in inputs {
+        let arity = instance
+            .inputs
+            .iter()
+            .find(|input| &input.port == port)
+            .expect("resolved from the instance's inputs")
+            .arity;
         let mut loaded = Vec::with_capacity(artifacts.len());
         for artifact in artifacts {
             let digest = artifact.digest.expect("settled inputs have digests");
@@ -65,9 +70,9 @@ pub(super) fn execute(
                 .map_err(|err| format!("input `{}`: {err}", artifact.reference))?;
             loaded.push((context.point_coords(idx, artifact.instance), value));
         }
-        let value = match input.arity {
+        let value = match arity {
             Arity::One => Input::One(loaded.pop().expect("one artifact").1),
-            Arity::Many => Input::Many(loaded),
+            Arity::Many | Arity::List => Input::Many(loaded),
         };
         stage_inputs.0.insert(port.clone(), value);
     }
