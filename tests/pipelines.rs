@@ -520,3 +520,77 @@ fn the_tgv_brake_study_runs_from_mesh_to_wavelet_with_57_unstable_modes() {
         assert!(out.join(figure).exists(), "{figure}");
     }
 }
+
+/// Materials declared by stages: the paper's constants given as materials give the short
+/// form's modes byte for byte; a transversely isotropic lining, softer through its thickness,
+/// lowers them; sweeping a lining constant fans out `assemble` and what follows.
+#[test]
+fn materials_declared_by_stages_reach_the_modes_and_sweep() {
+    let workspace = Workspace::new();
+    workspace.write(
+        "materials.yaml",
+        "\
+study: materials
+stages:
+  mesh:
+    kind: mesh.brake
+    params: { n_radial: 2, n_theta: 24, n_thick: 1, pucks_radial: 1, pucks_angular: 1, puck_cells: 1, puck_layers: 1 }
+  steel:
+    kind: material.isotropic
+    params: { parts: [disc], E: 2.02e11 Pa, nu: 0.29, rho: 7850, alpha: 3.75, beta: 5e-8 }
+  paper_pad:
+    kind: material.isotropic
+    params: { parts: [pad], E: 3e8 Pa, nu: 0.3, rho: 5102, alpha: 54.375, beta: 72.5e-8 }
+  lining:
+    kind: material.transversely_isotropic
+    params: { parts: [pad], E: 3e8 Pa, nu: 0.3, nu_13: 0.3, G_13: 60 MPa, rho: 5102, normal: [0, 0, 1] }
+    matrix: { E_3: [300 MPa, 150 MPa] }
+  short:
+    kind: assemble
+    inputs: { mesh: mesh.mesh }
+  listed:
+    kind: assemble
+    inputs: { mesh: mesh.mesh, materials: [steel.material, paper_pad.material] }
+  anisotropic:
+    kind: assemble
+    inputs: { mesh: mesh.mesh, materials: [steel.material, lining.material] }
+  short_modes:
+    kind: modes
+    inputs: { model: short.model }
+    params: { n_modes: 8 }
+  listed_modes:
+    kind: modes
+    inputs: { model: listed.model }
+    params: { n_modes: 8 }
+  anisotropic_modes:
+    kind: modes
+    inputs: { model: anisotropic.model }
+    params: { n_modes: 8 }
+",
+    );
+    workspace.run_ok(&["run", "materials.yaml", "--out", "out"]);
+    let out = workspace.path().join("out");
+    let bytes = |path: &str| std::fs::read(out.join(path)).unwrap();
+    assert_eq!(
+        bytes("short_modes/frequencies.parquet"),
+        bytes("listed_modes/frequencies.parquet")
+    );
+    let frequencies = |path: &str| floats(&read_parquet(&out.join(path)), "freq_hz");
+    let paper = frequencies("short_modes/frequencies.parquet");
+    let stiff = frequencies("anisotropic_modes/E_3=300000000/frequencies.parquet");
+    let soft = frequencies("anisotropic_modes/E_3=150000000/frequencies.parquet");
+    // G_13 = 60 MPa is below the isotropic pad's 115 MPa and halving E_3 softens it further:
+    // a stiffness lower in every direction lowers every frequency (to rounding, 1e-12).
+    let at_most = |a: f64, b: f64| a <= b * (1.0 + 1e-12);
+    for ((paper, stiff), soft) in paper.iter().zip(&stiff).zip(&soft) {
+        assert!(
+            at_most(*stiff, *paper) && at_most(*soft, *stiff),
+            "{paper} {stiff} {soft}"
+        );
+    }
+    assert!(
+        soft.iter()
+            .zip(&paper)
+            .any(|(soft, paper)| soft < &(0.999 * paper))
+    );
+}

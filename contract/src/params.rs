@@ -433,6 +433,21 @@ impl<T: ListItem> ParamValue for Vec<T> {
     }
 }
 
+/// A point or a direction in space, written as a list of three numbers (`[0, 0, 1]`).
+impl ParamValue for [f64; 3] {
+    fn param_type(_min: Option<f64>) -> ParamType {
+        ParamType::List
+    }
+    fn to_value(&self) -> Value {
+        self.to_vec().to_value()
+    }
+    fn from_value(value: &Value) -> Result<Self, String> {
+        let items = Vec::<f64>::from_value(value)?;
+        <[f64; 3]>::try_from(items.as_slice())
+            .map_err(|_| format!("{} numbers: expected three, [x, y, z]", items.len()))
+    }
+}
+
 /// A stage's parameter struct, as [`stage_params!`](crate::stage_params) declares it.
 pub trait StageParams: Sized + fmt::Debug + 'static {
     /// The declarations, in the struct's order.

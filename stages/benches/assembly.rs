@@ -42,14 +42,7 @@ fn main() {
         };
         let (one, two) = (rate(1), rate(2));
         // The element matrices alone, on two threads: the part of assembly that is per element.
-        let elasticity = squeal_stages::fem::material::Material {
-            youngs_modulus: 2.02e11,
-            poisson_ratio: 0.29,
-            density: 7850.0,
-            alpha: 0.0,
-            beta: 0.0,
-        }
-        .elasticity();
+        let elasticity = squeal_stages::artifact::material::isotropic_elasticity(2.02e11, 0.29);
         let started = std::time::Instant::now();
         let volume: f64 = {
             use rayon::prelude::*;

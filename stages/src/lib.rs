@@ -28,6 +28,7 @@ pub mod check;
 pub mod equilibrium;
 pub mod export;
 pub mod gather;
+pub mod material;
 pub mod mesh;
 pub mod modes;
 pub mod signal;
@@ -57,6 +58,9 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(mesh::gmsh::GmshImport),
         Arc::new(mesh::abaqus::AbaqusImport),
         Arc::new(mesh::nastran::NastranImport),
+        Arc::new(material::Isotropic),
+        Arc::new(material::TransverselyIsotropic),
+        Arc::new(material::Orthotropic),
         Arc::new(assemble::Assemble),
         Arc::new(modes::Modes),
         Arc::new(equilibrium::SlidingEquilibrium),

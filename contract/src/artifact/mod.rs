@@ -8,12 +8,14 @@ use serde::{Deserialize, Serialize};
 pub mod basis;
 pub mod complex_modes;
 pub mod equilibrium;
+pub mod material;
 pub mod mesh;
 pub mod model;
 
 pub use basis::Basis;
 pub use complex_modes::{ComplexMode, ComplexModes, ComplexShape, ShapeMatrices};
 pub use equilibrium::{ContactFrames, Equilibrium};
+pub use material::{ElasticLaw, Material};
 pub use mesh::{ContactPair, Element, ElementKind, Elements, Mesh};
 pub use model::{CscMatrix, Model, RealModes};
 
@@ -40,6 +42,8 @@ pub enum Artifact {
     Equilibrium(Box<Equilibrium>),
     Basis(Box<Basis>),
     ComplexModes(Box<ComplexModes>),
+    /// Last, so that the variants before it keep their encoding.
+    Material(Box<Material>),
 }
 
 /// Bytes of a file format, with the extension it is written under.
@@ -68,6 +72,7 @@ pub enum ArtifactType {
     Equilibrium,
     Basis,
     ComplexModes,
+    Material,
 }
 
 impl ArtifactType {
@@ -82,6 +87,7 @@ impl ArtifactType {
             ArtifactType::Equilibrium => "equilibrium",
             ArtifactType::Basis => "basis",
             ArtifactType::ComplexModes => "complex modes",
+            ArtifactType::Material => "material",
         }
     }
 }
@@ -127,6 +133,7 @@ artifact_value!(
     Equilibrium(Equilibrium),
     Basis(Basis),
     ComplexModes(ComplexModes),
+    Material(Material),
 );
 
 /// The bytes could not be decoded as an artifact (a corrupt or foreign cache object).
@@ -146,6 +153,7 @@ impl Artifact {
             Artifact::Equilibrium(_) => ArtifactType::Equilibrium,
             Artifact::Basis(_) => ArtifactType::Basis,
             Artifact::ComplexModes(_) => ArtifactType::ComplexModes,
+            Artifact::Material(_) => ArtifactType::Material,
         }
     }
 

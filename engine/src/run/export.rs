@@ -107,7 +107,8 @@ pub(super) fn export(
             | Artifact::RealModes(_)
             | Artifact::Equilibrium(_)
             | Artifact::Basis(_)
-            | Artifact::ComplexModes(_) => files = Vec::new(),
+            | Artifact::ComplexModes(_)
+            | Artifact::Material(_) => files = Vec::new(),
         }
         for (file, bytes) in &files {
             let path = out_dir.join(file);

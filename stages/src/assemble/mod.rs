@@ -9,8 +9,11 @@
 //! C = Σ_parts (α_p M_p + β_p K_p) (Rayleigh damping per part, [`material`])
 //! ```
 //!
-//! Each part of the mesh names its material: `disc` or `pad` (the paper's Table 1 are the
-//! defaults). The DOFs of the node sets listed in `clamped` are removed (`u = 0` there); the
+//! Every part of the mesh has one material ([`crate::artifact::material`]): those of the
+//! `materials` input (`material.*` stages, each naming its parts), or, when none is connected,
+//! the short form for a mesh of the two parts `disc` and `pad`, whose constants are this
+//! stage's `*_disc` and `*_pad` parameters (the paper's Table 1 by default). An element whose
+//! material axes vary in space (a cylindrical frame) takes them at its centre. The DOFs of the node sets listed in `clamped` are removed (`u = 0` there); the
 //! others are numbered node by node ([`dofs`]). Element matrices are computed in parallel and
 //! summed in a fixed order ([`sparse`]): the matrices are bit-identical from run to run.
 
@@ -29,8 +32,11 @@ use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageErr
 use crate::table::Table;
 
 use crate::artifact::ElementKind;
+use crate::artifact::material::{ElasticLaw, Elasticity, Material};
 use crate::fem::element::{self, Degenerate, ElementMatrices};
-use crate::fem::material::{MATERIAL_PARTS, Material};
+
+/// The parts of the short form, whose materials are this stage's parameters.
+pub const SHORT_FORM_PARTS: [&str; 2] = ["disc", "pad"];
 
 /// How many offending elements an error message names.
 const ELEMENTS_NAMED_IN_ERRORS: usize = 5;
@@ -39,8 +45,9 @@ const ELEMENTS_NAMED_IN_ERRORS: usize = 5;
 pub struct Assemble;
 
 crate::stage_params! {
-    /// The parameters of `assemble`: the materials of the parts `disc` and `pad` (the paper's
-    /// Table 1 by default) and the clamped node sets.
+    /// The parameters of `assemble`: the clamped node sets, and the short form's materials of
+    /// the parts `disc` and `pad` (the paper's Table 1 by default), used when no `materials`
+    /// are connected.
     pub struct AssembleParams {
         /// Young's modulus of the disc
         #[unit = "Pa"]
@@ -84,32 +91,70 @@ crate::stage_params! {
 }
 
 impl AssembleParams {
-    /// The material of part `part`: `disc` or `pad` ([`MATERIAL_PARTS`]).
+    /// The short form's material of part `part`: `disc` or `pad` ([`SHORT_FORM_PARTS`]).
     pub fn material(&self, part: &str) -> Result<Material, StageError> {
-        let material = match part {
-            "disc" => Material {
-                youngs_modulus: self.E_disc,
-                poisson_ratio: self.nu_disc,
-                density: self.rho_disc,
-                alpha: self.alpha_disc,
-                beta: self.beta_disc,
-            },
-            "pad" => Material {
-                youngs_modulus: self.E_pad,
-                poisson_ratio: self.nu_pad,
-                density: self.rho_pad,
-                alpha: self.alpha_pad,
-                beta: self.beta_pad,
-            },
+        let (E, nu, rho, alpha, beta) = match part {
+            "disc" => (
+                self.E_disc,
+                self.nu_disc,
+                self.rho_disc,
+                self.alpha_disc,
+                self.beta_disc,
+            ),
+            "pad" => (
+                self.E_pad,
+                self.nu_pad,
+                self.rho_pad,
+                self.alpha_pad,
+                self.beta_pad,
+            ),
             other => {
                 return Err(StageError::new(format!(
-                    "part `{other}` has no material: parts must be named {}",
-                    MATERIAL_PARTS.join(" or ")
+                    "part `{other}` has no material: without `materials` (a list of \
+                     `material.*` stages), the parts must be named {}",
+                    SHORT_FORM_PARTS.join(" or ")
                 )));
             }
         };
-        material.check(part)?;
+        let material = Material {
+            name: part.to_string(),
+            parts: vec![part.to_string()],
+            law: ElasticLaw::Isotropic {
+                youngs_modulus: E,
+                poisson_ratio: nu,
+            },
+            density: rho,
+            alpha,
+            beta,
+        };
+        material.check().map_err(|err| {
+            StageError::new(format!(
+                "{} (the short form's `*_{part}` parameters)",
+                err.message
+            ))
+        })?;
         Ok(material)
+    }
+
+    /// The first short-form parameter set away from its default, by name.
+    fn short_form_given(&self) -> Result<Option<&'static str>, StageError> {
+        let defaults = Params::defaults(&Assemble, &[]).read::<Assemble>()?;
+        let pairs = [
+            ("E_disc", self.E_disc, defaults.E_disc),
+            ("nu_disc", self.nu_disc, defaults.nu_disc),
+            ("rho_disc", self.rho_disc, defaults.rho_disc),
+            ("alpha_disc", self.alpha_disc, defaults.alpha_disc),
+            ("beta_disc", self.beta_disc, defaults.beta_disc),
+            ("E_pad", self.E_pad, defaults.E_pad),
+            ("nu_pad", self.nu_pad, defaults.nu_pad),
+            ("rho_pad", self.rho_pad, defaults.rho_pad),
+            ("alpha_pad", self.alpha_pad, defaults.alpha_pad),
+            ("beta_pad", self.beta_pad, defaults.beta_pad),
+        ];
+        Ok(pairs
+            .into_iter()
+            .find(|(_, value, default)| value != default)
+            .map(|(name, _, _)| name))
     }
 }
 
@@ -131,11 +176,16 @@ impl Stage for Assemble {
     }
 
     fn inputs(&self) -> Vec<PortSpec> {
-        vec![PortSpec::one(
-            "mesh",
-            ArtifactType::Mesh,
-            "mesh of solid elements with parts `disc` and `pad`",
-        )]
+        vec![
+            PortSpec::one("mesh", ArtifactType::Mesh, "mesh of solid elements"),
+            PortSpec::list(
+                "materials",
+                ArtifactType::Material,
+                "one material for each part of the mesh; without, the short form: parts `disc` \
+                 and `pad`, their constants this stage's parameters",
+            )
+            .optional(),
+        ]
     }
 
     fn outputs(&self) -> Vec<PortSpec> {
@@ -152,7 +202,8 @@ impl Stage for Assemble {
     fn run(&self, params: &Params, inputs: &Inputs) -> Result<Outputs, StageError> {
         let mesh: &Mesh = inputs.get("mesh")?;
         let params = params.read::<Self>()?;
-        let (model, summary) = assemble_model(mesh, &params)?;
+        let materials = part_materials(mesh, &params, &inputs.get_list("materials")?)?;
+        let (model, summary) = assemble_with(mesh, &params.clamped, &materials)?;
         Ok(Outputs::from([
             ("model".to_string(), Artifact::Model(Box::new(model))),
             ("summary".to_string(), Artifact::Table(summary)),
@@ -181,11 +232,60 @@ fn check_mesh(mesh: &Mesh) -> Result<(), StageError> {
     Ok(())
 }
 
-/// The material of every part, by part index.
-fn part_materials(mesh: &Mesh, params: &AssembleParams) -> Result<Vec<Material>, StageError> {
+/// The material of every part of the mesh, by part index: one of `declared` (the `materials`
+/// input) for each, or the short form's when none is declared.
+fn part_materials(
+    mesh: &Mesh,
+    params: &AssembleParams,
+    declared: &[&Material],
+) -> Result<Vec<Material>, StageError> {
+    if declared.is_empty() {
+        return mesh
+            .parts
+            .iter()
+            .map(|part| params.material(part))
+            .collect();
+    }
+    if let Some(name) = params.short_form_given()? {
+        return Err(StageError::new(format!(
+            "`{name}` is the short form for meshes of parts `disc` and `pad`: with `materials` \
+             connected, give every constant in the materials"
+        )));
+    }
+    let mut owner: Vec<Option<&Material>> = vec![None; mesh.parts.len()];
+    for &material in declared {
+        for part in &material.parts {
+            let Some(index) = mesh.parts.iter().position(|name| name == part) else {
+                return Err(StageError::new(format!(
+                    "material `{}` names part `{part}`, which the mesh does not have (its parts: {})",
+                    material.name,
+                    mesh.parts.join(", ")
+                )));
+            };
+            if let Some(other) = owner[index] {
+                return Err(StageError::new(format!(
+                    "part `{part}` is named by two materials, `{}` and `{}`",
+                    other.name, material.name
+                )));
+            }
+            owner[index] = Some(material);
+        }
+    }
     mesh.parts
         .iter()
-        .map(|part| params.material(part))
+        .zip(owner)
+        .map(|(part, owner)| {
+            owner.cloned().ok_or_else(|| {
+                let names: Vec<String> = declared
+                    .iter()
+                    .map(|material| format!("`{}`", material.name))
+                    .collect();
+                StageError::new(format!(
+                    "part `{part}` of the mesh has no material (the materials name {})",
+                    names.join(", ")
+                ))
+            })
+        })
         .collect()
 }
 
@@ -229,17 +329,37 @@ fn warn_of_linear_tetrahedra(mesh: &Mesh) {
     }
 }
 
-/// The model of `mesh` with the node sets `params.clamped` fixed, and its summary table.
+/// The model of `mesh` with the short form's materials and the node sets `params.clamped`
+/// fixed, and its summary table.
 pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Table), StageError> {
+    let materials = part_materials(mesh, params, &[])?;
+    assemble_with(mesh, &params.clamped, &materials)
+}
+
+/// The model of `mesh` with `materials` by part index and the node sets `clamped` fixed, and
+/// its summary table.
+pub fn assemble_with(
+    mesh: &Mesh,
+    clamped: &[String],
+    materials: &[Material],
+) -> Result<(Model, Table), StageError> {
     check_mesh(mesh)?;
-    let materials = part_materials(mesh, params)?;
-    let (dof_of_node, n_dofs) = dofs::number_dofs(mesh, &params.clamped)?;
+    let (dof_of_node, n_dofs) = dofs::number_dofs(mesh, clamped)?;
     if n_dofs == 0 {
         return Err(StageError::new(
             "every node is clamped: the model has no free DOF",
         ));
     }
-    let elasticities: Vec<[[f64; 6]; 6]> = materials.iter().map(Material::elasticity).collect();
+    // A material whose axes do not vary has one elasticity for all its elements.
+    let uniform: Vec<Option<Elasticity>> = materials
+        .iter()
+        .map(|material| {
+            material
+                .is_uniform()
+                .then(|| material.elasticity_at([0.0; 3]))
+                .transpose()
+        })
+        .collect::<Result<_, _>>()?;
 
     warn_of_linear_tetrahedra(mesh);
     let results: Vec<Result<ElementMatrices, Degenerate>> = (0..mesh.elements.len())
@@ -252,14 +372,18 @@ pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Ta
                 .map(|&node| mesh.nodes[node as usize])
                 .collect();
             let part = element.part as usize;
-            element::element_matrices(
+            let D = match uniform[part] {
+                Some(D) => D,
+                None => element_elasticity(&materials[part], element.kind, &coords)?,
+            };
+            Ok(element::element_matrices(
                 element.kind,
                 &coords,
-                &elasticities[part],
+                &D,
                 materials[part].density,
-            )
+            ))
         })
-        .collect();
+        .collect::<Result<_, StageError>>()?;
     let failures: Vec<(usize, Degenerate)> = results
         .iter()
         .enumerate()
@@ -282,7 +406,7 @@ pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Ta
         .collect();
 
     let assembled = sparse::assemble(mesh, &dof_of_node, n_dofs, &elements, &damping);
-    let summary = summary_table(mesh, &materials, &dof_of_node, &elements, n_dofs);
+    let summary = summary_table(mesh, materials, &dof_of_node, &elements, n_dofs);
     let model = Model {
         mesh: mesh.clone(),
         dof_of_node: dof_of_node.clone(),
@@ -339,6 +463,23 @@ fn summary_table(
         .with("n_dofs", dofs)
         .with("volume_m3", volume)
         .with("mass_kg", masses)
+}
+
+/// The elasticity of `material` in an element of `kind` with node coordinates `coords`: at the
+/// element's centre, where the material's axes vary in space.
+pub fn element_elasticity(
+    material: &Material,
+    kind: ElementKind,
+    coords: &[[f64; 3]],
+) -> Result<Elasticity, StageError> {
+    let corners = &coords[..kind.n_corners()];
+    let mut centre = [0.0; 3];
+    for corner in corners {
+        for axis in 0..3 {
+            centre[axis] += corner[axis] / corners.len() as f64;
+        }
+    }
+    material.elasticity_at(centre)
 }
 
 /// `assemble` with default materials (some overridden by name) and the node sets of

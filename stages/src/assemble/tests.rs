@@ -1,11 +1,14 @@
 //! Verification of the assembly: exact mass, exact symmetry and reproducibility, the constant
 //! strain patch test on a distorted mesh, Rayleigh damping per part, and clear errors.
 
+use std::sync::Arc;
+
 use super::Assemble;
-use crate::artifact::Artifact;
-use crate::artifact::Model;
+use crate::artifact::material::{ElasticLaw, EngineeringConstants, Frame, Material};
+use crate::artifact::{Artifact, Mesh, Model};
 use crate::fixtures::{assemble, try_assemble};
 use crate::mesh::structured;
+use crate::stage::{Input, Inputs, Outputs, Stage, StageError};
 use crate::stage::{Params, Value};
 use crate::table::{ColumnData, Table};
 
@@ -192,5 +195,161 @@ fn non_physical_material_is_an_error() {
     .read::<Assemble>()
     .unwrap();
     let err = super::assemble_model(&mesh, &params).unwrap_err();
-    assert!(err.message.contains("nu_disc = 0.5"), "{err}");
+    assert!(
+        err.message.contains("nu = 0.5") && err.message.contains("`*_disc` parameters"),
+        "{err}"
+    );
+}
+
+fn isotropic(parts: &[&str], youngs_modulus: f64, density: f64) -> Material {
+    Material {
+        name: parts.join(", "),
+        parts: parts.iter().map(|part| part.to_string()).collect(),
+        law: ElasticLaw::Isotropic {
+            youngs_modulus,
+            poisson_ratio: 0.3,
+        },
+        density,
+        alpha: 1.0,
+        beta: 1e-7,
+    }
+}
+
+/// `assemble` run as a study runs it, with `materials` connected and `params` set.
+fn run_with_materials(
+    mesh: &Mesh,
+    materials: &[Material],
+    params: &[(&str, Value)],
+) -> Result<Outputs, StageError> {
+    let mut values = vec![("clamped", Value::Str(String::new()))];
+    values.extend(params.iter().cloned());
+    let params = Params::defaults(&Assemble, &values);
+    let listed = materials
+        .iter()
+        .map(|material| {
+            let artifact = Artifact::Material(Box::new(material.clone()));
+            (Default::default(), Arc::new(artifact))
+        })
+        .collect();
+    let inputs = Inputs(
+        [
+            (
+                "mesh".to_string(),
+                Input::One(Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
+            ),
+            ("materials".to_string(), Input::Many(listed)),
+        ]
+        .into(),
+    );
+    Assemble.run(&params, &inputs)
+}
+
+/// Two blocks side by side, parts `ring` and `lining`.
+fn two_parts() -> Mesh {
+    let mut mesh = structured::block([0.1, 0.05, 0.02], [4, 2, 1], "ring");
+    let lining = structured::block([0.1, 0.05, 0.01], [4, 2, 1], "lining");
+    let offset = mesh.nodes.len() as u32;
+    mesh.nodes
+        .extend(lining.nodes.iter().map(|[x, y, z]| [*x, *y, z + 0.02]));
+    mesh.elements.extend_shifted(&lining.elements, offset, 1);
+    mesh.parts.push("lining".into());
+    mesh
+}
+
+#[test]
+fn materials_fill_the_parts_they_name_whatever_the_parts_are_called() {
+    let mesh = two_parts();
+    let outputs = run_with_materials(
+        &mesh,
+        &[
+            isotropic(&["lining"], 3e8, 2000.0),
+            isotropic(&["ring"], 2e11, 7000.0),
+        ],
+        &[],
+    )
+    .unwrap();
+    let Artifact::Table(summary) = &outputs["summary"] else {
+        panic!("a summary table")
+    };
+    let Some(ColumnData::F64(masses)) = summary.column("mass_kg") else {
+        panic!("masses")
+    };
+    // Rounding only: volume × density of each block.
+    let expected = [7000.0 * 0.1 * 0.05 * 0.02, 2000.0 * 0.1 * 0.05 * 0.01];
+    for (mass, expected) in masses.iter().zip(expected) {
+        assert!((mass - expected).abs() <= 1e-12 * expected, "{masses:?}");
+    }
+}
+
+#[test]
+fn materials_equal_to_the_short_form_give_the_same_model_bit_for_bit() {
+    let mesh = structured::stacked_blocks(0.02, 0.03, 0.01);
+    let short = Params::defaults(&Assemble, &[("clamped", Value::Str(String::new()))])
+        .read::<Assemble>()
+        .unwrap();
+    let (short_model, _) = super::assemble_model(&mesh, &short).unwrap();
+    let materials = [
+        short.material("pad").unwrap(),
+        short.material("disc").unwrap(),
+    ];
+    let outputs = run_with_materials(&mesh, &materials, &[]).unwrap();
+    let Artifact::Model(model) = &outputs["model"] else {
+        panic!("a model")
+    };
+    assert_eq!(**model, short_model);
+}
+
+#[test]
+fn a_part_without_material_or_a_material_without_part_is_named_with_both() {
+    let mesh = two_parts();
+    let error = |materials: &[Material], params: &[(&str, Value)]| {
+        run_with_materials(&mesh, materials, params)
+            .unwrap_err()
+            .message
+    };
+    let ring = isotropic(&["ring"], 2e11, 7000.0);
+    assert_eq!(
+        error(std::slice::from_ref(&ring), &[]),
+        "part `lining` of the mesh has no material (the materials name `ring`)"
+    );
+    assert_eq!(
+        error(&[ring.clone(), isotropic(&["linings"], 3e8, 2000.0)], &[]),
+        "material `linings` names part `linings`, which the mesh does not have (its parts: ring, lining)"
+    );
+    assert_eq!(
+        error(
+            &[ring.clone(), isotropic(&["lining", "ring"], 3e8, 2000.0)],
+            &[]
+        ),
+        "part `ring` is named by two materials, `ring` and `lining, ring`"
+    );
+    let both = [ring, isotropic(&["lining"], 3e8, 2000.0)];
+    assert_eq!(
+        error(&both, &[("E_pad", Value::Float(1e9))]),
+        "`E_pad` is the short form for meshes of parts `disc` and `pad`: with `materials` \
+         connected, give every constant in the materials"
+    );
+}
+
+#[test]
+fn a_cylindrical_frame_through_an_element_is_refused() {
+    // The axis runs through the centre of the block's only element.
+    let mesh = structured::block([0.02, 0.02, 0.02], [1, 1, 1], "disc");
+    let material = Material {
+        law: ElasticLaw::Orthotropic {
+            constants: EngineeringConstants::isotropic(2e11, 0.3),
+            frame: Frame::Cylindrical {
+                origin: [0.01, 0.01, 0.0],
+                axis: [0.0, 0.0, 1.0],
+            },
+        },
+        ..isotropic(&["disc"], 2e11, 7850.0)
+    };
+    let message = run_with_materials(&mesh, &[material], &[])
+        .unwrap_err()
+        .message;
+    assert!(
+        message.starts_with("material `disc`: the cylindrical frame has no radial direction"),
+        "{message}"
+    );
 }

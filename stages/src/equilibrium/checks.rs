@@ -1,8 +1,9 @@
 //! Checks of a solution: the support reactions the pads carry, and the largest strain.
 
+use crate::artifact::Material;
 use crate::artifact::Model;
+use crate::assemble::element_elasticity;
 use crate::fem::element::{self, packed_index};
-use crate::fem::material::Material;
 use crate::stage::StageError;
 
 /// Support reactions at clamped nodes, summed per node set: the force the supports exert, from
@@ -41,18 +42,14 @@ pub fn back_reactions(
             .iter()
             .map(|&node| mesh.nodes[node as usize])
             .collect();
-        let matrices = element::element_matrices(
-            element.kind,
-            &coords,
-            &material.elasticity(),
-            material.density,
-        )
-        .map_err(|degenerate| {
-            StageError::new(format!(
-                "element {index} is degenerate: det J = {:e} at {}",
-                degenerate.det_j, degenerate.location
-            ))
-        })?;
+        let D = element_elasticity(material, element.kind, &coords)?;
+        let matrices = element::element_matrices(element.kind, &coords, &D, material.density)
+            .map_err(|degenerate| {
+                StageError::new(format!(
+                    "element {index} is degenerate: det J = {:e} at {}",
+                    degenerate.det_j, degenerate.location
+                ))
+            })?;
         let displacement = |dof: usize| {
             model.dof_of_node[element.nodes[dof / 3] as usize][dof % 3]
                 .map_or(0.0, |free| u[free as usize])

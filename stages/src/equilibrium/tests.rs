@@ -2,8 +2,8 @@ use std::collections::BTreeMap;
 
 use super::*;
 use crate::artifact::Equilibrium;
+use crate::artifact::Material;
 use crate::artifact::mesh::Mesh;
-use crate::fem::material::Material;
 use crate::fixtures::{coarse_brake, test_model};
 use crate::mesh::structured::stacked_blocks;
 use crate::stage::Value;

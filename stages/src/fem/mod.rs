@@ -1,8 +1,6 @@
-//! Finite-element kernels shared by the stages: the hexahedron (shape functions, Jacobian,
-//! element matrices, faces), the materials (Hooke's law, Rayleigh damping, density per part)
-//! and orthotropic elasticity with the frames that orient it.
+//! Finite-element kernels shared by the stages: the elements (shape functions, quadrature,
+//! element matrices) and their faces. The materials' laws are in
+//! [`crate::artifact::material`].
 
 pub mod element;
 pub mod faces;
-pub mod material;
-pub mod orthotropic;

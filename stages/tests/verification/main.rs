@@ -10,6 +10,7 @@
 
 #![allow(non_snake_case)] // matrices are named as in the equations
 
+mod anisotropy;
 mod bars_in_series;
 mod cantilever;
 mod conditioning;

@@ -354,17 +354,9 @@ pub fn gauss_point_strains(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::material::Material;
 
     fn steel() -> [[f64; 6]; 6] {
-        Material {
-            youngs_modulus: 2.0e11,
-            poisson_ratio: 0.3,
-            density: 7850.0,
-            alpha: 0.0,
-            beta: 0.0,
-        }
-        .elasticity()
+        crate::artifact::material::isotropic_elasticity(2.0e11, 0.3)
     }
 
     fn distorted_coords() -> [[f64; 3]; 8] {

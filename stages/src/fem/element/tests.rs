@@ -6,19 +6,11 @@
 
 use super::topology::{self, reference_node};
 use super::*;
-use crate::fem::material::Material;
 
 const ALL: [ElementKind; 6] = ElementKind::ALL;
 
 fn steel() -> [[f64; 6]; 6] {
-    Material {
-        youngs_modulus: 2.0e11,
-        poisson_ratio: 0.3,
-        density: 7850.0,
-        alpha: 0.0,
-        beta: 0.0,
-    }
-    .elasticity()
+    crate::artifact::material::isotropic_elasticity(2.0e11, 0.3)
 }
 
 fn shapes_at(kind: ElementKind, xi: [f64; 3]) -> (Vec<f64>, Vec<[f64; 3]>) {

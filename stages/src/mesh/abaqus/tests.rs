@@ -429,14 +429,7 @@ fn meshio_round_trips_the_flat_deck() {
 
 /// The total volume of a mesh's elements.
 fn volume(mesh: &Mesh) -> f64 {
-    let D = crate::fem::material::Material {
-        youngs_modulus: 1.0,
-        poisson_ratio: 0.3,
-        density: 1.0,
-        alpha: 0.0,
-        beta: 0.0,
-    }
-    .elasticity();
+    let D = crate::artifact::material::isotropic_elasticity(1.0, 0.3);
     mesh.elements
         .iter()
         .map(|element| {

@@ -1,6 +1,22 @@
-//! Orthotropic elasticity by engineering constants, and the material frames that orient it.
+//! A material: its elastic law, density and Rayleigh damping, and the parts of a mesh it
+//! fills.
 //!
-//! # Compliance in the material frame
+//! # Isotropic
+//! Hooke's law in Voigt notation, strains ε = (εxx, εyy, εzz, γxy, γyz, γzx) with engineering
+//! shear strains γ = 2ε:
+//!
+//! ```text
+//! σ = D ε,   D = | λ+2μ  λ     λ     0  0  0 |     λ = E ν / ((1 + ν)(1 − 2ν))
+//!                | λ     λ+2μ  λ     0  0  0 |     μ = E / (2 (1 + ν))
+//!                | λ     λ     λ+2μ  0  0  0 |
+//!                | 0     0     0     μ  0  0 |
+//!                | 0     0     0     0  μ  0 |
+//!                | 0     0     0     0  0  μ |
+//! ```
+//!
+//! Rayleigh damping of a part: `C_part = α M_part + β K_part`.
+//!
+//! # Orthotropic, in the material frame
 //! With axes 1, 2, 3 of the material, Young's moduli `E_i`, Poisson's ratios `ν_ij` (the
 //! contraction along `j` under a stress along `i`: `ν_ji / E_j = ν_ij / E_i`) and shear moduli
 //! `G_ij`, the strain is `ε = S σ` with
@@ -34,12 +50,15 @@
 //! - `global`: the material axes are x, y, z.
 //! - `cylindrical`: about an axis through a point: axis 1 radial (away from the axis), axis 2
 //!   circumferential (`3 × 1`), axis 3 along the axis: a disc's. It varies from point to
-//!   point, so it is evaluated at each quadrature point; undefined on the axis itself.
+//!   point; an element takes the frame at its centre (the mean of its corners), as Nastran
+//!   does for solids, and no element may straddle the axis.
 //! - `axes`: axis 3 along a given direction and axis 1 along another (made orthogonal to the
 //!   first): any fixed orientation.
 //! - `normal`: axis 3 along a given direction (a pad's normal), axes 1 and 2 any two
 //!   completing it: only for constants that are transversely isotropic about axis 3, which do
 //!   not depend on that choice.
+
+use serde::{Deserialize, Serialize};
 
 use crate::artifact::mesh::{cross, dot, norm, sub};
 use crate::value::StageError;
@@ -47,8 +66,120 @@ use crate::value::StageError;
 /// An elasticity matrix in Voigt order (xx, yy, zz, xy, yz, zx), engineering shear strains.
 pub type Elasticity = [[f64; 6]; 6];
 
+/// A material and the parts of a mesh made of it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    /// The study's name for it (the stage that declares it, or the part of a short form).
+    pub name: String,
+    /// The mesh's parts made of it.
+    pub parts: Vec<String>,
+    pub law: ElasticLaw,
+    /// Density ρ (kg/m³).
+    pub density: f64,
+    /// Mass-proportional damping α (1/s).
+    pub alpha: f64,
+    /// Stiffness-proportional damping β (s).
+    pub beta: f64,
+}
+
+/// How a material's stress follows its strain.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum ElasticLaw {
+    Isotropic {
+        /// Young's modulus E (Pa).
+        youngs_modulus: f64,
+        /// Poisson's ratio ν.
+        poisson_ratio: f64,
+    },
+    Orthotropic {
+        constants: EngineeringConstants,
+        frame: Frame,
+    },
+}
+
+impl Material {
+    /// Checks the constants, naming the material in the message.
+    pub fn check(&self) -> Result<(), StageError> {
+        let name = &self.name;
+        if let ElasticLaw::Isotropic {
+            youngs_modulus,
+            poisson_ratio,
+        } = self.law
+        {
+            if !(youngs_modulus > 0.0 && youngs_modulus.is_finite()) {
+                return Err(StageError::new(format!(
+                    "material `{name}`: E = {youngs_modulus} Pa: Young's modulus must be positive"
+                )));
+            }
+            if !(poisson_ratio > -1.0 && poisson_ratio < 0.5) {
+                return Err(StageError::new(format!(
+                    "material `{name}`: nu = {poisson_ratio}: Poisson's ratio must lie in (-1, 0.5)"
+                )));
+            }
+        }
+        if let ElasticLaw::Orthotropic { constants, frame } = &self.law {
+            constants.check(name)?;
+            frame.check(name, constants)?;
+        }
+        if !(self.density > 0.0 && self.density.is_finite()) {
+            return Err(StageError::new(format!(
+                "material `{name}`: rho = {} kg/m^3: density must be positive",
+                self.density
+            )));
+        }
+        if !(self.alpha.is_finite() && self.beta.is_finite()) {
+            return Err(StageError::new(format!(
+                "material `{name}`: alpha = {}, beta = {}: damping coefficients must be finite",
+                self.alpha, self.beta
+            )));
+        }
+        Ok(())
+    }
+
+    /// Whether the elasticity is the same everywhere (every frame but `cylindrical`).
+    pub fn is_uniform(&self) -> bool {
+        !matches!(
+            self.law,
+            ElasticLaw::Orthotropic {
+                frame: Frame::Cylindrical { .. },
+                ..
+            }
+        )
+    }
+
+    /// The elasticity `D` (Pa) in the global frame at point `x` (m).
+    pub fn elasticity_at(&self, x: [f64; 3]) -> Result<Elasticity, StageError> {
+        match &self.law {
+            ElasticLaw::Isotropic {
+                youngs_modulus,
+                poisson_ratio,
+            } => Ok(isotropic_elasticity(*youngs_modulus, *poisson_ratio)),
+            ElasticLaw::Orthotropic { constants, frame } => {
+                let axes = frame
+                    .axes_at(x)
+                    .map_err(|err| StageError::new(format!("material `{}`: {err}", self.name)))?;
+                Ok(to_global(&constants.material_elasticity(), &axes))
+            }
+        }
+    }
+}
+
+/// The isotropic elasticity matrix `D` (Pa) of Young's modulus `E` and Poisson's ratio `ν`.
+pub fn isotropic_elasticity(youngs_modulus: f64, poisson_ratio: f64) -> Elasticity {
+    let (E, nu) = (youngs_modulus, poisson_ratio);
+    let lame_lambda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let shear_modulus = E / (2.0 * (1.0 + nu));
+    let mut D = [[0.0; 6]; 6];
+    for row in 0..3 {
+        D[row][..3].fill(lame_lambda);
+        D[row][row] = lame_lambda + 2.0 * shear_modulus;
+        D[row + 3][row + 3] = shear_modulus;
+    }
+    D
+}
+
 /// Orthotropic engineering constants in the material frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct EngineeringConstants {
     /// `E_1, E_2, E_3` (Pa).
     pub youngs_moduli: [f64; 3],
@@ -59,7 +190,7 @@ pub struct EngineeringConstants {
 }
 
 /// The orientation of a material's axes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Frame {
     Global,
     Cylindrical { origin: [f64; 3], axis: [f64; 3] },

@@ -3,7 +3,6 @@
 //! isotropy about its axis, the frames' axes, and constants that are not a material.
 
 use super::*;
-use crate::fem::material::Material;
 
 /// Largest difference between two matrices, relative to the largest entry of `b`.
 fn distance(a: &Elasticity, b: &Elasticity) -> f64 {
@@ -57,14 +56,7 @@ fn rotation(a: f64, b: f64, c: f64) -> [[f64; 3]; 3] {
 fn isotropic_constants_give_the_isotropic_law() {
     // Tolerance 1e-14 relative: the same numbers by two formulas.
     let (E, nu) = (2.1e11, 0.29);
-    let isotropic = Material {
-        youngs_modulus: E,
-        poisson_ratio: nu,
-        density: 7850.0,
-        alpha: 0.0,
-        beta: 0.0,
-    }
-    .elasticity();
+    let isotropic = isotropic_elasticity(E, nu);
     let from_constants = EngineeringConstants::isotropic(E, nu).material_elasticity();
     assert!(distance(&from_constants, &isotropic) < 1e-14);
     let transverse =
@@ -221,4 +213,16 @@ fn constants_that_are_no_material_are_refused_with_what_is_wrong() {
     .check("lining", &lining())
     .unwrap_err();
     assert!(err.message.contains("parallel"), "{err}");
+}
+
+#[test]
+fn isotropic_elasticity_gives_the_uniaxial_stress_modulus() {
+    // Uniaxial stress: ε = (1, −ν, −ν, 0, 0, 0) gives σ = (E, 0, 0, 0, 0, 0), to rounding.
+    let D = isotropic_elasticity(2.0e11, 0.3);
+    let strain = [1.0, -0.3, -0.3, 0.0, 0.0, 0.0];
+    let stress: Vec<f64> = (0..6)
+        .map(|row| (0..6).map(|col| D[row][col] * strain[col]).sum())
+        .collect();
+    assert!((stress[0] - 2.0e11).abs() < 1e-4);
+    assert!(stress[1].abs() < 1e-4 && stress[2].abs() < 1e-4);
 }
