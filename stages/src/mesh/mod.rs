@@ -30,6 +30,3 @@ pub fn first_duplicate(elements: &Elements) -> Option<(usize, usize)> {
     }
     None
 }
-
-#[cfg(test)]
-mod fuzz_tests;
