@@ -1,11 +1,11 @@
 //! Annular plate, clamped inside and free outside: the frequencies of the modes with 0 to 4
-//! nodal diameters against Kirchhoff plate theory.
+//! nodal diameters against Kirchhoff plate theory, in hexahedra and in every element kind.
 
 use serde::Deserialize;
-use squeal_stages::artifact::Model;
 use squeal_stages::artifact::mesh::Mesh;
+use squeal_stages::artifact::{ElementKind, Model};
 use squeal_stages::assemble::with_default_materials;
-use squeal_stages::mesh::structured;
+use squeal_stages::mesh::{convert, structured};
 
 use crate::real_modes::{STEEL_E, STEEL_RHO, check_residuals_and_normalisation, lowest};
 use crate::reference;
@@ -100,5 +100,66 @@ fn annular_plate_matches_kirchhoff_theory() {
         let mut expected = vec![2; max_n + 1];
         expected[0] = 1;
         assert_eq!(seen, expected, "{counts:?}");
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlateByKind {
+    /// Hexahedral cells of the meshes, each kind made from them (split, mid-edge nodes).
+    meshes: Vec<[usize; 3]>,
+    /// Largest |ω − ω_Kirchhoff| / ω_Kirchhoff over the modes on each mesh, by kind name.
+    tolerances: std::collections::BTreeMap<String, Vec<f64>>,
+}
+
+/// The largest relative difference from Kirchhoff theory over the lowest modes with 0 to
+/// `max_n` nodal diameters, on `mesh` as elements of `kind`.
+fn worst_error_against_kirchhoff(case: &Plate, kind: ElementKind, counts: [usize; 3]) -> f64 {
+    let (a, b, h, nu) = (
+        case.outer_radius_m,
+        case.inner_radius_m,
+        case.thickness_m,
+        case.poisson,
+    );
+    let max_n = case.lambda_squared.len() - 1;
+    let mesh = convert::as_kind(&structured::annulus(b, a, 0.0, h, counts, "disc"), kind);
+    let (model, _) =
+        with_default_materials(&mesh, "inner", &[("nu_disc", nu)]).expect("assembly");
+    let solution = lowest(&model, 2 * max_n + 1);
+    check_residuals_and_normalisation(&model, &solution);
+    let rigidity = STEEL_E * h.powi(3) / (12.0 * (1.0 - nu * nu));
+    let mut worst = 0.0_f64;
+    for mode in 0..solution.lambda.len() {
+        let shape: Vec<f64> = solution.shapes.col(mode).iter().copied().collect();
+        let n = nodal_diameters(&model, &mesh, &shape, 2 * max_n).min(max_n);
+        let exact = case.lambda_squared[n] / (a * a) * (rigidity / (STEEL_RHO * h)).sqrt();
+        worst = worst.max((solution.lambda[mode].sqrt() - exact).abs() / exact);
+    }
+    worst
+}
+
+#[test]
+fn every_element_kind_approaches_kirchhoff_theory_on_the_annular_plate() {
+    let case: Plate = reference::load("annular_plate");
+    let by_kind: PlateByKind = reference::load("annular_plate_by_kind");
+    for kind in ElementKind::ALL {
+        let tolerances = &by_kind.tolerances[kind.name()];
+        let errors: Vec<f64> = by_kind
+            .meshes
+            .iter()
+            .map(|&counts| worst_error_against_kirchhoff(&case, kind, counts))
+            .collect();
+        for ((error, tolerance), counts) in errors.iter().zip(tolerances).zip(&by_kind.meshes) {
+            assert!(
+                error < tolerance,
+                "{kind} on {counts:?}: {:.2} % from Kirchhoff (tolerance {:.2} %; all meshes {errors:?})",
+                100.0 * error,
+                100.0 * tolerance
+            );
+        }
+        assert!(
+            errors.windows(2).all(|pair| pair[1] < pair[0]),
+            "{kind}: the error does not fall as the mesh is refined: {errors:?}"
+        );
     }
 }
