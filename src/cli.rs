@@ -200,6 +200,16 @@ impl From<DagFormat> for Format {
 
 #[derive(Subcommand)]
 pub enum CacheCommand {
+    /// Share a cache with the members of its folder's group (create the folder with the
+    /// team's group first): folders group-writable and setgid, entries read-only for the group,
+    /// nothing for others.
+    Init {
+        /// The cache folder [default: --cache, or .squeal/cache].
+        dir: Option<PathBuf>,
+        /// Who shares it: `group`, the members of the folder's group.
+        #[arg(long, value_parser = ["group"])]
+        shared: String,
+    },
     /// Entries and size.
     Stats,
     /// Re-hash every entry; corrupt ones are discarded and listed (exit code 1).

@@ -163,6 +163,7 @@ fn truncated_emptied_and_garbage_entries_are_recomputed_and_reported() {
         .join(&key[..2])
         .join(&key);
     assert!(record.exists());
+    std::fs::remove_file(&record).unwrap();
     std::fs::write(&record, b"{\"stage\": \"not a record\"").unwrap();
     std::fs::write(workspace.cache_dir().join("objects/zz"), b"not a folder").unwrap();
     std::fs::write(

@@ -15,9 +15,15 @@
 //!   identical content written twice lands on the same name. Only `gc` takes the lock
 //!   exclusively. The locks are the operating system's (`flock`), so a lock held by a killed
 //!   process is released with it.
+//! - Entries are read-only. A private cache leaves their mode to the umask (0444 under 022);
+//!   a cache shared by a group ([`Sharing::Group`], `config.json` at its top, made by
+//!   [`Cache::init_shared`]) has setgid, group-writable folders and entries 0440, so that every
+//!   member reads and adds entries and nobody outside the group opens it.
 
 mod digest;
 mod store;
 
 pub use digest::{Digest, ParseDigestError};
-pub use store::{ActionRecord, Cache, CacheError, GcPolicy, GcReport, Stats, VerifyReport};
+pub use store::{
+    ActionRecord, Cache, CacheError, GcPolicy, GcReport, Sharing, Stats, VerifyReport,
+};

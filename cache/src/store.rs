@@ -18,6 +18,11 @@ pub enum CacheError {
     Missing(String),
     #[error("cache {0} is in use by a running study; try again when it ends")]
     Busy(PathBuf),
+    #[error(
+        "cache {path} is shared by the members of group {group}, and you are not one: ask its \
+         owner to add you to the group, or give a cache of your own (--cache DIR)"
+    )]
+    NotAMember { path: PathBuf, group: String },
 }
 
 /// The error of a write to a read-only mount or a folder the user may not write.
@@ -78,12 +83,43 @@ pub struct GcReport {
     pub objects_removed: usize,
     pub bytes_freed: u64,
     pub bytes_kept: u64,
+    /// What this user may not remove (another's files in a folder not shared with it), with
+    /// the reason; the rest was collected.
+    pub not_removed: Vec<String>,
 }
+
+/// Who may use a cache.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sharing {
+    /// The user who writes it; others read what the umask lets them (the default).
+    Private,
+    /// Every member of the cache folder's group: folders group-writable and setgid (so that
+    /// every entry stays in the group), entries read-only for the group, nothing for others.
+    Group,
+}
+
+/// The file that makes a cache shared, written by [`Cache::init_shared`].
+const CONFIG: &str = "config.json";
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Config {
+    /// `group`: see [`Sharing::Group`].
+    shared: String,
+}
+
+/// A shared cache's folders: owner and group may list, enter and add; setgid.
+#[cfg(unix)]
+const GROUP_FOLDER_MODE: u32 = 0o2770;
+/// A shared cache's entries: read-only for owner and group.
+#[cfg(unix)]
+const GROUP_ENTRY_MODE: u32 = 0o440;
 
 /// A handle on a cache directory. Holds the directory's lock (shared, or exclusive for `gc`)
 /// for as long as it lives.
 pub struct Cache {
     root: PathBuf,
+    sharing: Sharing,
     _lock: File,
 }
 
@@ -91,24 +127,98 @@ impl Cache {
     /// Opens (creating if needed) a cache shared with other runs.
     pub fn open(root: impl Into<PathBuf>) -> Result<Cache, CacheError> {
         let root = root.into();
-        let lock = Self::lock_file(&root)?;
+        let sharing = read_sharing(&root)?;
+        let lock = Self::lock_file(&root, sharing)?;
         lock.lock_shared().map_err(io_error(&root))?;
-        Ok(Cache { root, _lock: lock })
+        Ok(Cache {
+            root,
+            sharing,
+            _lock: lock,
+        })
     }
 
     /// Opens the cache for maintenance (`gc`): fails with [`CacheError::Busy`] while any run
     /// holds it.
     pub fn open_exclusive(root: impl Into<PathBuf>) -> Result<Cache, CacheError> {
         let root = root.into();
-        let lock = Self::lock_file(&root)?;
+        let sharing = read_sharing(&root)?;
+        let lock = Self::lock_file(&root, sharing)?;
         match lock.try_lock() {
-            Ok(()) => Ok(Cache { root, _lock: lock }),
+            Ok(()) => Ok(Cache {
+                root,
+                sharing,
+                _lock: lock,
+            }),
             Err(fs::TryLockError::WouldBlock) => Err(CacheError::Busy(root)),
             Err(fs::TryLockError::Error(source)) => Err(CacheError::Io { path: root, source }),
         }
     }
 
-    fn lock_file(root: &Path) -> Result<File, CacheError> {
+    /// Makes `root` (created if needed) a cache shared by the members of its group: the
+    /// folders, every shard folder included, mode 2770 (so that a member never has to create
+    /// one), the lock file 0660, the entries already there 0440. The group is the folder's:
+    /// create it with the team's group first (`install -d -g TEAM DIR`, or `chgrp`).
+    #[cfg(unix)]
+    pub fn init_shared(root: impl Into<PathBuf>) -> Result<Cache, CacheError> {
+        use std::os::unix::fs::PermissionsExt;
+        let root = root.into();
+        let folder = |path: &Path| -> Result<(), CacheError> {
+            match fs::create_dir(path) {
+                Err(err) if err.kind() != io::ErrorKind::AlreadyExists => {
+                    return Err(CacheError::Io {
+                        path: path.to_path_buf(),
+                        source: err,
+                    });
+                }
+                _ => {}
+            }
+            fs::set_permissions(path, fs::Permissions::from_mode(GROUP_FOLDER_MODE))
+                .map_err(io_error(path))
+        };
+        fs::create_dir_all(&root).map_err(io_error(&root))?;
+        folder(&root)?;
+        for dir in ["objects", "actions", "tmp"] {
+            folder(&root.join(dir))?;
+        }
+        for dir in ["objects", "actions"] {
+            for shard in 0..=255u8 {
+                folder(&root.join(dir).join(format!("{shard:02x}")))?;
+            }
+            for entry in list_entries(&root.join(dir))? {
+                let path = root.join(dir).join(entry.shard_path());
+                fs::set_permissions(&path, fs::Permissions::from_mode(GROUP_ENTRY_MODE))
+                    .map_err(io_error(&path))?;
+            }
+        }
+        let lock = root.join("LOCK");
+        File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock)
+            .map_err(io_error(&lock))?;
+        fs::set_permissions(&lock, fs::Permissions::from_mode(0o660)).map_err(io_error(&lock))?;
+        let config = root.join(CONFIG);
+        let text = serde_json::to_vec(&Config {
+            shared: "group".into(),
+        })
+        .expect("the configuration serialises");
+        let _ = fs::remove_file(&config);
+        fs::write(&config, text).map_err(io_error(&config))?;
+        fs::set_permissions(&config, fs::Permissions::from_mode(GROUP_ENTRY_MODE))
+            .map_err(io_error(&config))?;
+        Cache::open(root)
+    }
+
+    /// Whether the members of the folder's group share this cache.
+    pub fn sharing(&self) -> Sharing {
+        self.sharing
+    }
+
+    fn lock_file(root: &Path, sharing: Sharing) -> Result<File, CacheError> {
+        if sharing == Sharing::Group {
+            check_membership(root)?;
+        }
         for dir in ["objects", "actions", "tmp"] {
             let path = root.join(dir);
             match fs::create_dir_all(&path) {
@@ -150,23 +260,77 @@ impl Cache {
     }
 
     /// Writes `bytes` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
+    /// An entry is read-only: for everyone the umask lets read it in a private cache (0444
+    /// under umask 022), for owner and group in a shared one.
     fn write_atomic(&self, path: &Path, bytes: &[u8]) -> Result<(), CacheError> {
         let tmp_dir = self.root.join("tmp");
-        let mut tmp = tempfile::Builder::new()
-            .prefix(&format!("{}-", std::process::id()))
+        let mut builder = tempfile::Builder::new();
+        let prefix = format!("{}-", std::process::id());
+        builder.prefix(&prefix);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            // Created read-only (the umask then clears what it clears); the open file stays
+            // writable.
+            builder.permissions(fs::Permissions::from_mode(0o444));
+        }
+        let mut tmp = builder
             .tempfile_in(&tmp_dir)
-            .map_err(io_error(&tmp_dir))?;
+            .map_err(|source| self.store_error(&tmp_dir, source))?;
         tmp.write_all(bytes).map_err(io_error(tmp.path()))?;
+        #[cfg(unix)]
+        if self.sharing == Sharing::Group {
+            // Not left to the umask: the group must read what a member stores.
+            use std::os::unix::fs::PermissionsExt;
+            tmp.as_file()
+                .set_permissions(fs::Permissions::from_mode(GROUP_ENTRY_MODE))
+                .map_err(io_error(tmp.path()))?;
+        }
         tmp.as_file().sync_all().map_err(io_error(tmp.path()))?;
         let dir = path.parent().expect("cache paths have a parent");
-        fs::create_dir_all(dir).map_err(io_error(dir))?;
-        tmp.persist(path).map_err(|err| CacheError::Io {
-            path: path.into(),
-            source: err.error,
-        })?;
+        self.create_folder(dir)?;
+        tmp.persist(path)
+            .map_err(|err| self.store_error(path, err.error))?;
         File::open(dir)
             .and_then(|dir| dir.sync_all())
             .map_err(io_error(dir))
+    }
+
+    /// Creates a shard folder: in a shared cache, group-writable and setgid, whatever the umask
+    /// (`init_shared` made them all: this mends one removed since).
+    fn create_folder(&self, dir: &Path) -> Result<(), CacheError> {
+        if dir.is_dir() {
+            return Ok(());
+        }
+        fs::create_dir_all(dir).map_err(|source| self.store_error(dir, source))?;
+        #[cfg(unix)]
+        if self.sharing == Sharing::Group {
+            use std::os::unix::fs::PermissionsExt;
+            fs::set_permissions(dir, fs::Permissions::from_mode(GROUP_FOLDER_MODE))
+                .map_err(io_error(dir))?;
+        }
+        Ok(())
+    }
+
+    /// A failed write into the cache, said with what to do when it is a permission.
+    fn store_error(&self, path: &Path, source: io::Error) -> CacheError {
+        if source.kind() == io::ErrorKind::PermissionDenied && self.sharing == Sharing::Private {
+            return CacheError::Io {
+                path: path.to_path_buf(),
+                source: io::Error::new(
+                    source.kind(),
+                    format!(
+                        "{source}: a private cache takes entries from its owner only; share it \
+                         with a group (`squeal cache init --shared group DIR`) or give a cache \
+                         of your own (--cache DIR)"
+                    ),
+                ),
+            };
+        }
+        CacheError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     }
 
     /// Stores bytes under their digest. Storing the same bytes twice is a no-op.
@@ -224,7 +388,9 @@ impl Cache {
         };
         match parse_action(&bytes) {
             Some(record) => {
-                if let Ok(file) = File::options().write(true).open(&path) {
+                // The owner may set the time of a read-only file; in a shared cache, another
+                // member's hit leaves it (gc's LRU order is the owner's).
+                if let Ok(file) = File::open(&path) {
                     let _ = file.set_modified(SystemTime::now());
                 }
                 Ok(Some(record))
@@ -303,10 +469,27 @@ impl Cache {
     /// Removes stray temporaries, then action records and objects as `policy` says.
     /// Needs a cache opened with [`Cache::open_exclusive`].
     pub fn gc(&self, policy: &GcPolicy) -> Result<GcReport, CacheError> {
-        for path in list_files(&self.root.join("tmp"))? {
-            fs::remove_file(&path).map_err(io_error(&path))?;
-        }
         let mut report = GcReport::default();
+        // Another user's file may be beyond this one's reach: say so and go on.
+        let remove = |path: &Path, report: &mut GcReport| -> Result<bool, CacheError> {
+            match fs::remove_file(path) {
+                Ok(()) => Ok(true),
+                Err(err) if err.kind() == io::ErrorKind::NotFound => Ok(false),
+                Err(err) if err.kind() == io::ErrorKind::PermissionDenied => {
+                    report
+                        .not_removed
+                        .push(format!("{}: {err}", path.display()));
+                    Ok(false)
+                }
+                Err(source) => Err(CacheError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                }),
+            }
+        };
+        for path in list_files(&self.root.join("tmp"))? {
+            remove(&path, &mut report)?;
+        }
         let mut actions = Vec::new();
         for entry in list_entries(&self.root.join("actions"))? {
             let pinned = policy
@@ -315,8 +498,9 @@ impl Cache {
                 .map(|keep| keep.contains(&entry.digest));
             let record = match (pinned, self.get_action_untouched(&entry.digest)) {
                 (Some(false), _) | (_, None) => {
-                    self.remove_action(&entry.digest)?;
-                    report.actions_removed += 1;
+                    if remove(&self.action_path(&entry.digest), &mut report)? {
+                        report.actions_removed += 1;
+                    }
                     continue;
                 }
                 (_, Some(record)) => record,
@@ -347,7 +531,9 @@ impl Cache {
                 if *pinned {
                     continue;
                 }
-                self.remove_action(&entry.digest)?;
+                if !remove(&self.action_path(&entry.digest), &mut report)? {
+                    continue;
+                }
                 report.actions_removed += 1;
                 for digest in record.outputs.values() {
                     let count = references.get_mut(digest).expect("counted above");
@@ -360,9 +546,7 @@ impl Cache {
             }
         }
         for (digest, bytes) in &objects {
-            if !references.contains_key(digest) {
-                let path = self.object_path(digest);
-                fs::remove_file(&path).map_err(io_error(&path))?;
+            if !references.contains_key(digest) && remove(&self.object_path(digest), &mut report)? {
                 report.objects_removed += 1;
                 report.bytes_freed += bytes;
             }
@@ -379,6 +563,72 @@ impl Cache {
     }
 }
 
+/// How the cache at `root` is shared: its `config.json`, if any.
+fn read_sharing(root: &Path) -> Result<Sharing, CacheError> {
+    let path = root.join(CONFIG);
+    let bytes = match fs::read(&path) {
+        Ok(bytes) => bytes,
+        Err(err) if err.kind() == io::ErrorKind::NotFound => return Ok(Sharing::Private),
+        Err(err) if err.kind() == io::ErrorKind::PermissionDenied => {
+            // A shared cache's configuration is the group's to read: say whose it is.
+            check_membership(root)?;
+            return Err(CacheError::Io { path, source: err });
+        }
+        Err(source) => return Err(CacheError::Io { path, source }),
+    };
+    let config: Config = serde_json::from_slice(&bytes).map_err(|err| CacheError::Io {
+        path: path.clone(),
+        source: io::Error::new(io::ErrorKind::InvalidData, err.to_string()),
+    })?;
+    match config.shared.as_str() {
+        "group" => Ok(Sharing::Group),
+        other => Err(CacheError::Io {
+            path,
+            source: io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("`shared: {other}`: the one sharing is `group`"),
+            ),
+        }),
+    }
+}
+
+/// Refuses a user outside the group of a shared cache's folder (root is never refused).
+#[cfg(unix)]
+fn check_membership(root: &Path) -> Result<(), CacheError> {
+    use std::os::unix::fs::MetadataExt;
+    let gid = fs::metadata(root).map_err(io_error(root))?.gid();
+    // SAFETY: getegid and geteuid cannot fail; getgroups writes at most `capacity` ids.
+    let member = unsafe {
+        let mut groups = vec![0 as libc::gid_t; 256];
+        let count = libc::getgroups(groups.len() as libc::c_int, groups.as_mut_ptr());
+        libc::geteuid() == 0
+            || libc::getegid() == gid
+            || (count > 0 && groups[..count as usize].contains(&gid))
+    };
+    if member {
+        Ok(())
+    } else {
+        // SAFETY: getgrgid returns null or a record valid until the next call on this thread.
+        let name = unsafe {
+            let record = libc::getgrgid(gid);
+            (!record.is_null()).then(|| {
+                std::ffi::CStr::from_ptr((*record).gr_name)
+                    .to_string_lossy()
+                    .into_owned()
+            })
+        };
+        Err(CacheError::NotAMember {
+            path: root.to_path_buf(),
+            group: name.map_or(format!("{gid}"), |name| format!("`{name}` ({gid})")),
+        })
+    }
+}
+
+#[cfg(not(unix))]
+fn check_membership(_root: &Path) -> Result<(), CacheError> {
+    Ok(())
+}
+
 fn parse_action(bytes: &[u8]) -> Option<ActionRecord> {
     let newline = bytes.iter().position(|&byte| byte == b'\n')?;
     let (checksum, json) = (&bytes[..newline], &bytes[newline + 1..]);
@@ -393,6 +643,15 @@ struct Entry {
     digest: Digest,
     bytes: u64,
     modified: SystemTime,
+}
+
+impl Entry {
+    /// `ab/abcdef…`, under `objects/` or `actions/`.
+    #[cfg(unix)]
+    fn shard_path(&self) -> PathBuf {
+        let hex = self.digest.hex();
+        Path::new(&hex[..2]).join(&hex)
+    }
 }
 
 /// Every `ab/abcdef…` file under `dir`; files whose names are not digests are ignored.
@@ -438,6 +697,12 @@ fn list_files(dir: &Path) -> Result<Vec<PathBuf>, CacheError> {
 mod tests {
     use super::*;
 
+    /// Replaces a (read-only) entry's bytes, as a disk fault would.
+    fn overwrite(path: &Path, bytes: &[u8]) {
+        fs::remove_file(path).unwrap();
+        fs::write(path, bytes).unwrap();
+    }
+
     fn record(stage: &str, outputs: &[(&str, Digest)]) -> ActionRecord {
         ActionRecord {
             stage: stage.into(),
@@ -457,7 +722,7 @@ mod tests {
         let digest = cache.put_object(b"stiffness").unwrap();
         assert_eq!(cache.get_object(&digest).unwrap(), b"stiffness");
         let path = cache.object_path(&digest);
-        fs::write(&path, b"stiffnesS").unwrap();
+        overwrite(&path, b"stiffnesS");
         assert!(matches!(
             cache.get_object(&digest),
             Err(CacheError::Corrupt { .. })
@@ -482,7 +747,7 @@ mod tests {
         let mut bytes = fs::read(&path).unwrap();
         let last = bytes.len() - 2;
         bytes[last] ^= 1;
-        fs::write(&path, bytes).unwrap();
+        overwrite(&path, &bytes);
         assert!(matches!(
             cache.get_action(&key),
             Err(CacheError::Corrupt { .. })
@@ -552,7 +817,7 @@ mod tests {
             .put_action(&key, &record("modes", &[("modes", digest)]))
             .unwrap();
         assert!(cache.verify().unwrap().problems.is_empty());
-        fs::write(cache.object_path(&digest), b"modeS").unwrap();
+        overwrite(&cache.object_path(&digest), b"modeS");
         let report = cache.verify().unwrap();
         assert_eq!(report.problems.len(), 2, "{:?}", report.problems);
         assert!(report.problems[1].contains("stage modes"));

@@ -19,18 +19,27 @@ use parquet::file::properties::WriterProperties;
 use squeal_contract::{ColumnData, Table};
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename: a reader
-/// sees the old file or the new one, never half of one. Not fsynced: everything written here
-/// (outputs, manifest, record) can be regenerated from the cache, which is. A process killed
-/// between the two leaves its temporary file, which [`remove_stray_temporaries`] removes.
+/// sees the old file or the new one, never half of one. The file gets the mode the umask gives
+/// (0644 under umask 022), as a file created in place would, not a temporary file's 0600. Not
+/// fsynced: everything written here (outputs, manifest, record) can be regenerated from the
+/// cache, which is. A process killed between the two leaves its temporary file, which
+/// [`remove_stray_temporaries`] removes.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
         .filter(|dir| !dir.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
-    let mut tmp = tempfile::Builder::new()
-        .prefix(&format!("{TEMPORARY_PREFIX}{}-", std::process::id()))
-        .tempfile_in(dir)?;
+    let mut builder = tempfile::Builder::new();
+    let prefix = format!("{TEMPORARY_PREFIX}{}-", std::process::id());
+    builder.prefix(&prefix);
+    #[cfg(unix)]
+    {
+        // The mode `open` gives a new file before the umask clears its bits.
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(dir)?;
     tmp.write_all(bytes)?;
     tmp.persist(path).map_err(|err| err.error)?;
     Ok(())

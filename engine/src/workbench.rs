@@ -77,8 +77,8 @@ pub struct Workbench {
 }
 
 impl Workbench {
-    /// The cache: `cache` (`--cache`) if given, else `.squeal/cache` beside the study, or in
-    /// the current folder without one.
+    /// The cache: `cache` (`--cache`) if given, else `.squeal/cache` beside the study (or in
+    /// `SQUEAL_STATE_DIR`), or in the current folder without a study.
     pub fn cache_dir(cache: Option<&Path>, study: Option<&Path>) -> PathBuf {
         match (cache, study) {
             (Some(dir), _) => dir.to_path_buf(),
@@ -206,9 +206,8 @@ impl Workbench {
         let record_path = self.record_path();
         let record = RunRecord::load(&record_path);
         let options = RunOptions::local(jobs, out_dir.to_path_buf(), true);
-        run::run(&self.context(&cache, &record), &options, Some(&record_path)).map_err(Error::file(
-            format!("writing outputs to {}", out_dir.display()),
-        ))
+        run::run(&self.context(&cache, &record), &options, Some(&record_path))
+            .map_err(Error::file(format!("running {}", self.path.display())))
     }
 
     /// What a Slurm run would submit, as the shell commands and scripts; submits nothing.
@@ -417,10 +416,17 @@ pub struct SlurmOutcome {
     pub dir: PathBuf,
 }
 
-/// The folder beside the study where squeal keeps its cache, run records and Slurm runs.
+/// Where squeal keeps a study's default cache, run record and Slurm runs: `SQUEAL_STATE_DIR`
+/// when set (for a study in a folder the user may not write), else `.squeal` beside the study.
 fn state_dir(study: &Path) -> PathBuf {
-    study.parent().unwrap_or(Path::new(".")).join(".squeal")
+    match std::env::var_os(STATE_DIR_VARIABLE) {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => study.parent().unwrap_or(Path::new(".")).join(".squeal"),
+    }
 }
+
+/// The environment variable that moves [`state_dir`].
+const STATE_DIR_VARIABLE: &str = "SQUEAL_STATE_DIR";
 
 /// `out/STEM`.
 fn default_out_dir(study: &Path) -> PathBuf {

@@ -1,4 +1,4 @@
-//! `squeal cache stats | verify | gc`: inspect and maintain the cache.
+//! `squeal cache init | stats | verify | gc`: share, inspect and maintain the cache.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -16,6 +16,16 @@ pub fn cache(
     command: &CacheCommand,
 ) -> Result<ExitCode> {
     match command {
+        CacheCommand::Init { dir, .. } => {
+            let dir = dir
+                .clone()
+                .unwrap_or_else(|| Workbench::cache_dir(cache, None));
+            let cache = Cache::init_shared(&dir)?;
+            println!(
+                "cache {} is shared by the members of its group: folders 2770 (setgid), entries 0440",
+                cache.root().display()
+            );
+        }
         CacheCommand::Stats => {
             let cache = Cache::open(Workbench::cache_dir(cache, None))?;
             let stats = cache.stats()?;
@@ -63,6 +73,16 @@ pub fn cache(
                 format_size(report.bytes_freed),
                 format_size(report.bytes_kept)
             );
+            if !report.not_removed.is_empty() {
+                println!(
+                    "{} entries could not be removed (they belong to another user, in a folder \
+                     you may not change):",
+                    report.not_removed.len()
+                );
+                for line in &report.not_removed {
+                    println!("  {line}");
+                }
+            }
         }
     }
     Ok(ExitCode::SUCCESS)

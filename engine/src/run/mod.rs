@@ -187,15 +187,34 @@ pub fn run(
                 );
             }
         }
-        record.save(record_path)?;
+        record.save(record_path).map_err(|err| {
+            std::io::Error::new(
+                err.kind(),
+                format!(
+                    "writing the run record {}: {err} (it goes beside the study: make that \
+                     folder writable, or set SQUEAL_STATE_DIR to a folder you can write)",
+                    record_path.display()
+                ),
+            )
+        })?;
     }
     let outcome = RunOutcome {
         instances: settled.into_iter().map(|(_, outcome)| outcome).collect(),
         wall_s: started.elapsed().as_secs_f64(),
     };
     if let Some(out_dir) = &options.out_dir {
-        export::write_record(out_dir, &exports)?;
-        crate::manifest::write(&out_dir.join("manifest.parquet"), &outcome)?;
+        let writing_outputs = |err: std::io::Error| {
+            std::io::Error::new(
+                err.kind(),
+                format!(
+                    "writing outputs to {}: {err} (give a folder you can write with --out)",
+                    out_dir.display()
+                ),
+            )
+        };
+        export::write_record(out_dir, &exports).map_err(writing_outputs)?;
+        crate::manifest::write(&out_dir.join("manifest.parquet"), &outcome)
+            .map_err(writing_outputs)?;
     }
     Ok(outcome)
 }

@@ -247,7 +247,7 @@ pub fn run(
         },
         Some(record_path),
     )
-    .map_err(|err| format!("writing outputs to {}: {err}", options.out_dir.display()))?;
+    .map_err(|err| format!("the final local pass: {err}"))?;
     report.wall_s = started.elapsed().as_secs_f64();
     Ok((report, submitted))
 }

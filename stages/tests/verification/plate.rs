@@ -123,8 +123,7 @@ fn worst_error_against_kirchhoff(case: &Plate, kind: ElementKind, counts: [usize
     );
     let max_n = case.lambda_squared.len() - 1;
     let mesh = convert::as_kind(&structured::annulus(b, a, 0.0, h, counts, "disc"), kind);
-    let (model, _) =
-        with_default_materials(&mesh, "inner", &[("nu_disc", nu)]).expect("assembly");
+    let (model, _) = with_default_materials(&mesh, "inner", &[("nu_disc", nu)]).expect("assembly");
     let solution = lowest(&model, 2 * max_n + 1);
     check_residuals_and_normalisation(&model, &solution);
     let rigidity = STEEL_E * h.powi(3) / (12.0 * (1.0 - nu * nu));
