@@ -204,16 +204,17 @@ pub fn assemble(
             }
         });
 
-    let matrix = |values: Vec<f64>| CscMatrix {
+    let matrix = |col_ptr: Vec<usize>, row_idx: Vec<usize>, values: Vec<f64>| CscMatrix {
         n_rows: n_dofs,
         n_cols: n_dofs,
-        col_ptr: col_ptr.clone(),
-        row_idx: row_idx.clone(),
+        col_ptr,
+        row_idx,
         values,
     };
+    // Two copies of the pattern; the third matrix takes the original.
     Assembled {
-        M: matrix(M_values),
-        K: matrix(K_values),
-        C: matrix(C_values),
+        M: matrix(col_ptr.clone(), row_idx.clone(), M_values),
+        K: matrix(col_ptr.clone(), row_idx.clone(), K_values),
+        C: matrix(col_ptr, row_idx, C_values),
     }
 }
