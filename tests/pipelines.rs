@@ -179,6 +179,27 @@ fn the_mu_sweep_tracks_modes_across_mu() {
     assert_eq!(gathered.num_rows(), tracked.num_rows());
 }
 
+/// The lining study: materials by stages, a swept lining constant fanning out the model, and
+/// fewer unstable modes as the lining softens through its thickness (20, 5, 0 when written).
+#[test]
+fn the_lining_study_sweeps_a_transversely_isotropic_lining() {
+    let workspace = Workspace::new();
+    let study = pipeline("lining.yaml");
+    workspace.run_ok(&["run", &study, "--out", "out", "--cache", "cache"]);
+    let gathered = read_parquet(&workspace.path().join("out/eigenvalues/gathered.parquet"));
+    let (modulus, unstable) = (floats(&gathered, "E_3"), booleans(&gathered, "unstable"));
+    let count = |value: f64| {
+        (0..gathered.num_rows())
+            .filter(|&row| modulus[row] == value && unstable[row])
+            .count()
+    };
+    let counts = [count(3e8), count(1.5e8), count(7.5e7)];
+    assert!(
+        counts[0] > counts[1] && counts[1] > counts[2],
+        "unstable eigenvalues at E_3 = 300, 150, 75 MPa: {counts:?}"
+    );
+}
+
 #[test]
 fn the_hoffmann_study_gives_the_closed_form_eigenvalue() {
     let workspace = Workspace::new();
