@@ -210,11 +210,6 @@ impl Cache {
         Cache::open(root)
     }
 
-    /// Whether the members of the folder's group share this cache.
-    pub fn sharing(&self) -> Sharing {
-        self.sharing
-    }
-
     fn lock_file(root: &Path, sharing: Sharing) -> Result<File, CacheError> {
         if sharing == Sharing::Group {
             check_membership(root)?;

@@ -58,38 +58,49 @@ fn nodal_diameters(model: &Model, mesh: &Mesh, shape: &[f64], max_n: usize) -> u
         .unwrap_or(0)
 }
 
+/// Each of the lowest modes with up to `max_n` nodal diameters (n = 0 once, every n ≥ 1 as a
+/// repeated pair) of the plate meshed with `counts` cells as elements of `kind`: its number of
+/// nodal diameters (up to `2 max_n`) and ω (rad/s).
+fn plate_modes(case: &Plate, kind: ElementKind, counts: [usize; 3]) -> Vec<(usize, f64)> {
+    let (a, b, h) = (case.outer_radius_m, case.inner_radius_m, case.thickness_m);
+    let max_n = case.lambda_squared.len() - 1;
+    let mesh = convert::as_kind(&structured::annulus(b, a, 0.0, h, counts, "disc"), kind);
+    let (model, _) =
+        with_default_materials(&mesh, "inner", &[("nu_disc", case.poisson)]).expect("assembly");
+    let solution = lowest(&model, 2 * max_n + 1);
+    check_residuals_and_normalisation(&model, &solution);
+    (0..solution.lambda.len())
+        .map(|mode| {
+            let shape: Vec<f64> = solution.shapes.col(mode).iter().copied().collect();
+            let n = nodal_diameters(&model, &mesh, &shape, 2 * max_n);
+            (n, solution.lambda[mode].sqrt())
+        })
+        .collect()
+}
+
+/// Kirchhoff's ω (rad/s) of the lowest mode with `n` nodal diameters.
+fn kirchhoff(case: &Plate, n: usize) -> f64 {
+    let (a, h, nu) = (case.outer_radius_m, case.thickness_m, case.poisson);
+    let rigidity = STEEL_E * h.powi(3) / (12.0 * (1.0 - nu * nu));
+    case.lambda_squared[n] / (a * a) * (rigidity / (STEEL_RHO * h)).sqrt()
+}
+
 #[test]
 fn annular_plate_matches_kirchhoff_theory() {
     let case: Plate = reference::load("annular_plate");
-    let (a, b, h, nu) = (
-        case.outer_radius_m,
-        case.inner_radius_m,
-        case.thickness_m,
-        case.poisson,
-    );
     let max_n = case.lambda_squared.len() - 1;
-    // n = 0 once, every n ≥ 1 as a repeated pair.
-    let n_modes = 2 * max_n + 1;
-    for counts in case.meshes {
-        let mesh = structured::annulus(b, a, 0.0, h, counts, "disc");
-        let (model, _) =
-            with_default_materials(&mesh, "inner", &[("nu_disc", nu)]).expect("assembly");
-        let solution = lowest(&model, n_modes);
-        check_residuals_and_normalisation(&model, &solution);
-        let rigidity = STEEL_E * h.powi(3) / (12.0 * (1.0 - nu * nu));
-        let theory =
-            |lambda_squared: f64| lambda_squared / (a * a) * (rigidity / (STEEL_RHO * h)).sqrt();
+    for &counts in &case.meshes {
         let mut seen = vec![0usize; max_n + 1];
-        for mode in 0..solution.lambda.len() {
-            let shape: Vec<f64> = solution.shapes.col(mode).iter().copied().collect();
-            let n = nodal_diameters(&model, &mesh, &shape, 2 * max_n);
+        for (mode, (n, omega)) in plate_modes(&case, ElementKind::Hex8, counts)
+            .into_iter()
+            .enumerate()
+        {
             assert!(
                 n <= max_n,
                 "{counts:?}: mode {mode} has {n} nodal diameters"
             );
             seen[n] += 1;
-            let omega = solution.lambda[mode].sqrt();
-            let exact = theory(case.lambda_squared[n]);
+            let exact = kirchhoff(&case, n);
             let error = (omega - exact).abs() / exact;
             assert!(
                 error < case.tolerance,
@@ -113,28 +124,16 @@ struct PlateByKind {
 }
 
 /// The largest relative difference from Kirchhoff theory over the lowest modes with 0 to
-/// `max_n` nodal diameters, on `mesh` as elements of `kind`.
+/// `max_n` nodal diameters, on the plate meshed with `counts` cells as elements of `kind`.
 fn worst_error_against_kirchhoff(case: &Plate, kind: ElementKind, counts: [usize; 3]) -> f64 {
-    let (a, b, h, nu) = (
-        case.outer_radius_m,
-        case.inner_radius_m,
-        case.thickness_m,
-        case.poisson,
-    );
     let max_n = case.lambda_squared.len() - 1;
-    let mesh = convert::as_kind(&structured::annulus(b, a, 0.0, h, counts, "disc"), kind);
-    let (model, _) = with_default_materials(&mesh, "inner", &[("nu_disc", nu)]).expect("assembly");
-    let solution = lowest(&model, 2 * max_n + 1);
-    check_residuals_and_normalisation(&model, &solution);
-    let rigidity = STEEL_E * h.powi(3) / (12.0 * (1.0 - nu * nu));
-    let mut worst = 0.0_f64;
-    for mode in 0..solution.lambda.len() {
-        let shape: Vec<f64> = solution.shapes.col(mode).iter().copied().collect();
-        let n = nodal_diameters(&model, &mesh, &shape, 2 * max_n).min(max_n);
-        let exact = case.lambda_squared[n] / (a * a) * (rigidity / (STEEL_RHO * h)).sqrt();
-        worst = worst.max((solution.lambda[mode].sqrt() - exact).abs() / exact);
-    }
-    worst
+    plate_modes(case, kind, counts)
+        .into_iter()
+        .map(|(n, omega)| {
+            let exact = kirchhoff(case, n.min(max_n));
+            (omega - exact).abs() / exact
+        })
+        .fold(0.0, f64::max)
 }
 
 #[test]
