@@ -324,3 +324,30 @@ pub trait Stage: DeclaredParams + Send + Sync {
         self.run(params, inputs)
     }
 }
+
+/// Asserts that `stage` gives the same output bytes on 2 and 3 threads as on 1: the cache keys
+/// downstream work by them. Every numerical stage's tests call it.
+pub fn assert_outputs_independent_of_threads(
+    stage: &dyn Stage,
+    params: &Params,
+    inputs: &Inputs,
+    what: &str,
+) {
+    let encoded = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| stage.run(params, inputs).unwrap())
+            .iter()
+            .map(|(name, artifact)| (name.clone(), artifact.encode()))
+            .collect::<Vec<_>>()
+    };
+    let one = encoded(1);
+    for threads in [2, 3] {
+        assert!(
+            one == encoded(threads),
+            "{what}: outputs differ on {threads} threads"
+        );
+    }
+}

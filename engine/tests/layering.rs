@@ -7,7 +7,7 @@
 //! defines it. A cycle fails the test with each reference that closes it.
 //!
 //! One test per crate, so that each can be run alone: `cargo test -p squeal-engine --test
-//! layering engine` or `… stages`. The engine's files are also held to its layers
+//! layering engine` or `… dynamics`. The engine's files are also held to its layers
 //! ([`ENGINE_LAYERS`], the table of ARCHITECTURE.md): a file imports only from lower layers.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -24,7 +24,27 @@ fn the_files_of_the_contract_import_each_other_without_a_cycle() {
 }
 
 #[test]
-fn the_files_of_the_stages_import_each_other_without_a_cycle() {
+fn the_files_of_the_fem_kernels_import_each_other_without_a_cycle() {
+    assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../fem/src"));
+}
+
+#[test]
+fn the_files_of_the_model_import_each_other_without_a_cycle() {
+    assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/src"));
+}
+
+#[test]
+fn the_files_of_the_dynamics_import_each_other_without_a_cycle() {
+    assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../dynamics/src"));
+}
+
+#[test]
+fn the_files_of_the_signal_stages_import_each_other_without_a_cycle() {
+    assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../signal/src"));
+}
+
+#[test]
+fn the_files_of_the_stages_registry_import_each_other_without_a_cycle() {
     assert_no_cycle(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../stages/src"));
 }
 

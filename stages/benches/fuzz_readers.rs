@@ -1,5 +1,5 @@
 //! The fuzz campaign on the Gmsh, Abaqus and Nastran readers: a million mutants (by default)
-//! of the files of `tests/data/elements/` (every element kind, first and second order, as
+//! of the files of `model/tests/data/elements/` (every element kind, first and second order, as
 //! written by Gmsh and pyNastran), spread evenly over the files. Each must be read or refused
 //! with a one-line message; a panic, a message on several lines, a mutant that takes more than
 //! a second (a hang) is a finding. At the end: the counts, the slowest mutant and the peak

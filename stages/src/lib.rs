@@ -1,46 +1,39 @@
-//! The science of squeal, and the contract every stage implements.
+//! The science of squeal gathered into one registry: every stage kind, under one path per
+//! science module.
 //!
-//! This crate knows nothing of YAML, DAGs, caches or files: a stage is a pure function of its
+//! The stages live in crates bounded by what they build on, so that an edit rebuilds only its
+//! own crate and the binary: `squeal-fem` (element kernels, faces, VTU cells) and `squeal-plot`
+//! (figures) under `squeal-model` (meshes, materials, assembly, real modes, exports),
+//! `squeal-dynamics` (contact, equilibrium, stability, bases, transient) and `squeal-signal`
+//! (wavelet, spectrum, SVD projection, comparison). This crate re-exports them as
+//! `squeal_stages::mesh`, `squeal_stages::transient`, … and holds the stages that gather and
+//! check sweeps and the engine's test kinds.
+//!
+//! No crate here knows YAML, DAGs, caches or files: a stage is a pure function of its
 //! parameters and its input artifacts ([`stage::Stage::run`]). The one exception is
 //! `signal.read` ([`signal::read`]), which reads a user's Parquet or CSV file and therefore
 //! declares itself impure, so the engine never caches it. The engine finds stages through the
 //! registry the binary builds from [`all_kinds`].
 
-#![allow(non_snake_case)]
-// matrices are named as in the equations: M, K, C
-// `!(x > 0.0)` is how numerical checks reject NaN together with x <= 0.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
-
 // The stage contract (its own crate, `squeal-contract`), under the names the stages use.
 pub use squeal_contract::{artifact, choice, params, stage, stage_params, table, value};
 
 // Shared kernels and formats.
-pub mod contact;
-pub mod fem;
-pub mod plot;
-pub mod vtu_writer;
+pub use squeal_dynamics::contact;
+pub use squeal_fem::{self as fem, vtu_writer};
+pub use squeal_plot as plot;
 
 // The stages: mesh → assemble → modes, equilibrium → stability → basis → transient → signal,
 // exports, and the stages that gather and check sweeps.
-pub mod assemble;
-pub mod basis;
+pub use squeal_dynamics::{basis, equilibrium, stability, transient};
+pub use squeal_model::{assemble, export, material, mesh, modes};
+pub use squeal_signal as signal;
+
 pub mod check;
-pub mod equilibrium;
-pub mod export;
 pub mod gather;
-pub mod material;
-pub mod mesh;
-pub mod modes;
-pub mod signal;
-pub mod stability;
-pub mod transient;
 
 // Stage kinds for exercising the engine.
 pub mod test_kinds;
-
-// The fixtures the unit tests share.
-#[cfg(test)]
-pub(crate) mod fixtures;
 
 use std::sync::Arc;
 

@@ -1,5 +1,5 @@
 //! A short fuzz campaign on the three mesh readers, run by `cargo test`: 150 mutants of each
-//! file of `tests/data/elements/` (every element kind, as Gmsh, Abaqus and Nastran files), each
+//! file of `model/tests/data/elements/` (every element kind, as Gmsh, Abaqus and Nastran files), each
 //! read or refused with a one-line message, none panicking. The million-mutant campaign is
 //! `cargo bench -p squeal-stages --bench fuzz_readers`.
 

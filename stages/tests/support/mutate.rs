@@ -1,5 +1,5 @@
 //! Mutated mesh files for fuzzing the Gmsh, Abaqus and Nastran readers: files of every element
-//! kind written by other tools (`tests/data/elements/`), changed line by line and byte by
+//! kind written by other tools (`model/tests/data/elements/`), changed line by line and byte by
 //! byte by a deterministic generator. Shared by the short campaign `cargo test` runs
 //! (`tests/fuzz_readers.rs`) and the million-mutant one (`benches/fuzz_readers.rs`).
 
@@ -66,10 +66,10 @@ pub type Reader = Box<dyn Fn(&str) -> Option<String> + Sync>;
 
 /// The folder of the files written by other tools.
 pub fn data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/elements")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/data/elements")
 }
 
-/// Every file of `tests/data/elements/` with the reader of its format: each element kind of
+/// Every file of `model/tests/data/elements/` with the reader of its format: each element kind of
 /// first and second order, as Gmsh MSH, Abaqus INP and Nastran bulk data.
 pub fn corpus() -> Vec<(String, String, Reader)> {
     let mut corpus: Vec<(String, String, Reader)> = Vec::new();

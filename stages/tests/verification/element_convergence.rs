@@ -76,7 +76,7 @@ fn every_kind_converges_at_its_order_on_a_free_beam() {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct IndependentCode {
-    /// The mesh file, in `stages/tests/data/elements/`, of first-order elements that squeal
+    /// The mesh file, in `model/tests/data/elements/`, of first-order elements that squeal
     /// makes second-order with [`convert::with_mid_edge_nodes`].
     mesh: String,
     /// The elastic frequencies the independent code computes on it (Hz), after the six
@@ -91,7 +91,7 @@ fn a_second_order_mesh_gives_the_frequencies_of_an_independent_code() {
     for case in ["scikit_fem_tet10"] {
         let case: IndependentCode = reference::load(case);
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/data/elements")
+            .join("../model/tests/data/elements")
             .join(&case.mesh);
         let text = std::fs::read_to_string(&path).expect("the test mesh");
         let linear = squeal_stages::mesh::gmsh::read_msh(&text, &Default::default()).expect("read");
