@@ -66,6 +66,7 @@ fn annulus(
 }
 
 fn main() {
+    let threads = rayon::current_num_threads();
     println!(
         "{:<16} {:>8} {:>8} {:>8} {:>9} {:>9} {:>11} {:>11}",
         "slave vs master",
@@ -75,7 +76,7 @@ fn main() {
         "segments",
         "coverage",
         "1 thread s",
-        "threads s"
+        format!("{threads} threads s")
     );
     for (slave_kind, slave_cells, master_kind, master_cells) in [
         (FaceKind::Quad4, [40, 500], FaceKind::Quad4, [47, 431]),
@@ -117,7 +118,7 @@ fn main() {
             (times[2], built.rows.len(), built.segments, built.coverage)
         };
         let (one, rows, segments, coverage) = median(1);
-        let (all, ..) = median(rayon::current_num_threads());
+        let (all, ..) = median(threads);
         println!(
             "{:<16} {:>8} {:>8} {:>8} {:>9} {:>9.6} {:>11.3} {:>11.3}",
             format!("{slave_kind} vs {master_kind}"),

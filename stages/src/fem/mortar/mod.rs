@@ -33,8 +33,10 @@
 //! with w the rule's weight times the triangle's area: the measure is the plane's area, exact on
 //! flat faces (the plane is the face) and within O(h²) of the surface's on curved ones.
 //! Quadratic faces are clipped by their corners and integrate with their quadratic shape
-//! functions. Only pairs whose normals oppose at their centres (n₀ · n_m < 0) are integrated;
-//! overlaps whose projected area is below 10⁻¹² of the slave face's are ignored.
+//! functions. Only pairs whose normals oppose at their centres, −n₀ · n_m ≥
+//! [`Settings::min_opposition`] (1/2: within 60°), are integrated; overlaps whose projected
+//! area is below 10⁻¹² of the slave face's are ignored. [`Interface::slave_area`] is measured
+//! the same way (each slave face's corner polygon in its own plane).
 //!
 //! # Multiplier basis
 //!
@@ -55,12 +57,17 @@
 //! N̂_m = (1 − 2α) N_m,          α = 1/5
 //! ```
 //!
-//! which keeps Σ N̂ = 1 and, on a flat face of straight edges of area A, gives ∫ N̂ = 2A/15 at
-//! tri6 corners, A/20 at quad8 corners and A/5 at mid-edge nodes: all positive. D is reported
-//! against the original N_k: D_jk = (T⁻¹)_kj ∫ N̂_j, so a corner's row is its own node and a
-//! mid-edge node's row reads 5/3 of itself and −1/3 of each corner of its edge (as transforming
-//! the slave DOFs would). A is computed on the very points of the segments, so
-//! biorthogonality holds to round-off whatever the rule's degree.
+//! which keeps Σ N̂ = 1 and, on a flat face of straight edges of area A, gives ∫ N̂ = 2αA/3 at
+//! tri6 corners, (2α/3 − 1/12) A at quad8 corners and (1 − 2α) A/3 at mid-edge nodes: all
+//! positive for 1/8 < α < 1/2; α = 1/5 gives 2A/15, A/20 and A/5. D is reported against the
+//! original N_k: D_jk = (T⁻¹)_kj ∫ N̂_j on a fully covered face, so a corner's row is its own
+//! node and a mid-edge node's row reads 1/(1 − 2α) = 5/3 of itself and −α/(1 − 2α) = −1/3 of
+//! each corner of its edge (as transforming the slave DOFs would).
+//!
+//! Each segment keeps the moments of its points, G = Σ w N Nᵀ (slave × slave) and
+//! H = Σ w N N_mᵀ (slave × master); with Φ = Q N, Q = A T, its shares are D = Q G and M = Q H,
+//! and the face's M̂ = T (Σ G) Tᵀ, D̂ = diag(T Σ w N). A therefore comes from the very points
+//! of the segments, and biorthogonality holds to round-off whatever the rule's degree.
 //!
 //! # Partial coverage
 //!
@@ -102,7 +109,7 @@
 //!
 //! Candidate master faces of a slave face are those whose bounding boxes overlap its own
 //! inflated by [`Settings::search_distance`], found on a uniform grid of cells of the mean
-//! master face size ([`search`]): a slave face visits a few cells whatever the surface's size.
+//! master face size: a slave face visits a few cells whatever the surface's size.
 //!
 //! # Ties by collocation
 //!
@@ -115,6 +122,7 @@
 //! Slave faces are integrated independently (in parallel under [`Settings::par`]) and gathered
 //! in face order; every sum runs in a fixed order, so rows are bit-identical whatever the
 //! number of threads.
+
 // Index loops follow the index notation of the formulas (D = Q G, M̂ = T G Tᵀ).
 #![allow(clippy::needless_range_loop)]
 
@@ -144,6 +152,7 @@ pub struct Surface<'a> {
     pub faces: Vec<(FaceKind, Vec<u32>)>,
 }
 
+/// How [`interface`] pairs, integrates and keeps; the default suits a brake (a 1 mm search).
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
     /// How far apart (m) a slave and a master face may be and still be paired: the slave
@@ -478,7 +487,7 @@ fn integrate_face(
         return Err(());
     }
 
-    // The multiplier basis Φ = Q N, Q = Xᵀ T: dual on a fully covered face (X = M̂⁻¹ D̂ with
+    // The multiplier basis Φ = Q N, Q = Xᵀ T (A = Xᵀ): dual on a fully covered face (X = M̂⁻¹ D̂ with
     // D̂ = T ∫N, M̂ = T G Tᵀ on the segments' own points), standard (X = I) otherwise.
     let T = dual::matrix(face.kind);
     let mut whole = [0.0; MAX_NODES];

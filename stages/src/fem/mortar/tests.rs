@@ -25,7 +25,7 @@ enum Perturb {
     None,
     /// Interior grid lines moved (faces stay rectangles in the parameters).
     Lines(u64),
-    /// Interior corner nodes moved each on its own (triangles only: quads would not stay
+    /// Interior corner nodes moved each on its own (quadrilaterals then stop being
     /// parallelograms).
     Nodes(u64),
 }
@@ -484,8 +484,9 @@ fn randomly_perturbed_meshes_transmit_consistent_loads_and_affine_fields() {
 #[test]
 fn weighted_gaps_between_coaxial_cylinders_converge_to_the_true_gap() {
     // Slave: quad8 on r = 0.1 m (outward normal); master: tri6 on r = 0.101 m (normal inward),
-    // meshed differently, 0.6 rad × 0.05 m. The largest error in g_j falls at least as h²
-    // (fitted log–log slope ≥ 1.9 over three refinements); coverage 1 to 1e-12.
+    // meshed differently, 0.6 rad × 0.05 m. The largest error in g_j falls as h² (measured
+    // 3.5e-6, 8.3e-7, 2.1e-7, 5.2e-8 m over four halvings; fitted log–log slope ≥ 1.9) and is
+    // below 1e-4 of the gap at the finest; coverage 1 to 1e-12.
     let (inner, outer) = (0.1, 0.101);
     let cylinder = |radius: f64| {
         move |[s, t]: [f64; 2]| {
@@ -535,7 +536,7 @@ fn weighted_gaps_between_coaxial_cylinders_converge_to_the_true_gap() {
     let slope = -(n * sxy - sx * sy) / (n * sxx - sx * sx);
     assert!(slope >= 1.9, "slope {slope}: {errors:?}");
     assert!(
-        errors[errors.len() - 1] < 1e-6 * (outer - inner) * 100.0,
+        errors[errors.len() - 1] < 1e-4 * (outer - inner),
         "{errors:?}"
     );
 }
@@ -575,6 +576,45 @@ fn a_slave_face_half_over_the_master_edge_is_half_covered_with_the_standard_basi
     }
     let weights: f64 = interface.rows.iter().map(|r| r.weight).sum();
     assert!((weights - 0.5).abs() < 1e-14);
+}
+
+#[test]
+fn a_master_narrower_than_the_slave_receives_its_whole_consistent_load() {
+    // Slave quad4 4×4 on the unit square; master tri3 over 0.3 ≤ x ≤ 0.8, its edges across
+    // slave faces (which take the standard basis). Σ w = covered area 0.5 and Σ_j w_j P_jl =
+    // ∫ N_l dA on every master node, to 1e-12; every row weight positive.
+    let mut builder = Builder::default();
+    let slave = builder.patch(
+        FaceKind::Quad4,
+        [4, 4],
+        plane(1.0, 0.0),
+        true,
+        Perturb::None,
+    );
+    let narrow = |[s, t]: [f64; 2]| [0.3 + 0.5 * s, t, 0.0];
+    let master = builder.patch(FaceKind::Tri3, [3, 5], narrow, false, Perturb::Nodes(5));
+    let interface = build(&builder, &slave, &master).unwrap();
+    assert!((interface.covered_area - 0.5).abs() < 1e-12);
+    assert_eq!(interface.partial_faces, 8);
+    assert!(interface.dropped.is_empty());
+    let weights: f64 = interface.rows.iter().map(|r| r.weight).sum();
+    assert!((weights - 0.5).abs() < 1e-12, "{weights}");
+    assert!(
+        interface
+            .rows
+            .iter()
+            .all(|r| r.weight > 0.0 && r.coverage > 0.0)
+    );
+    let (_, master_loads) = transmitted(&interface);
+    let expected = consistent_loads(&builder.coords, &master);
+    assert_eq!(master_loads.len(), expected.len());
+    for ((node, got), (same, want)) in master_loads.iter().zip(&expected) {
+        assert_eq!(node, same);
+        assert!(
+            (got - want).abs() < 1e-12,
+            "master node {node}: {got} vs {want}"
+        );
+    }
 }
 
 #[test]
@@ -802,4 +842,43 @@ fn points_project_onto_faces_of_each_kind_at_their_parameters_and_distance() {
     }
     assert!(norm(sub(x, [0.53, 0.41, 0.0])) < 1e-14 && (projection.distance - 0.002).abs() < 1e-15);
     assert!(projection.weights.iter().all(|w| w.1 >= -1e-15));
+}
+
+#[test]
+fn general_quadrilaterals_transmit_loads_within_the_rules_error() {
+    // Quadrilaterals that are not parallelograms map the plane to ξ rationally, so the degree-5
+    // rule is no longer exact on them: their side's loads agree with the consistent loads to
+    // ~1e-7 (5 × 5 unit patch, nodal loads ~0.04; asserted 1e-6), the other side's and Σ w
+    // still to round-off (1e-12).
+    for (kind_a, kind_b) in [
+        (FaceKind::Quad4, FaceKind::Tri3),
+        (FaceKind::Tri3, FaceKind::Quad4),
+        (FaceKind::Quad8, FaceKind::Tri6),
+    ] {
+        let mut builder = Builder::default();
+        let slave = builder.patch(kind_a, [5, 5], plane(1.0, 0.0), true, Perturb::Nodes(3));
+        let master = builder.patch(kind_b, [4, 6], plane(1.0, 0.0), false, Perturb::Nodes(4));
+        let interface = build(&builder, &slave, &master).unwrap();
+        let (slave_loads, master_loads) = transmitted(&interface);
+        let largest_error = |loads: &[(u32, f64)], faces: &[(FaceKind, Vec<u32>)]| {
+            let expected = consistent_loads(&builder.coords, faces);
+            assert_eq!(loads.len(), expected.len());
+            loads
+                .iter()
+                .zip(&expected)
+                .map(|(a, b)| (a.1 - b.1).abs())
+                .fold(0.0, f64::max)
+        };
+        let errors = [
+            largest_error(&slave_loads, &slave),
+            largest_error(&master_loads, &master),
+        ];
+        let quadrilateral = [kind_a.n_corners() == 4, kind_b.n_corners() == 4];
+        for (error, quadrilateral) in errors.into_iter().zip(quadrilateral) {
+            let tolerance = if quadrilateral { 1e-6 } else { 1e-12 };
+            assert!(error < tolerance, "{kind_a} vs {kind_b}: {errors:?}");
+        }
+        let weights: f64 = interface.rows.iter().map(|r| r.weight).sum();
+        assert!((weights - 1.0).abs() < 1e-12);
+    }
 }
