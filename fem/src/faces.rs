@@ -87,59 +87,71 @@ pub fn faces_within(mesh: &Mesh, side: &Side) -> BTreeMap<Vec<u32>, Vec<ElementF
 }
 
 /// Face shape functions and their derivatives along u and v at `(u, v)`.
-pub fn face_shapes(kind: FaceKind, [u, v]: [f64; 2]) -> (Vec<f64>, Vec<[f64; 2]>) {
+pub fn face_shapes(kind: FaceKind, point: [f64; 2]) -> (Vec<f64>, Vec<[f64; 2]>) {
+    let mut values = vec![0.0; kind.n_nodes()];
+    let mut derivatives = vec![[0.0; 2]; kind.n_nodes()];
+    face_shapes_into(kind, point, &mut values, &mut derivatives);
+    (values, derivatives)
+}
+
+/// [`face_shapes`] into the first `kind.n_nodes()` slots of caller-owned buffers, for the loops
+/// that evaluate faces millions of times (mortar segments, projections).
+#[inline]
+pub fn face_shapes_into(
+    kind: FaceKind,
+    [u, v]: [f64; 2],
+    values: &mut [f64],
+    derivatives: &mut [[f64; 2]],
+) {
     match kind {
-        FaceKind::Tri3 => (
-            vec![1.0 - u - v, u, v],
-            vec![[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]],
-        ),
+        FaceKind::Tri3 => {
+            values[..3].copy_from_slice(&[1.0 - u - v, u, v]);
+            derivatives[..3].copy_from_slice(&[[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]]);
+        }
         FaceKind::Tri6 => {
             let l = [1.0 - u - v, u, v];
             let dl = [[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]];
-            let mut values = Vec::with_capacity(6);
-            let mut derivatives = Vec::with_capacity(6);
             for a in 0..3 {
-                values.push(l[a] * (2.0 * l[a] - 1.0));
-                derivatives.push(dl[a].map(|d| (4.0 * l[a] - 1.0) * d));
+                values[a] = l[a] * (2.0 * l[a] - 1.0);
+                derivatives[a] = dl[a].map(|d| (4.0 * l[a] - 1.0) * d);
             }
-            for (a, b) in [(0, 1), (1, 2), (2, 0)] {
-                values.push(4.0 * l[a] * l[b]);
-                derivatives.push([
+            for (slot, (a, b)) in [(0, 1), (1, 2), (2, 0)].into_iter().enumerate() {
+                values[3 + slot] = 4.0 * l[a] * l[b];
+                derivatives[3 + slot] = [
                     4.0 * (l[b] * dl[a][0] + l[a] * dl[b][0]),
                     4.0 * (l[b] * dl[a][1] + l[a] * dl[b][1]),
-                ]);
+                ];
             }
-            (values, derivatives)
         }
-        FaceKind::Quad4 => QUAD_CORNERS
-            .iter()
-            .map(|&[ua, va]| {
+        FaceKind::Quad4 => {
+            for (a, &[ua, va]) in QUAD_CORNERS.iter().enumerate() {
                 let (fu, fv) = (1.0 + u * ua, 1.0 + v * va);
-                (0.25 * fu * fv, [0.25 * ua * fv, 0.25 * va * fu])
-            })
-            .unzip(),
+                values[a] = 0.25 * fu * fv;
+                derivatives[a] = [0.25 * ua * fv, 0.25 * va * fu];
+            }
+        }
         FaceKind::Quad8 => {
-            let mut values = Vec::with_capacity(8);
-            let mut derivatives = Vec::with_capacity(8);
-            for &[ua, va] in &QUAD_CORNERS {
+            for (a, &[ua, va]) in QUAD_CORNERS.iter().enumerate() {
                 let (fu, fv) = (1.0 + u * ua, 1.0 + v * va);
                 let sum = u * ua + v * va - 1.0;
-                values.push(0.25 * fu * fv * sum);
-                derivatives.push([0.25 * ua * fv * (sum + fu), 0.25 * va * fu * (sum + fv)]);
+                values[a] = 0.25 * fu * fv * sum;
+                derivatives[a] = [0.25 * ua * fv * (sum + fu), 0.25 * va * fu * (sum + fv)];
             }
             // Mid-edge nodes of the edges (0 1), (1 2), (2 3), (3 0).
-            for [ua, va] in [[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]] {
+            for (slot, [ua, va]) in [[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]]
+                .into_iter()
+                .enumerate()
+            {
                 if ua == 0.0 {
                     let fv = 1.0 + v * va;
-                    values.push(0.5 * (1.0 - u * u) * fv);
-                    derivatives.push([-u * fv, 0.5 * (1.0 - u * u) * va]);
+                    values[4 + slot] = 0.5 * (1.0 - u * u) * fv;
+                    derivatives[4 + slot] = [-u * fv, 0.5 * (1.0 - u * u) * va];
                 } else {
                     let fu = 1.0 + u * ua;
-                    values.push(0.5 * fu * (1.0 - v * v));
-                    derivatives.push([0.5 * ua * (1.0 - v * v), -v * fu]);
+                    values[4 + slot] = 0.5 * fu * (1.0 - v * v);
+                    derivatives[4 + slot] = [0.5 * ua * (1.0 - v * v), -v * fu];
                 }
             }
-            (values, derivatives)
         }
     }
 }

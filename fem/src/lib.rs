@@ -1,6 +1,7 @@
 //! Finite-element kernels shared by the stages: the elements (shape functions, quadrature,
-//! element matrices, the elasticity an element sees), their faces, and the VTU cells every
-//! stage with a mesh output writes. The materials' laws are in
+//! element matrices, the elasticity an element sees), their faces, the mortar operators that
+//! join two non-matching surfaces ([`mortar`]), and the VTU cells every stage with a mesh
+//! output writes. The materials' laws are in
 //! [`squeal_contract::artifact::material`].
 //!
 //! This crate knows meshes and materials but no stage: the model's and the dynamics' stages
@@ -14,4 +15,5 @@ use squeal_contract::{artifact, value};
 
 pub mod element;
 pub mod faces;
+pub mod mortar;
 pub mod vtu_writer;

@@ -158,6 +158,18 @@ pub static TRIANGLE_DEGREE_4: LazyLock<Vec<([f64; 2], f64)>> = LazyLock::new(|| 
     ])
 });
 
+/// Radon's 7-point triangle rule of degree 5 (reference coordinates `(r, s)`, area 1/2): the
+/// centroid and two orbits at a = (6 ∓ √15)/21, weights (155 ∓ √15)/2400. For mortar segments.
+pub static TRIANGLE_DEGREE_5: LazyLock<Vec<([f64; 2], f64)>> = LazyLock::new(|| {
+    let root = 15f64.sqrt();
+    let (a, b) = ((6.0 - root) / 21.0, (6.0 + root) / 21.0);
+    triangular(&[
+        ([1.0 / 3.0; 3], 9.0 / 80.0),
+        ([a, a, 1.0 - 2.0 * a], (155.0 - root) / 2400.0),
+        ([b, b, 1.0 - 2.0 * b], (155.0 + root) / 2400.0),
+    ])
+});
+
 /// The 6-point triangle rule × 3-point Gauss.
 static WEDGE_15: LazyLock<Vec<Point>> = LazyLock::new(|| prism(&TRIANGLE_DEGREE_4, &GAUSS_3));
 
@@ -242,6 +254,27 @@ mod tests {
                     (quadrature - exact).abs() < 1e-15 * exact.abs().max(1.0),
                     "{kind} x^{exponents:?}: {quadrature} != {exact}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn the_triangle_rules_integrate_their_degrees_exactly() {
+        for (rule, degree, size) in [(&*TRIANGLE_DEGREE_4, 4, 6), (&*TRIANGLE_DEGREE_5, 5, 7)] {
+            assert_eq!(rule.len(), size);
+            assert!(rule.iter().all(|&(_, weight)| weight > 0.0));
+            for i in 0..=degree {
+                for j in 0..=degree - i {
+                    let quadrature: f64 = rule
+                        .iter()
+                        .map(|&([r, s], weight)| weight * r.powi(i as i32) * s.powi(j as i32))
+                        .sum();
+                    let exact = factorial(i) * factorial(j) / factorial(i + j + 2);
+                    assert!(
+                        (quadrature - exact).abs() < 1e-16,
+                        "degree {degree}: r^{i} s^{j}: {quadrature} != {exact}"
+                    );
+                }
             }
         }
     }
