@@ -112,3 +112,80 @@ pub(crate) fn growth_rate(history: &Table, period: f64, tau: f64) -> f64 {
         / peaks.iter().map(|(x, _)| (x - mean_t).powi(2)).sum::<f64>();
     slope / 2.0
 }
+
+/// `mesh` with its node-to-node pairs spread over neighbouring face nodes, each side still
+/// reading the same point: the disc side of every pair whose disc node has two neighbours on
+/// the disc face along x (else y), at the face's node spacing, becomes ¼, ½, ¼ over the three;
+/// with `quadratic_pads`, the pad side of every pair whose pad node has two neighbours along x
+/// that are the anchors of node-to-node pairs (not themselves spread) becomes 5/3 on itself and
+/// −1/3 on each neighbour, as a mid-edge node's mortar row on a quadratic face. Returns the mesh
+/// and how many disc and pad sides were spread.
+pub(crate) fn spread_pairs(mesh: &Mesh, quadratic_pads: bool) -> (Mesh, usize, usize) {
+    let spacing = {
+        let disc: Vec<[f64; 3]> = mesh
+            .contact_pairs
+            .iter()
+            .map(|pair| pair.disc_position(&mesh.nodes))
+            .collect();
+        let mut spacing = f64::INFINITY;
+        for (i, a) in disc.iter().enumerate() {
+            for b in &disc[i + 1..] {
+                spacing = spacing.min(crate::artifact::mesh::norm(crate::artifact::mesh::sub(
+                    *a, *b,
+                )));
+            }
+        }
+        spacing
+    };
+    let find = |nodes: &[u32], x: [f64; 3]| {
+        nodes.iter().copied().find(|&node| {
+            let y = mesh.nodes[node as usize];
+            (0..3).all(|axis| (y[axis] - x[axis]).abs() < 1e-9 * spacing)
+        })
+    };
+    let neighbours = |nodes: &[u32], node: u32, axes: &[usize]| {
+        let x = mesh.nodes[node as usize];
+        axes.iter().find_map(|&axis| {
+            let step = |sign: f64| {
+                let mut y = x;
+                y[axis] += sign * spacing;
+                find(nodes, y)
+            };
+            step(-1.0).zip(step(1.0))
+        })
+    };
+    let disc_face: Vec<u32> = mesh
+        .contact_pairs
+        .iter()
+        .map(|pair| pair.disc[0].0)
+        .collect();
+    let pad_face: Vec<u32> = mesh
+        .contact_pairs
+        .iter()
+        .map(|pair| pair.pad_node())
+        .collect();
+    let mut spread = mesh.clone();
+    let (mut discs, mut pads) = (0, 0);
+    for pair in &mut spread.contact_pairs {
+        let disc = pair.disc[0].0;
+        if let Some((a, b)) = neighbours(&disc_face, disc, &[0, 1]) {
+            pair.disc = vec![(a, 0.25), (disc, 0.5), (b, 0.25)];
+            discs += 1;
+        }
+    }
+    if quadratic_pads {
+        // Pad nodes with two neighbours along x, neither of which has two itself.
+        let has_two = |node: u32| neighbours(&pad_face, node, &[0]).is_some();
+        for pair in &mut spread.contact_pairs {
+            let pad = pair.pad_node();
+            if let Some((a, b)) = neighbours(&pad_face, pad, &[0])
+                && !has_two(a)
+                && !has_two(b)
+            {
+                pair.pad = vec![(pad, 5.0 / 3.0), (a, -1.0 / 3.0), (b, -1.0 / 3.0)];
+                pads += 1;
+            }
+        }
+    }
+    (spread, discs, pads)
+}

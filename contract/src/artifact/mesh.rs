@@ -1,5 +1,6 @@
 //! Meshes of solid elements of several kinds, with parts (one material each), named node sets
-//! and the node-to-node contact pairs of conforming pad/disc interfaces.
+//! and the contact pairs between pad and disc faces (node to node on conforming interfaces,
+//! weighted node sets in general: [`ContactPair`]).
 //!
 //! Node orders (0-based), those of Abaqus and VTK except for the wedges' first triangle, which
 //! VTK writes the other way round. Corners first, counter-clockwise seen from the opposite
@@ -22,15 +23,125 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-/// A node of the disc face and the coincident (distinct) node of the pad face opposite.
+/// One contact constraint between the pad and the disc: a point of the pad's face, its
+/// position a weighted sum of pad nodes, facing a point of the disc's face, a weighted sum of
+/// disc nodes.
+///
+/// - `pad`: (node, weight) of the pad side. The **first entry is the pair's own pad node**, its
+///   anchor: where the pair sits in tables and figures, the node whose DOF the stability's
+///   elimination takes as the slave, and the body the pair belongs to.
+/// - `disc`: (node, weight) of the disc side.
+///
+/// Each side's weights sum to 1 (to round-off). Node to node, the conforming interfaces of
+/// today, is one entry of weight 1.0 per side. A mortar row (the stages' `fem::mortar`) has
+/// slave weights S_jk over pad nodes (one node of weight 1 on linear faces; on quadratic faces
+/// a mid-edge node's row reads 5/3 of itself and −1/3 of each corner of its edge, so weights
+/// may be negative) and master weights P_jl over disc nodes. The relative displacement of the
+/// pair is δ = Σ_k S_k u_k − Σ_l P_l u_l, and every stage reads it through these weights.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ContactPair {
-    pub disc_node: u32,
-    pub pad_node: u32,
-    /// Unit normal of the disc surface at the pair, pointing from the disc into the pad.
+    /// Pad nodes and weights, the anchor first.
+    pub pad: Vec<(u32, f64)>,
+    /// Disc nodes and weights.
+    pub disc: Vec<(u32, f64)>,
+    /// Unit normal of the disc surface at the pair, pointing from the disc into the pad (a
+    /// mortar row's normal, from the pad to the disc, reversed).
     pub normal: [f64; 3],
-    /// Tributary area of the pair (m²), for pressures.
+    /// The pair's area (m²), for pressures: the tributary area of the disc node node to node,
+    /// the row weight w_j of a mortar row.
     pub area: f64,
+}
+
+impl ContactPair {
+    /// Node to node: `pad_node` facing `disc_node`, one entry of weight 1.0 per side.
+    pub fn node_to_node(disc_node: u32, pad_node: u32, normal: [f64; 3], area: f64) -> Self {
+        ContactPair {
+            pad: vec![(pad_node, 1.0)],
+            disc: vec![(disc_node, 1.0)],
+            normal,
+            area,
+        }
+    }
+
+    /// The pair's own pad node (the first of the pad side): its anchor.
+    pub fn pad_node(&self) -> u32 {
+        self.pad[0].0
+    }
+
+    /// The disc node of a node-to-node pair (one disc node, of weight 1.0), `None` otherwise.
+    pub fn single_disc_node(&self) -> Option<u32> {
+        match self.disc[..] {
+            [(node, 1.0)] => Some(node),
+            _ => None,
+        }
+    }
+
+    /// Whether each side is one node of weight 1.0.
+    pub fn is_node_to_node(&self) -> bool {
+        matches!((&self.pad[..], &self.disc[..]), ([(_, p)], [(_, d)]) if *p == 1.0 && *d == 1.0)
+    }
+
+    /// The point of the pad side, Σ_k S_k x_k.
+    pub fn pad_position(&self, nodes: &[[f64; 3]]) -> [f64; 3] {
+        weighted_position(&self.pad, nodes)
+    }
+
+    /// The point of the disc side, Σ_l P_l x_l: where the disc slides under the pair.
+    pub fn disc_position(&self, nodes: &[[f64; 3]]) -> [f64; 3] {
+        weighted_position(&self.disc, nodes)
+    }
+
+    /// Every node of either side, pad side first (a node on both sides, or twice on one, is
+    /// given each time).
+    pub fn nodes(&self) -> impl Iterator<Item = u32> + '_ {
+        self.pad.iter().chain(&self.disc).map(|&(node, _)| node)
+    }
+
+    /// Every (node, signed weight) of δ = u_pad − u_disc: the pad side's weights, then the disc
+    /// side's negated. With weight 1.0 the signed weights are exactly ±1.0.
+    pub fn signed_weights(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
+        self.pad
+            .iter()
+            .map(|&(node, weight)| (node, weight))
+            .chain(self.disc.iter().map(|&(node, weight)| (node, -weight)))
+    }
+
+    /// Checks that both sides are non-empty, their nodes below `n_nodes`, their weights finite
+    /// and summing to 1 within `1e-9`.
+    pub fn check(&self, n_nodes: usize) -> Result<(), String> {
+        for (side, entries) in [("pad", &self.pad), ("disc", &self.disc)] {
+            if entries.is_empty() {
+                return Err(format!("the {side} side has no node"));
+            }
+            if let Some((node, _)) = entries.iter().find(|(node, _)| *node as usize >= n_nodes) {
+                return Err(format!(
+                    "the {side} side names node {node}, but the mesh has {n_nodes} nodes"
+                ));
+            }
+            let sum: f64 = entries.iter().map(|(_, weight)| weight).sum();
+            if !sum.is_finite() || (sum - 1.0).abs() > 1e-9 {
+                return Err(format!("the {side} side's weights sum to {sum}, not 1"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Σ w_k x_k, the first term taken as it is, so that one entry of weight 1.0 gives its node's
+/// position bit for bit (signed zeros included).
+fn weighted_position(entries: &[(u32, f64)], nodes: &[[f64; 3]]) -> [f64; 3] {
+    let mut entries = entries.iter();
+    let Some(&(first, weight)) = entries.next() else {
+        return [f64::NAN; 3];
+    };
+    let mut x = nodes[first as usize].map(|c| weight * c);
+    for &(node, weight) in entries {
+        let y = nodes[node as usize];
+        for axis in 0..3 {
+            x[axis] += weight * y[axis];
+        }
+    }
+    x
 }
 
 /// The kind of a solid element (node orders in the module doc).
@@ -267,7 +378,7 @@ pub struct Mesh {
     pub parts: Vec<String>,
     /// Named node sets, sorted: `hub` (clamped), `pad_backs`, ...
     pub node_sets: BTreeMap<String, Vec<u32>>,
-    /// Node-to-node contact pairs between disc and pad faces.
+    /// Contact pairs between disc and pad faces.
     pub contact_pairs: Vec<ContactPair>,
 }
 

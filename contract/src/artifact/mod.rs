@@ -24,7 +24,8 @@ use crate::table::Table;
 /// The version of the artifacts' encoding, part of every cache key: raise it when an artifact
 /// type changes its layout, so that no entry is decoded with another layout.
 /// 2: meshes hold elements of several kinds.
-pub const ENCODING_VERSION: u32 = 2;
+/// 3: a contact pair holds weighted node sets on each side (`ContactPair::pad`, `disc`).
+pub const ENCODING_VERSION: u32 = 3;
 
 /// A value produced by one stage and consumed by others.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -152,13 +152,14 @@ impl StaticModes {
     }
 }
 
-/// The interface of a model: every free DOF of its contact pairs' nodes, ascending.
+/// The interface of a model: every free DOF of every node on either side of its contact
+/// pairs, ascending.
 pub fn interface_dofs(model: &Model) -> Vec<usize> {
     let mut dofs: Vec<usize> = model
         .mesh
         .contact_pairs
         .iter()
-        .flat_map(|pair| [pair.pad_node, pair.disc_node])
+        .flat_map(|pair| pair.nodes())
         .flat_map(|node| model.dof_of_node[node as usize])
         .flatten()
         .map(|dof| dof as usize)

@@ -21,7 +21,7 @@ impl Drawing for PressureMap<'_> {
             .contact_pairs
             .iter()
             .map(|pair| {
-                let x = self.mesh.nodes[pair.disc_node as usize];
+                let x = pair.disc_position(&self.mesh.nodes);
                 (
                     x[1].atan2(x[0]).to_degrees(),
                     (x[0] * x[0] + x[1] * x[1]).sqrt(),

@@ -227,14 +227,11 @@ impl<'a> Condensed<'a> {
         let A = Mat::from_fn(n_pairs, n_pairs, |pair, col| apply_normal(pair, &Z, col));
         let q: Vec<f64> = (0..n_pairs)
             .map(|pair| {
-                let contact_pair = &mesh.contact_pairs[pair];
-                let (x_pad, x_disc) = (
-                    mesh.nodes[contact_pair.pad_node as usize],
-                    mesh.nodes[contact_pair.disc_node as usize],
+                let g0 = crate::contact::initial_gap(
+                    &mesh.contact_pairs[pair],
+                    &mesh.nodes,
+                    frames.n[pair],
                 );
-                let g0: f64 = (0..3)
-                    .map(|axis| (x_pad[axis] - x_disc[axis]) * frames.n[pair][axis])
-                    .sum();
                 match floating {
                     None => g0 - interference,
                     Some(_) => g0 + apply_normal(pair, &Z, n_pairs),

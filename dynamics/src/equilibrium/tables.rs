@@ -5,13 +5,14 @@ use crate::artifact::Equilibrium;
 use crate::artifact::Model;
 use crate::table::Table;
 
-/// One row per pair: where, how hard, open or closed.
+/// One row per pair: where (the disc point the pair faces, Σ P_l x_l: the disc node node to
+/// node), how hard, open or closed.
 pub fn contact_table(model: &Model, equilibrium: &Equilibrium) -> Table {
     let pairs = &model.mesh.contact_pairs;
     let position = |axis: usize| {
         pairs
             .iter()
-            .map(|pair| model.mesh.nodes[pair.disc_node as usize][axis])
+            .map(|pair| pair.disc_position(&model.mesh.nodes)[axis])
             .collect::<Vec<f64>>()
     };
     let r_n = equilibrium.r_n.clone();

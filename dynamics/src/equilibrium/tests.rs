@@ -243,7 +243,7 @@ fn under_a_pressure_each_pad_carries_the_pressure_times_its_back_area() {
     let largest = equilibrium.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
     let mut worst_ratio = 0.0f64;
     for (pair_idx, pair) in mesh.contact_pairs.iter().enumerate() {
-        let dofs = model.dof_of_node[pair.pad_node as usize];
+        let dofs = model.dof_of_node[pair.pad_node() as usize];
         let force: [f64; 3] = std::array::from_fn(|axis| {
             dofs[axis].map_or(0.0, |dof| Ku[dof as usize] - load.forces[dof as usize])
         });
@@ -282,7 +282,7 @@ fn without_friction_under_a_pressure_the_pads_are_mirror_images() {
     let model = model(&mesh, "hub, pad_backs:xy", &[]);
     let (equilibrium, _) = pressed(&model, 0.0, Solver::SemismoothNewton, &settings());
     let largest = equilibrium.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
-    let position = |pair: &crate::artifact::mesh::ContactPair| mesh.nodes[pair.disc_node as usize];
+    let position = |pair: &crate::artifact::mesh::ContactPair| pair.disc_position(&mesh.nodes);
     let mut worst = 0.0f64;
     for (upper_idx, upper) in mesh.contact_pairs.iter().enumerate() {
         if upper.normal[2] < 0.0 {
@@ -382,7 +382,7 @@ fn two_blocks_pressed_by_a_pressure_match_the_uniaxial_solution() {
         let mut worst_displacement = 0.0f64;
         for pair in &mesh.contact_pairs {
             worst_displacement =
-                worst_displacement.max((u_z(pair.disc_node) - disc_top).abs() / disc_top.abs());
+                worst_displacement.max((u_z(pair.disc[0].0) - disc_top).abs() / disc_top.abs());
         }
         for &node in &mesh.node_sets[PRESSURE_SET] {
             worst_displacement = worst_displacement.max((u_z(node) - back).abs() / back.abs());
@@ -393,6 +393,61 @@ fn two_blocks_pressed_by_a_pressure_match_the_uniaxial_solution() {
         );
         assert!(worst_pressure <= 1e-9);
         assert!(worst_displacement <= 1e-9);
+    }
+}
+
+/// The two blocks of the uniaxial test with the disc side of every pair that can be spread
+/// read as ¼, ½, ¼ of three disc face nodes (the same point, as a finer disc mesh's mortar row
+/// would). The total normal force is p A to round-off. Each pair's force is that of the
+/// node-to-node pairs up to the disc face's own unevenness under the loads the weights spread:
+/// about (E_pad / E_disc)(cell / l_pad), 1.5e-3 here, so within 2e-3 of the largest; with a
+/// disc a thousand times stiffer the difference falls a thousandfold.
+#[test]
+fn pairs_weighted_over_the_disc_face_carry_the_forces_of_the_node_to_node_pairs() {
+    let (width, l_disc, l_pad) = (0.02, 0.03, 0.01);
+    let mesh = stacked_blocks(width, l_disc, l_pad);
+    let (weighted, discs, _) = crate::fixtures::spread_pairs(&mesh, false);
+    // The centre node along x and the four mid-edge nodes of the 3 × 3 face.
+    assert_eq!(discs, 5);
+    let pressure = 2e6;
+    let applied = pressure * width * width;
+    let total = |r_n: &[f64]| r_n.iter().sum::<f64>();
+    for (e_disc, tolerance) in [(2.0e11, 2e-3), (2.0e14, 2e-6)] {
+        let overrides = [
+            ("nu_disc", 0.0),
+            ("nu_pad", 0.0),
+            ("E_disc", e_disc),
+            ("E_pad", 3.0e8),
+        ];
+        let solved = |mesh: &Mesh| {
+            let model = model(mesh, "base, pad_backs:xy", &overrides);
+            let (equilibrium, _) = solve(
+                &model,
+                0.0,
+                4.0,
+                Load::on_pad_backs(pressure),
+                Solver::SemismoothNewton,
+                &settings(),
+            )
+            .unwrap();
+            equilibrium
+        };
+        let (node_to_node, spread) = (solved(&mesh), solved(&weighted));
+        let largest = node_to_node.r_n.iter().fold(0.0f64, |max, r| max.max(*r));
+        let worst = node_to_node
+            .r_n
+            .iter()
+            .zip(&spread.r_n)
+            .map(|(a, b)| (a - b).abs() / largest)
+            .fold(0.0f64, f64::max);
+        eprintln!(
+            "E_disc {e_disc:e}: largest difference of r_n {worst:.2e} of the largest; totals {:.12e} and {:.12e} N, p A = {applied:.12e} N",
+            total(&node_to_node.r_n),
+            total(&spread.r_n)
+        );
+        assert!(worst <= tolerance, "{worst:e}");
+        assert!((total(&spread.r_n) - applied).abs() <= 1e-9 * applied);
+        assert!(spread.closed.iter().all(|closed| *closed));
     }
 }
 

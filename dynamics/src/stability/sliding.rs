@@ -1,13 +1,21 @@
 //! The sliding-perturbation problem linearised about an equilibrium (`docs/science.md` §4).
 //!
-//! On every closed pair the perturbation keeps the pad on the disc, `n·(u_p − u_d) = 0`: one
-//! DOF per pair, the *slave* (the pad node's free DOF along the largest component of n), is a
-//! combination of the others, the *masters* `q`:
+//! On every closed pair the perturbation keeps the pad on the disc, `n·δ = 0` with
+//! `δ = Σ_k S_k u_k − Σ_l P_l u_l` (`u_p − u_d` node to node; [`crate::contact`]): one DOF
+//! per pair, the *slave* (the free DOF of the pair's anchor pad node along the largest
+//! component of n), is a combination of the others, the *masters* `q`:
 //!
 //! ```text
-//! trial space W⁰:  u = Tᴺ q,   slave  u_s = (n·u_d − Σ_{j≠k} n_j u_{p,j}) / n_k
+//! trial space W⁰:  u = Tᴺ q,   slave  u_s = −(Σ_{i≠s} h_i u_i) / h_s,  h the pair's normal column of Hᵀ
 //! test space  W^μ: w = Tᵘ q,   same with g = n + μ t in place of n
 //! ```
+//!
+//! (node to node: `u_s = (n·u_d − Σ_{j≠k} n_j u_{p,j}) / n_k`). A row of several pad nodes (a
+//! mortar row of a quadratic face: a mid-edge node's row reads its edge's corners) may reach
+//! other pairs' slave DOFs; they are replaced by their own relations, so the rows are
+//! eliminated in an order where every slave a row reaches is eliminated before it (rows
+//! reaching no other slave, such as every node-to-node row, first). Rows that reach each
+//! other's slaves in a cycle are refused, naming a pair of the cycle.
 //!
 //! (conventions of [`crate::contact`]: the contact force on the pad is `r_n (n + μ t)` =
 //! `Gᵀ r_n` with `G = H_n + μ H_t`, so testing with `w ∈ ker G` removes the unknown normal
@@ -96,21 +104,21 @@ fn choose_slaves(
             continue;
         }
         let normal = frames.n[pair_idx];
-        let pad_dofs = model.dof_of_node[pair.pad_node as usize];
+        let pad_dofs = model.dof_of_node[pair.pad_node() as usize];
         let axis = (0..3)
             .filter(|&axis| pad_dofs[axis].is_some())
             .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()));
         let Some(axis) = axis.filter(|&axis| normal[axis].abs() > 0.5) else {
             return Err(StageError::new(format!(
                 "closed pair {pair_idx}: pad node {} is not free along its normal, so the contact cannot be kept by a perturbation",
-                pair.pad_node
+                pair.pad_node()
             )));
         };
         let dof = pad_dofs[axis].expect("filtered on free DOFs") as usize;
         if is_slave[dof] {
             return Err(StageError::new(format!(
                 "closed pair {pair_idx}: pad node {} is in two closed pairs",
-                pair.pad_node
+                pair.pad_node()
             )));
         }
         is_slave[dof] = true;
@@ -136,27 +144,107 @@ fn masters(n: usize, chosen: &[(usize, usize)]) -> (Vec<Option<usize>>, Vec<usiz
     (reduced_of, master_dofs)
 }
 
+/// The slaves of the closed pairs `chosen` in terms of the masters, in the order of `chosen`.
+/// A row that reaches other slaves is eliminated after them, their relations substituted; rows
+/// reaching each other's slaves in a cycle are refused.
+fn slaves_of(
+    columns: &[Vec<(usize, f64)>],
+    chosen: &[(usize, usize)],
+    mu: f64,
+    reduced_of: &[Option<usize>],
+) -> Result<Vec<Slave>, StageError> {
+    // The index in `chosen` of each slave DOF.
+    let mut slave_of_dof = vec![usize::MAX; reduced_of.len()];
+    for (index, &(_, dof)) in chosen.iter().enumerate() {
+        slave_of_dof[dof] = index;
+    }
+    // The other slaves each row reaches (through its normal or tangential column).
+    let reaches: Vec<Vec<usize>> = chosen
+        .iter()
+        .map(|&(pair, dof)| {
+            let mut others: Vec<usize> = columns[3 * pair]
+                .iter()
+                .chain(&columns[3 * pair + 1])
+                .filter(|&&(other, _)| other != dof && reduced_of[other].is_none())
+                .map(|&(other, _)| slave_of_dof[other])
+                .collect();
+            others.sort_unstable();
+            others.dedup();
+            others
+        })
+        .collect();
+    let mut slaves: Vec<Option<Slave>> = vec![None; chosen.len()];
+    let mut remaining: Vec<usize> = (0..chosen.len()).collect();
+    while !remaining.is_empty() {
+        let before = remaining.len();
+        let mut blocked = Vec::new();
+        for index in remaining {
+            if reaches[index].iter().all(|&other| slaves[other].is_some()) {
+                let (pair, dof) = chosen[index];
+                let eliminated = slave(columns, pair, dof, mu, reduced_of, &|other| {
+                    slaves[slave_of_dof[other]]
+                        .as_ref()
+                        .expect("eliminated before")
+                })?;
+                slaves[index] = Some(eliminated);
+            } else {
+                blocked.push(index);
+            }
+        }
+        if blocked.len() == before {
+            let (pair, _) = chosen[blocked[0]];
+            let other = reaches[blocked[0]]
+                .iter()
+                .find(|&&other| slaves[other].is_none())
+                .map_or(pair, |&other| chosen[other].0);
+            return Err(StageError::new(format!(
+                "closed pair {pair}: its constraint row reaches the slave DOF of closed pair {other}, and the rows of such pairs reach each other's slaves in a cycle, so they cannot be eliminated one by one (a row of several pad nodes needs the anchors of its other pad nodes open or resolved first)"
+            )));
+        }
+        remaining = blocked;
+    }
+    Ok(slaves
+        .into_iter()
+        .map(|slave| slave.expect("every row eliminated"))
+        .collect())
+}
+
 /// The slave `dof` of closed pair `pair` in terms of the masters: by the normal constraint
-/// (trial side) and by `n + μ t` (test side).
-fn slave(
+/// (trial side) and by `n + μ t` (test side). Any other slave the row reaches is replaced by its
+/// relation, from `eliminated`.
+fn slave<'a>(
     columns: &[Vec<(usize, f64)>],
     pair: usize,
     dof: usize,
     mu: f64,
     reduced_of: &[Option<usize>],
+    eliminated: &dyn Fn(usize) -> &'a Slave,
 ) -> Result<Slave, StageError> {
-    // u_s from the constraint direction·(u_p − u_d) = 0, i.e. direction·column = 0.
-    let relation = |column: &[(usize, f64)], pivot: f64| -> Vec<(usize, f64)> {
-        column
-            .iter()
-            .filter(|&&(other, _)| other != dof)
-            .map(|&(other, value)| {
-                (
-                    reduced_of[other].expect("one slave per node"),
-                    -value / pivot,
-                )
-            })
-            .collect()
+    // u_s from the constraint direction·δ = 0, i.e. direction·column = 0; `test` picks the
+    // relation of another slave in the test space.
+    let relation = |column: &[(usize, f64)], pivot: f64, test: bool| -> Vec<(usize, f64)> {
+        let mut relation: Vec<(usize, f64)> = Vec::with_capacity(column.len());
+        let mut add = |reduced: usize, coefficient: f64| match relation
+            .iter_mut()
+            .find(|(other, _)| *other == reduced)
+        {
+            Some(entry) => entry.1 += coefficient,
+            None => relation.push((reduced, coefficient)),
+        };
+        for &(other, value) in column.iter().filter(|&&(other, _)| other != dof) {
+            let coefficient = -value / pivot;
+            match reduced_of[other] {
+                Some(reduced) => add(reduced, coefficient),
+                None => {
+                    let other = eliminated(other);
+                    let other = if test { &other.test } else { &other.trial };
+                    for &(reduced, c) in other {
+                        add(reduced, coefficient * c);
+                    }
+                }
+            }
+        }
+        relation
     };
     let normal_column = &columns[3 * pair];
     let tangent_column = &columns[3 * pair + 1];
@@ -183,8 +271,8 @@ fn slave(
     Ok(Slave {
         pair,
         dof,
-        trial: relation(normal_column, normal_pivot),
-        test: relation(&g_column, g_pivot),
+        trial: relation(normal_column, normal_pivot, false),
+        test: relation(&g_column, g_pivot, true),
     })
 }
 
@@ -227,10 +315,7 @@ impl SlidingSystem {
         let columns = contact::h_columns(model, frames);
         let chosen = choose_slaves(model, equilibrium)?;
         let (reduced_of, master_dofs) = masters(n, &chosen);
-        let slaves = chosen
-            .iter()
-            .map(|&(pair, dof)| slave(&columns, pair, dof, mu, &reduced_of))
-            .collect::<Result<Vec<Slave>, StageError>>()?;
+        let slaves = slaves_of(&columns, &chosen, mu, &reduced_of)?;
         let C = if friction_damping && mu > 0.0 {
             friction_damped(model, equilibrium, &columns)
         } else {

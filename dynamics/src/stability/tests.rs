@@ -60,12 +60,7 @@ fn friction_direction_damping_of_one_sliding_point() {
     let (m, k, normal_force, radius, omega, mu) = (2.0, 3e6, 150.0, 0.3, 4.0, 0.38);
     let mesh = Mesh {
         nodes: vec![[radius, 0.0, 0.0], [radius, 0.0, 0.0]],
-        contact_pairs: vec![ContactPair {
-            disc_node: 1,
-            pad_node: 0,
-            normal: [0.0, 0.0, 1.0],
-            area: 1e-4,
-        }],
+        contact_pairs: vec![ContactPair::node_to_node(1, 0, [0.0, 0.0, 1.0], 1e-4)],
         ..Mesh::default()
     };
     let diagonal =
@@ -506,4 +501,93 @@ fn krylov_condition_numbers_match_the_dense_solve() {
         krylov.pairs.len()
     );
     assert!(worst < 1e-6, "{worst:e}");
+}
+
+/// The sliding system of the stacked blocks, every pair closed, with weighted rows: the disc
+/// side of five pairs over three disc nodes, the pad side of the face's middle column as a
+/// quadratic face's mid-edge rows (5/3 on the anchor, −1/3 on each neighbour, anchors of
+/// node-to-node rows whose slaves are substituted).
+fn weighted_sliding_problem(mesh: &Mesh, mu: f64) -> (Model, Equilibrium) {
+    let (model, _) = test_model(mesh, "base, pad_backs:xy", &[]);
+    let omega = 4.0;
+    let frames = crate::contact::frames(&model.mesh, omega).unwrap();
+    let n_pairs = model.mesh.contact_pairs.len();
+    let equilibrium = Equilibrium {
+        u: vec![0.0; model.n_dofs()],
+        r_n: vec![100.0; n_pairs],
+        gap: vec![0.0; n_pairs],
+        closed: vec![true; n_pairs],
+        frames,
+        mu,
+        omega,
+    };
+    (model, equilibrium)
+}
+
+#[test]
+fn the_elimination_of_weighted_rows_keeps_every_closed_pair_closed() {
+    let (mesh, discs, pads) = crate::fixtures::spread_pairs(
+        &crate::mesh::structured::stacked_blocks(0.02, 0.03, 0.01),
+        true,
+    );
+    assert_eq!((discs, pads), (5, 3));
+    let mu = 0.38;
+    let (model, equilibrium) = weighted_sliding_problem(&mesh, mu);
+    let system = SlidingSystem::new(&model, &equilibrium, true).unwrap();
+    let transposed = system.transposed();
+    let columns = crate::contact::h_columns(&model, &equilibrium.frames);
+    let row = |column: &[(usize, f64)], u: &[c64]| {
+        column
+            .iter()
+            .map(|&(dof, value)| u[dof] * value)
+            .sum::<c64>()
+    };
+    let mut worst = [0.0f64; 2];
+    for seed in 0..4 {
+        let q: Vec<c64> = (0..system.dim())
+            .map(|i| {
+                let t = (7 * i + 13 * seed) as f64;
+                c64::new(t.sin(), (0.3 * t).cos())
+            })
+            .collect();
+        let scale = q.iter().fold(0.0f64, |max, q| max.max(q.norm()));
+        // u = Tᴺ q: H_n u = 0; w = Tᵘ q: (H_n + μ H_t) w = 0, on every pair.
+        let (u, w) = (system.expand(&q), transposed.expand(&q));
+        for pair in 0..model.mesh.contact_pairs.len() {
+            let (normal, tangent) = (&columns[3 * pair], &columns[3 * pair + 1]);
+            worst[0] = worst[0].max(row(normal, &u).norm() / scale);
+            worst[1] = worst[1].max((row(normal, &w) + row(tangent, &w) * mu).norm() / scale);
+        }
+    }
+    eprintln!(
+        "largest |H_n Tᴺ q| {:.1e}, |G Tᵘ q| {:.1e} (of max |q|)",
+        worst[0], worst[1]
+    );
+    assert!(worst[0] <= 1e-14 && worst[1] <= 1e-14, "{worst:?}");
+    // One slave per closed pair.
+    assert_eq!(
+        system.dim(),
+        model.n_dofs() - model.mesh.contact_pairs.len()
+    );
+}
+
+#[test]
+fn weighted_rows_that_reach_each_others_slaves_are_refused_naming_a_pair() {
+    let mut mesh = crate::mesh::structured::stacked_blocks(0.02, 0.03, 0.01);
+    // Pairs 0 and 1 each read the other's anchor.
+    let (a, b) = (
+        mesh.contact_pairs[0].pad_node(),
+        mesh.contact_pairs[1].pad_node(),
+    );
+    mesh.contact_pairs[0].pad = vec![(a, 1.5), (b, -0.5)];
+    mesh.contact_pairs[1].pad = vec![(b, 1.5), (a, -0.5)];
+    let (model, equilibrium) = weighted_sliding_problem(&mesh, 0.38);
+    let error = SlidingSystem::new(&model, &equilibrium, true)
+        .err()
+        .expect("a cycle is refused")
+        .to_string();
+    assert!(
+        error.contains("closed pair 0") && error.contains("cycle"),
+        "{error}"
+    );
 }

@@ -429,7 +429,7 @@ pub fn structure_of<'a>(
         .mesh
         .contact_pairs
         .iter()
-        .map(|pair| body_of_node[pair.pad_node as usize])
+        .map(|pair| body_of_node[pair.pad_node() as usize])
         .collect();
     let contact_state = ContactState {
         gap: equilibrium.gap.clone(),
@@ -507,12 +507,16 @@ pub fn mode_start(lambda: c64, shape: &[c64], amplitude: f64) -> (Vec<f64>, Vec<
     )
 }
 
-/// No displacement; every pad contact node moving at `speed` along its pair's normal.
+/// No displacement; every pad contact node (each pair's anchor) moving at `speed` along its
+/// pair's normal.
 pub fn kick(model: &Model, equilibrium: &Equilibrium, speed: f64) -> (Vec<f64>, Vec<f64>) {
     let n = model.n_dofs();
     let mut v = vec![0.0; n];
     for (pair, normal) in model.mesh.contact_pairs.iter().zip(&equilibrium.frames.n) {
-        for (axis, dof) in model.dof_of_node[pair.pad_node as usize].iter().enumerate() {
+        for (axis, dof) in model.dof_of_node[pair.pad_node() as usize]
+            .iter()
+            .enumerate()
+        {
             if let Some(dof) = dof {
                 v[*dof as usize] = speed * normal[axis];
             }

@@ -28,8 +28,10 @@
 //!
 //! Point arrays of `vtu.mesh`: one UInt8 array per node set, named after it (1 on the set's
 //! nodes, 0 elsewhere; `set_<name>` if the name is taken by a contact array), and with contact
-//! pairs `contact` (UInt8: 0 no pair, 1 disc node, 2 pad node), `contact_normal` (Float64 x 3,
-//! the pair's unit normal at its disc node) and `contact_area` (Float64, m², at the disc node).
+//! pairs `contact` (UInt8: 0 no pair, 1 disc node, 2 pad node, every node of either side of a
+//! pair), `contact_normal` (Float64 x 3, the pair's unit normal) and `contact_area` (Float64,
+//! m², the pair's area), both at the disc node of a node-to-node pair and at the pad anchor of a
+//! weighted pair (a mortar row's own node).
 //!
 //! Point arrays of `vtu.modes`: one Float64 x 3 array per mode, `mode_0001_1234.5Hz` (number
 //! from 1, frequency ω/2π in Hz), the mass-normalised shape expanded from the free DOFs to the
@@ -69,11 +71,17 @@ pub fn mesh_vtu(mesh: &Mesh) -> Result<String, String> {
         let mut normal = vec![0.0; 3 * n_nodes];
         let mut area = vec![0.0; n_nodes];
         for pair in &mesh.contact_pairs {
-            let (disc, pad) = (pair.disc_node as usize, pair.pad_node as usize);
-            side[disc] = 1;
-            side[pad] = 2;
-            normal[3 * disc..3 * disc + 3].copy_from_slice(&pair.normal);
-            area[disc] = pair.area;
+            for &(node, _) in &pair.disc {
+                side[node as usize] = 1;
+            }
+            for &(node, _) in &pair.pad {
+                side[node as usize] = 2;
+            }
+            // At the disc node node to node; at the pad anchor of a weighted pair (its row's
+            // node, whose normal and weight they are).
+            let at = pair.single_disc_node().unwrap_or(pair.pad_node()) as usize;
+            normal[3 * at..3 * at + 3].copy_from_slice(&pair.normal);
+            area[at] = pair.area;
         }
         point_data.push(DataArray::new("contact", 1, Values::UInt8(side)));
         point_data.push(DataArray::new("contact_normal", 3, Values::Float64(normal)));
@@ -159,8 +167,8 @@ fn nodal_vectors(model: &Model, field: &[f64]) -> Vec<f64> {
 }
 
 /// The VTU text of a sliding equilibrium: the displacement (elastic part, without the pads'
-/// rigid approach) and, on both nodes of each contact pair, the contact pressure r_n / area (Pa)
-/// and the normal gap (m).
+/// rigid approach) and, on both nodes of each node-to-node pair (on the pad anchor of a
+/// weighted pair), the contact pressure r_n / area (Pa) and the normal gap (m).
 pub fn equilibrium_vtu(model: &Model, equilibrium: &Equilibrium) -> Result<String, StageError> {
     model.check_dof_map()?;
     equilibrium.check_belongs_to(model)?;
@@ -173,7 +181,11 @@ pub fn equilibrium_vtu(model: &Model, equilibrium: &Equilibrium) -> Result<Strin
         .zip(&equilibrium.r_n)
         .zip(&equilibrium.gap)
     {
-        for node in [pair.disc_node, pair.pad_node] {
+        // The pad anchor and, node to node, the disc node.
+        for node in [pair.single_disc_node(), Some(pair.pad_node())]
+            .into_iter()
+            .flatten()
+        {
             pressure[node as usize] = r_n / pair.area;
             gap[node as usize] = *pair_gap;
         }
@@ -321,7 +333,7 @@ fn check_mesh(mesh: &Mesh) -> Result<(), String> {
     if mesh
         .contact_pairs
         .iter()
-        .any(|pair| pair.disc_node as usize >= n_nodes || pair.pad_node as usize >= n_nodes)
+        .any(|pair| pair.nodes().any(|node| node as usize >= n_nodes))
     {
         return Err(format!(
             "a mesh contact pair refers to a node beyond the {n_nodes} nodes"

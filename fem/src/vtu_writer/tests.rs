@@ -157,15 +157,15 @@ fn mesh_vtu_reads_back_cells_points_parts_and_sets() {
     for pair in &mesh.contact_pairs {
         assert_eq!(
             (
-                contact[pair.disc_node as usize],
-                contact[pair.pad_node as usize]
+                contact[pair.disc[0].0 as usize],
+                contact[pair.pad_node() as usize]
             ),
             (1, 2)
         );
     }
     let normal = array(&arrays, "PointData", "contact_normal").floats();
     for pair in &mesh.contact_pairs {
-        let disc = pair.disc_node as usize;
+        let disc = pair.disc[0].0 as usize;
         assert_eq!(
             normal[3 * disc..3 * disc + 3],
             pair.normal,

@@ -317,12 +317,12 @@ fn add_puck(
         for di in 0..n_side {
             let pad_node = puck_node(di, dj, 0);
             let disc = g.disc_node(i0 + di, j0 + dj, disc_layer);
-            mesh.contact_pairs.push(ContactPair {
-                disc_node: disc,
+            mesh.contact_pairs.push(ContactPair::node_to_node(
+                disc,
                 pad_node,
                 normal,
-                area: integrals.area_sums[&disc],
-            });
+                integrals.area_sums[&disc],
+            ));
             sets.entry("contact_disc").or_default().push(disc);
             sets.entry("contact_pad").or_default().push(pad_node);
             let back = puck_node(di, dj, g.puck_layers);
@@ -417,10 +417,11 @@ mod tests {
         let g = coarse();
         let mesh = brake(&g).unwrap();
         for pair in &mesh.contact_pairs {
-            assert_ne!(pair.disc_node, pair.pad_node);
+            assert!(pair.is_node_to_node());
+            assert_ne!(pair.disc[0].0, pair.pad_node());
             let (a, b) = (
-                mesh.nodes[pair.disc_node as usize],
-                mesh.nodes[pair.pad_node as usize],
+                pair.disc_position(&mesh.nodes),
+                pair.pad_position(&mesh.nodes),
             );
             assert_eq!(a, b);
             let expected_z = if pair.normal[2] > 0.0 {

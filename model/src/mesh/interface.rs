@@ -154,12 +154,7 @@ pub fn pair_nodes(
                 disc.name
             ));
         };
-        pairs.push(ContactPair {
-            disc_node,
-            pad_node,
-            normal,
-            area,
-        });
+        pairs.push(ContactPair::node_to_node(disc_node, pad_node, normal, area));
     }
     if let Some(unmatched) = pad
         .nodes

@@ -188,12 +188,12 @@ pub fn stacked_blocks(width: f64, l_disc: f64, l_pad: f64) -> Mesh {
             }
         };
         let area = cell * cell * corners(x[0]) * corners(x[1]);
-        disc.contact_pairs.push(ContactPair {
+        disc.contact_pairs.push(ContactPair::node_to_node(
             disc_node,
             pad_node,
-            normal: [0.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
             area,
-        });
+        ));
     }
     let pad_top: Vec<u32> = pad.node_sets["z1"]
         .iter()

@@ -62,7 +62,7 @@ fn assert_same_geometry(a: &Mesh, b: &Mesh) {
     assert_eq!(a.parts, b.parts);
     assert_eq!(a.contact_pairs.len(), b.contact_pairs.len());
     for (pa, pb) in a.contact_pairs.iter().zip(&b.contact_pairs) {
-        assert_eq!((pa.disc_node, pa.pad_node), (pb.disc_node, pb.pad_node));
+        assert_eq!((&pa.disc, &pa.pad), (&pb.disc, &pb.pad));
         assert!(norm(sub(pa.normal, pb.normal)) < 1e-14, "{pa:?} {pb:?}");
         assert!((pa.area - pb.area).abs() < 1e-14, "{pa:?} {pb:?}");
     }

@@ -65,9 +65,10 @@ fn two_parts_pair_duplicated_interface_nodes() {
     assert_eq!(mesh.nodes.len(), 24);
     assert_eq!(mesh.contact_pairs.len(), 6);
     for pair in &mesh.contact_pairs {
-        let disc = mesh.nodes[pair.disc_node as usize];
-        let pad = mesh.nodes[pair.pad_node as usize];
-        assert_ne!(pair.disc_node, pair.pad_node);
+        assert!(pair.is_node_to_node());
+        let disc = pair.disc_position(&mesh.nodes);
+        let pad = pair.pad_position(&mesh.nodes);
+        assert_ne!(pair.disc[0].0, pair.pad_node());
         assert!(norm(sub(disc, pad)) < 1e-8, "{disc:?} {pad:?}");
         // One face is written clockwise in the file: the normal is oriented all the same.
         assert!(norm(sub(pair.normal, [0.0, 0.0, 1.0])) < 1e-12, "{pair:?}");
