@@ -10,6 +10,7 @@ pub mod convert;
 pub mod deck_error;
 pub mod gmsh;
 pub mod interface;
+pub mod mortar_pairs;
 pub mod nastran;
 pub mod structured;
 

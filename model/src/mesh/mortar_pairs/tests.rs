@@ -1,0 +1,156 @@
+use std::collections::BTreeMap;
+
+use super::*;
+use crate::artifact::ElementKind;
+use crate::mesh::convert::as_kind;
+use crate::mesh::structured::block;
+
+const WIDTH: f64 = 0.06;
+
+/// A disc block of `disc` (x, y) cells under a pad block of `pad` cells, both `WIDTH` square,
+/// touching at z = 0.02, each of element `kind`; with the disc's top and the pad's bottom
+/// node sets.
+fn stack(disc: [usize; 2], pad: [usize; 2], kind: ElementKind) -> (Mesh, Vec<u32>, Vec<u32>) {
+    let lower = as_kind(
+        &block([WIDTH, WIDTH, 0.02], [disc[0], disc[1], 2], "disc"),
+        kind,
+    );
+    let upper = as_kind(
+        &block([WIDTH, WIDTH, 0.01], [pad[0], pad[1], 1], "pad"),
+        kind,
+    );
+    let mut mesh = lower.clone();
+    let offset = mesh.nodes.len() as u32;
+    mesh.nodes
+        .extend(upper.nodes.iter().map(|x| [x[0], x[1], x[2] + 0.02]));
+    mesh.elements.extend_shifted(&upper.elements, offset, 1);
+    mesh.parts.push("pad".into());
+    mesh.node_sets = BTreeMap::new();
+    let top = lower.node_sets["z1"].clone();
+    let bottom = upper.node_sets["z0"].iter().map(|n| n + offset).collect();
+    (mesh, top, bottom)
+}
+
+fn pairs_of(disc: [usize; 2], pad: [usize; 2], kind: ElementKind) -> (Mesh, Vec<ContactPair>) {
+    let (mesh, top, bottom) = stack(disc, pad, kind);
+    let (pairs, coverage) = mortar_pairs(
+        &mesh,
+        &Side::new("disc_top", top),
+        &Side::new("pad_bottom", bottom),
+        1e-3,
+    )
+    .unwrap();
+    assert!((coverage.covered - 1.0).abs() < 1e-12, "{coverage:?}");
+    assert!(coverage.largest_gap.abs() < 1e-15 && coverage.largest_penetration < 1e-15);
+    (mesh, pairs)
+}
+
+/// The consistent nodal areas ∫ N dA of a uniform grid of `cells` on the `WIDTH` square.
+fn grid_area(x: [f64; 3], cells: [usize; 2]) -> f64 {
+    let share = |coordinate: f64, n: usize| {
+        let edge = coordinate.abs() < 1e-12 || (coordinate - WIDTH).abs() < 1e-12;
+        WIDTH / n as f64 * if edge { 0.5 } else { 1.0 }
+    };
+    share(x[0], cells[0]) * share(x[1], cells[1])
+}
+
+#[test]
+fn coincident_faces_pair_each_pad_node_with_its_disc_node_by_weight_one() {
+    let (mesh, pairs) = pairs_of([3, 2], [3, 2], ElementKind::Hex8);
+    assert_eq!(pairs.len(), 12);
+    for pair in &pairs {
+        let ([(pad, s)], [(disc, p)]) = (&pair.pad[..], &pair.disc[..]) else {
+            panic!("not node to node: {pair:?}");
+        };
+        assert!(
+            (s - 1.0).abs() < 1e-12 && (p - 1.0).abs() < 1e-12,
+            "{pair:?}"
+        );
+        let (x, y) = (mesh.nodes[*pad as usize], mesh.nodes[*disc as usize]);
+        assert!(x.iter().zip(y).all(|(a, b)| (a - b).abs() < 1e-15));
+        assert!((pair.normal[2] - 1.0).abs() < 1e-15, "{:?}", pair.normal);
+        assert!((pair.area - grid_area(x, [3, 2])).abs() < 1e-15 * WIDTH * WIDTH);
+    }
+}
+
+/// Both ways round, of linear and quadratic faces: the pairs cover the square, each pad node
+/// sits where its disc weights put it (an affine field reproduced, the gap zero), and a uniform
+/// pressure loads every disc node with its consistent area.
+#[test]
+fn non_matching_faces_transmit_a_uniform_pressure_as_the_consistent_loads_of_both_sides() {
+    for (disc, pad, kind) in [
+        ([3, 3], [4, 4], ElementKind::Hex8),
+        ([4, 4], [3, 3], ElementKind::Hex8),
+        ([2, 3], [3, 2], ElementKind::Hex20),
+        ([3, 2], [2, 2], ElementKind::Tet10),
+    ] {
+        let what = format!("{kind:?}, disc {disc:?}, pad {pad:?}");
+        let (mesh, pairs) = pairs_of(disc, pad, kind);
+        let total: f64 = pairs.iter().map(|pair| pair.area).sum();
+        assert!(
+            (total - WIDTH * WIDTH).abs() < 1e-12 * WIDTH * WIDTH,
+            "{what}"
+        );
+        let mut disc_load: BTreeMap<u32, f64> = BTreeMap::new();
+        for pair in &pairs {
+            let position = |side: &[(u32, f64)]| -> [f64; 3] {
+                let mut x = [0.0; 3];
+                for &(node, weight) in side {
+                    for axis in 0..3 {
+                        x[axis] += weight * mesh.nodes[node as usize][axis];
+                    }
+                }
+                x
+            };
+            let (x_pad, x_disc) = (position(&pair.pad), position(&pair.disc));
+            for axis in 0..3 {
+                assert!(
+                    (x_pad[axis] - x_disc[axis]).abs() < 1e-14,
+                    "{what}: {pair:?}"
+                );
+            }
+            for &(node, weight) in &pair.disc {
+                *disc_load.entry(node).or_default() += pair.area * weight;
+            }
+        }
+        if kind == ElementKind::Hex8 {
+            for (node, load) in disc_load {
+                let expected = grid_area(mesh.nodes[node as usize], disc);
+                assert!(
+                    (load - expected).abs() < 1e-12 * WIDTH * WIDTH,
+                    "{what}: node {node}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_pad_away_from_the_disc_and_a_node_on_both_sides_are_refused_with_the_sides_named() {
+    let (mut mesh, top, bottom) = stack([2, 2], [2, 2], ElementKind::Hex8);
+    let err = mortar_pairs(
+        &mesh,
+        &Side::new("disc_top", top.clone()),
+        &Side::new("pad_bottom", top.clone()),
+        1e-3,
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("is on both `disc_top` and `pad_bottom`"),
+        "{err}"
+    );
+    for &node in &bottom {
+        mesh.nodes[node as usize][2] += 0.5;
+    }
+    let err = mortar_pairs(
+        &mesh,
+        &Side::new("disc_top", top),
+        &Side::new("pad_bottom", bottom),
+        1e-3,
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("pad_bottom") && err.contains("disc_top"),
+        "{err}"
+    );
+}
