@@ -175,7 +175,8 @@ pub fn pair_nodes(
     Ok(pairs)
 }
 
-fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
+/// The mean of `points`.
+pub(super) fn centroid(points: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
     let mut sum = [0.0; 3];
     let mut count = 0.0;
     for point in points {

@@ -17,7 +17,7 @@ use crate::fem::element::topology::FaceKind;
 use crate::fem::faces::{ElementFace, Side, face_shapes};
 use crate::fem::mortar::{self, Settings, Surface};
 
-use super::interface::boundary_faces;
+use super::interface::{boundary_faces, centroid};
 
 /// What a user checks first about a non-matching interface.
 #[derive(Debug, Clone, PartialEq)]
@@ -114,12 +114,11 @@ fn outward_face(mesh: &Mesh, face: &ElementFace) -> Vec<u32> {
     }
     let element_nodes = mesh.elements.nodes(face.element);
     let n_corners = mesh.elements.kind(face.element).n_corners();
-    let mut element_centre = [0.0; 3];
-    for &node in &element_nodes[..n_corners] {
-        for axis in 0..3 {
-            element_centre[axis] += mesh.nodes[node as usize][axis] / n_corners as f64;
-        }
-    }
+    let element_centre = centroid(
+        element_nodes[..n_corners]
+            .iter()
+            .map(|&node| mesh.nodes[node as usize]),
+    );
     let normal = cross(tangents[0], tangents[1]);
     if dot(normal, sub(point, element_centre)) >= 0.0 {
         return face.nodes.clone();

@@ -93,16 +93,10 @@ fn non_matching_faces_transmit_a_uniform_pressure_as_the_consistent_loads_of_bot
         );
         let mut disc_load: BTreeMap<u32, f64> = BTreeMap::new();
         for pair in &pairs {
-            let position = |side: &[(u32, f64)]| -> [f64; 3] {
-                let mut x = [0.0; 3];
-                for &(node, weight) in side {
-                    for axis in 0..3 {
-                        x[axis] += weight * mesh.nodes[node as usize][axis];
-                    }
-                }
-                x
-            };
-            let (x_pad, x_disc) = (position(&pair.pad), position(&pair.disc));
+            let (x_pad, x_disc) = (
+                pair.pad_position(&mesh.nodes),
+                pair.disc_position(&mesh.nodes),
+            );
             for axis in 0..3 {
                 assert!(
                     (x_pad[axis] - x_disc[axis]).abs() < 1e-14,
