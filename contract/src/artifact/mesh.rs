@@ -102,7 +102,7 @@ impl ContactPair {
     pub fn signed_weights(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
         self.pad
             .iter()
-            .map(|&(node, weight)| (node, weight))
+            .copied()
             .chain(self.disc.iter().map(|&(node, weight)| (node, -weight)))
     }
 

@@ -12,9 +12,8 @@
 //! and turned so that their corner cycle's normal points out of their element, which the
 //! mortar operators take as given.
 
-use crate::artifact::mesh::{ContactPair, Mesh, cross, dot, sub};
-use crate::fem::element::topology::FaceKind;
-use crate::fem::faces::{ElementFace, Side, face_shapes};
+use crate::artifact::mesh::{ContactPair, Mesh, dot, sub};
+use crate::fem::faces::{ElementFace, Side, area_vectors};
 use crate::fem::mortar::{self, Settings, Surface};
 
 use super::interface::{boundary_faces, centroid};
@@ -93,34 +92,19 @@ fn surface<'a>(mesh: &Mesh, side: &Side<'a>) -> Surface<'a> {
 }
 
 /// The nodes of `face` in an order whose corner cycle turns counter-clockwise seen from
-/// outside its element: reversed when the normal at the face's centre points at the element's
-/// centroid. Reversing a cycle reverses its mid-edge nodes too, the edge after corner 0 being
-/// the one to the last corner.
+/// outside its element: reversed when the face's area vector points from its corners' centroid
+/// at the element's. Reversing a cycle reverses its mid-edge nodes too, the edge after corner 0
+/// being the one to the last corner.
 fn outward_face(mesh: &Mesh, face: &ElementFace) -> Vec<u32> {
-    let coords: Vec<[f64; 3]> = face.nodes.iter().map(|&n| mesh.nodes[n as usize]).collect();
-    let centre = match face.kind {
-        FaceKind::Tri3 | FaceKind::Tri6 => [1.0 / 3.0; 2],
-        FaceKind::Quad4 | FaceKind::Quad8 => [0.0; 2],
-    };
-    let (values, derivatives) = face_shapes(face.kind, centre);
-    let mut point = [0.0; 3];
-    let mut tangents = [[0.0; 3]; 2];
-    for (a, x) in coords.iter().enumerate() {
-        for axis in 0..3 {
-            point[axis] += values[a] * x[axis];
-            tangents[0][axis] += derivatives[a][0] * x[axis];
-            tangents[1][axis] += derivatives[a][1] * x[axis];
-        }
-    }
-    let element_nodes = mesh.elements.nodes(face.element);
+    let position = |node: &u32| mesh.nodes[*node as usize];
+    let coords: Vec<[f64; 3]> = face.nodes.iter().map(position).collect();
+    let (_, area) = area_vectors(face.kind, &coords);
+    let corners = face.kind.n_corners();
+    let face_centre = centroid(face.nodes[..corners].iter().map(position));
+    let element = mesh.elements.nodes(face.element);
     let n_corners = mesh.elements.kind(face.element).n_corners();
-    let element_centre = centroid(
-        element_nodes[..n_corners]
-            .iter()
-            .map(|&node| mesh.nodes[node as usize]),
-    );
-    let normal = cross(tangents[0], tangents[1]);
-    if dot(normal, sub(point, element_centre)) >= 0.0 {
+    let element_centre = centroid(element[..n_corners].iter().map(position));
+    if dot(area, sub(face_centre, element_centre)) >= 0.0 {
         return face.nodes.clone();
     }
     let corners = face.kind.n_corners();
