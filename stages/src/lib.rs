@@ -51,6 +51,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(mesh::gmsh::GmshImport),
         Arc::new(mesh::abaqus::AbaqusImport),
         Arc::new(mesh::nastran::NastranImport),
+        Arc::new(mesh::mortar_pairs::ContactMortar),
         Arc::new(material::Isotropic),
         Arc::new(material::TransverselyIsotropic),
         Arc::new(material::Orthotropic),

@@ -13,6 +13,7 @@
 mod anisotropy;
 mod bars_in_series;
 mod cantilever;
+mod coincident_mortar;
 mod conditioning;
 mod cwt;
 mod element_convergence;

@@ -148,3 +148,102 @@ fn a_pad_away_from_the_disc_and_a_node_on_both_sides_are_refused_with_the_sides_
         "{err}"
     );
 }
+
+fn covered_fraction(table: &Table) -> f64 {
+    match table.column("covered_fraction") {
+        Some(crate::table::ColumnData::F64(values)) => values[0],
+        other => panic!("covered_fraction: {other:?}"),
+    }
+}
+
+fn run_stage(mesh: &Mesh, values: &[(&str, &str)]) -> Result<(Mesh, Table), StageError> {
+    use crate::stage::{Input, Value};
+    let values: Vec<(&str, Value)> = values
+        .iter()
+        .map(|&(name, value)| {
+            let value = match value.parse::<f64>() {
+                Ok(number) => Value::Float(number),
+                Err(_) => Value::Str(value.to_string()),
+            };
+            (name, value)
+        })
+        .collect();
+    let params = Params::defaults(&ContactMortar, &values);
+    let inputs = Inputs(BTreeMap::from([(
+        "mesh".to_string(),
+        Input::One(std::sync::Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
+    )]));
+    let mut outputs = ContactMortar.run(&params, &inputs)?;
+    let (Some(Artifact::Mesh(mesh)), Some(Artifact::Table(table))) =
+        (outputs.remove("mesh"), outputs.remove("interface"))
+    else {
+        panic!("contact.mortar gives a mesh and a table");
+    };
+    Ok((*mesh, table))
+}
+
+/// The coincident interface of the parametric brake: the stage's pairs are the brake's own
+/// node-to-node pairs (the same nodes, normals and areas, in another order).
+#[test]
+fn the_stage_gives_the_brakes_node_to_node_pairs_on_its_coincident_interface() {
+    let brake = crate::fixtures::coarse_brake();
+    let (paired, table) = run_stage(&brake, &[]).unwrap();
+    assert_eq!(paired.contact_pairs.len(), brake.contact_pairs.len());
+    let key = |pair: &ContactPair| pair.pad[0].0;
+    let mut expected = brake.contact_pairs.clone();
+    expected.sort_by_key(key);
+    let mut found = paired.contact_pairs.clone();
+    found.sort_by_key(key);
+    for (mortar, conforming) in found.iter().zip(&expected) {
+        assert_eq!(mortar.pad.len(), 1, "{mortar:?}");
+        assert_eq!(mortar.disc.len(), 1, "{mortar:?}");
+        assert_eq!(mortar.pad[0].0, conforming.pad[0].0);
+        assert_eq!(mortar.disc[0].0, conforming.disc[0].0);
+        assert!((mortar.pad[0].1 - 1.0).abs() < 1e-12 && (mortar.disc[0].1 - 1.0).abs() < 1e-12);
+        for axis in 0..3 {
+            assert!((mortar.normal[axis] - conforming.normal[axis]).abs() < 1e-12);
+        }
+        assert!(
+            (mortar.area - conforming.area).abs() < 1e-12 * conforming.area,
+            "{} against {}",
+            mortar.area,
+            conforming.area
+        );
+    }
+    assert_eq!(table.n_rows(), 1);
+    let covered = covered_fraction(&table);
+    assert!((covered - 1.0).abs() < 1e-12, "{covered}");
+}
+
+#[test]
+fn the_stage_refuses_a_missing_set_a_side_too_far_and_a_fraction_above_one() {
+    let (mut mesh, top, bottom) = stack([2, 2], [3, 3], ElementKind::Hex8);
+    mesh.node_sets.insert("disc_top".into(), top);
+    mesh.node_sets.insert("pad_bottom".into(), bottom.clone());
+    let sides = [("disc", "disc_top"), ("pad", "pad_bottom")];
+    let (paired, _) = run_stage(&mesh, &sides).unwrap();
+    assert_eq!(paired.contact_pairs.len(), 16);
+
+    let err = run_stage(&mesh, &[("disc", "disc_top"), ("pad", "lining")]).unwrap_err();
+    assert!(
+        err.to_string().contains(
+            "pad: the mesh has no node set `lining` (its node sets: disc_top, pad_bottom)"
+        ),
+        "{err}"
+    );
+    let err = run_stage(&mesh, &[sides[0], sides[1], ("min_coverage", "1.5")]).unwrap_err();
+    assert!(err.to_string().contains("at most 1, not 1.5"), "{err}");
+
+    // Half the pad hangs off the disc: 50 % found, below the 90 % asked.
+    for &node in &bottom {
+        mesh.nodes[node as usize][0] += WIDTH / 2.0;
+    }
+    let err = run_stage(&mesh, &sides).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("`pad_bottom` finds `disc_top` on 50.0 % of its area"),
+        "{err}"
+    );
+    let (_, table) = run_stage(&mesh, &[sides[0], sides[1], ("min_coverage", "0.4")]).unwrap();
+    assert!((covered_fraction(&table) - 0.5).abs() < 1e-12);
+}
