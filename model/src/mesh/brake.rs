@@ -10,6 +10,13 @@
 //! the disc's outward normal (±z) and the tributary area of its node, `∫ Nᵢ dA` over the puck's
 //! friction-face cells ([`super::contact_faces`], as `mesh.gmsh` does).
 //!
+//! With `puck_divisions` other than 0 (or `puck_cells`), each puck is meshed on its own grid of
+//! `puck_divisions × puck_divisions` cells over the same span (nodes at fractions of the disc's
+//! cells): the friction faces no longer match, and the pucks are paired with the disc's
+//! friction faces (then the whole faces, in `contact_disc`) by mortar
+//! ([`super::mortar_pairs`]): the brake whose unstable modes should not depend on how its pads
+//! are meshed.
+//!
 //! Node sets: `hub` (disc inner cylinder, clamped by default), `pad_backs` (outer faces of
 //! the pucks: top of the upper ones, bottom of the lower ones), `pad_backs_upper`,
 //! `pad_backs_lower`, `contact_disc`, `contact_pad`. Parts: `disc`, `pad`.
@@ -19,9 +26,12 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use super::contact_faces::FaceIntegrals;
+use super::mortar_pairs::mortar_pairs;
 use super::structured::annulus;
 use crate::artifact::{Artifact, ArtifactType};
 use crate::artifact::{ContactPair, ElementKind, Mesh};
+use crate::fem::faces::Side;
+use crate::fem::mortar::Settings;
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 use crate::table::Table;
 
@@ -70,6 +80,9 @@ crate::stage_params! {
         /// puck cells through its height
         #[min = 1]
         puck_layers: usize = 3,
+        /// cells across a puck's own mesh, per direction: 0 meshes it on the disc's grid (its friction face coincident with the disc's, paired node to node); another count meshes it independently, paired by mortar
+        #[min = 0]
+        puck_divisions: usize = 0,
     }
 }
 
@@ -146,6 +159,15 @@ impl BrakeGeometry {
     }
 
     /// Cells covered by `count` pucks and the gaps between them.
+    /// Cells across a puck's mesh, per direction.
+    fn divisions(&self) -> usize {
+        if self.conforming() {
+            self.puck_cells
+        } else {
+            self.puck_divisions
+        }
+    }
+
     fn pad_span(&self, count: usize) -> usize {
         count * self.puck_cells + count.saturating_sub(1) * self.puck_gap_cells
     }
@@ -158,9 +180,19 @@ impl BrakeGeometry {
     /// Position of the grid point at radial `i`, angular `j`, height `z`: the same formula as
     /// the annulus, so coincident nodes are bit-identical.
     fn position(&self, i: usize, j: usize, z: f64) -> [f64; 3] {
-        let r = self.r_inner + (self.r_outer - self.r_inner) * i as f64 / self.n_radial as f64;
-        let theta = 2.0 * PI * (j % self.n_theta) as f64 / self.n_theta as f64;
+        self.position_between(i as f64, (j % self.n_theta) as f64, z)
+    }
+
+    /// [`Self::position`] at fractional grid coordinates (θ not wrapped).
+    fn position_between(&self, i: f64, j: f64, z: f64) -> [f64; 3] {
+        let r = self.r_inner + (self.r_outer - self.r_inner) * i / self.n_radial as f64;
+        let theta = 2.0 * PI * j / self.n_theta as f64;
         [r * theta.cos(), r * theta.sin(), z]
+    }
+
+    /// Whether the pucks are meshed on the disc's grid (coincident friction faces).
+    pub fn conforming(&self) -> bool {
+        self.puck_divisions == 0 || self.puck_divisions == self.puck_cells
     }
 }
 
@@ -217,6 +249,15 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
             }
         }
     }
+    if !g.conforming() {
+        // The pucks' own meshes meet the disc's friction faces anywhere on them.
+        let faces = sets.entry("contact_disc").or_default();
+        for k in [0, g.n_thick] {
+            for j in 0..g.n_theta {
+                faces.extend((0..=g.n_radial).map(|i| g.disc_node(i, j, k)));
+            }
+        }
+    }
     let hub = mesh
         .node_sets
         .remove("inner")
@@ -226,6 +267,16 @@ pub fn brake(geometry: &BrakeGeometry) -> Result<Mesh, String> {
     for (name, mut nodes) in sets {
         nodes.sort_unstable();
         mesh.node_sets.insert(name.into(), nodes);
+    }
+    if !g.conforming() {
+        let side = |name: &'static str| Side::new(name, mesh.node_sets[name].iter().copied());
+        let (pairs, _) = mortar_pairs(
+            &mesh,
+            &side("contact_disc"),
+            &side("contact_pad"),
+            Settings::default().search_distance,
+        )?;
+        mesh.contact_pairs = pairs;
     }
     Ok(mesh)
 }
@@ -245,22 +296,29 @@ fn add_puck(
         back_z,
         disc_layer,
     } = *face;
-    let n_side = g.puck_cells + 1;
+    let divisions = g.divisions();
+    let n_side = divisions + 1;
     let base = mesh.nodes.len() as u32;
     // Layer 0 is always the friction face; layers go away from the disc.
     let puck_node =
         |di: usize, dj: usize, layer: usize| base + ((layer * n_side + dj) * n_side + di) as u32;
+    // A puck's own grid line d, in the disc's grid coordinates.
+    let own = |first: usize, d: usize| first as f64 + (d * g.puck_cells) as f64 / divisions as f64;
     for layer in 0..=g.puck_layers {
         let z = friction_z + (back_z - friction_z) * layer as f64 / g.puck_layers as f64;
         for dj in 0..n_side {
             for di in 0..n_side {
-                mesh.nodes.push(g.position(i0 + di, j0 + dj, z));
+                mesh.nodes.push(if g.conforming() {
+                    g.position(i0 + di, j0 + dj, z)
+                } else {
+                    g.position_between(own(i0, di), own(j0, dj), z)
+                });
             }
         }
     }
     for layer in 0..g.puck_layers {
-        for dj in 0..g.puck_cells {
-            for di in 0..g.puck_cells {
+        for dj in 0..divisions {
+            for di in 0..divisions {
                 // Upper pucks grow along +z and lower ones along −z: swap the bottom and top
                 // faces of the lower ones to keep det J > 0.
                 let (below, above) = if upper {
@@ -287,6 +345,24 @@ fn add_puck(
             }
         }
     }
+    let back_set = if upper {
+        "pad_backs_upper"
+    } else {
+        "pad_backs_lower"
+    };
+    for dj in 0..n_side {
+        for di in 0..n_side {
+            sets.entry("contact_pad")
+                .or_default()
+                .push(puck_node(di, dj, 0));
+            let back = puck_node(di, dj, g.puck_layers);
+            sets.entry(back_set).or_default().push(back);
+            sets.entry("pad_backs").or_default().push(back);
+        }
+    }
+    if !g.conforming() {
+        return;
+    }
     // Tributary areas of the disc's friction-face nodes (its outward normal ±z is exact: the
     // face is plane).
     let mut integrals = FaceIntegrals::default();
@@ -308,26 +384,16 @@ fn add_puck(
     } else {
         [0.0, 0.0, -1.0]
     };
-    let back_set = if upper {
-        "pad_backs_upper"
-    } else {
-        "pad_backs_lower"
-    };
     for dj in 0..n_side {
         for di in 0..n_side {
-            let pad_node = puck_node(di, dj, 0);
             let disc = g.disc_node(i0 + di, j0 + dj, disc_layer);
             mesh.contact_pairs.push(ContactPair::node_to_node(
                 disc,
-                pad_node,
+                puck_node(di, dj, 0),
                 normal,
                 integrals.area_sums[&disc],
             ));
             sets.entry("contact_disc").or_default().push(disc);
-            sets.entry("contact_pad").or_default().push(pad_node);
-            let back = puck_node(di, dj, g.puck_layers);
-            sets.entry(back_set).or_default().push(back);
-            sets.entry("pad_backs").or_default().push(back);
         }
     }
 }
@@ -347,7 +413,7 @@ impl Stage for MeshBrake {
         1
     }
     fn doc(&self) -> &'static str {
-        "Parametric disc brake: annular disc with pad pucks on both faces, conforming contact pairs"
+        "Parametric disc brake: annular disc with pad pucks on both faces, paired node to node, or by mortar when the pucks are meshed on their own"
     }
     fn inputs(&self) -> Vec<PortSpec> {
         Vec::new()
@@ -482,6 +548,42 @@ mod tests {
             .filter(|part| **part == 1)
             .count();
         assert_eq!(pad_elements, 2 * 2 * 4 * 2);
+    }
+
+    /// Pucks meshed finer and coarser than the disc: every pad node paired by mortar, the
+    /// pairs' areas adding up to the pucks' friction faces, no pad node on a disc node.
+    #[test]
+    fn pucks_meshed_on_their_own_are_paired_by_mortar_over_their_whole_faces() {
+        for divisions in [1, 3, 5] {
+            let g = BrakeGeometry {
+                puck_divisions: divisions,
+                ..coarse()
+            };
+            let mesh = brake(&g).unwrap();
+            let pad_nodes = 2 * 2 * (divisions + 1) * (divisions + 1);
+            assert_eq!(mesh.node_sets["contact_pad"].len(), pad_nodes);
+            assert_eq!(mesh.contact_pairs.len(), pad_nodes, "{divisions} divisions");
+            // The pairs cover the pucks' friction faces whole (polygons of chords, which
+            // differ from the conforming pucks' where their chords do).
+            let side = |name: &'static str| Side::new(name, mesh.node_sets[name].iter().copied());
+            let (_, coverage) =
+                mortar_pairs(&mesh, &side("contact_disc"), &side("contact_pad"), 1e-3).unwrap();
+            assert!((coverage.covered - 1.0).abs() < 1e-12, "{coverage:?}");
+            let pad_area: f64 = mesh.contact_pairs.iter().map(|pair| pair.area).sum();
+            assert!((pad_area - coverage.slave_area).abs() < 1e-12 * pad_area);
+            for pair in &mesh.contact_pairs {
+                let gap = crate::artifact::mesh::dot(
+                    pair.normal,
+                    crate::artifact::mesh::sub(
+                        pair.pad_position(&mesh.nodes),
+                        pair.disc_position(&mesh.nodes),
+                    ),
+                );
+                assert!(gap.abs() < 1e-15, "{pair:?}: gap {gap}");
+            }
+            let pad_elements = mesh.elements.parts().iter().filter(|p| **p == 1).count();
+            assert_eq!(pad_elements, 2 * 2 * divisions * divisions * 2);
+        }
     }
 
     #[test]

@@ -113,7 +113,7 @@ pub fn pair_nodes(
             [pad_node] => pad_node,
             [] => {
                 return Err(format!(
-                    "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming",
+                    "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming (pair independently meshed sides with a `contact.mortar` stage)",
                     label(disc_node),
                     disc.name,
                     position[0],
@@ -163,7 +163,7 @@ pub fn pair_nodes(
     {
         let position = mesh.nodes[*unmatched as usize];
         return Err(format!(
-            "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming",
+            "node {} of `{}` at ({}, {}, {}) has no node of `{}` within {tolerance:e} m: the interface must be conforming (pair independently meshed sides with a `contact.mortar` stage)",
             label(*unmatched),
             pad.name,
             position[0],

@@ -43,7 +43,7 @@
 //! binary files, MSH 2.x and 4.0, partitioned meshes, pyramids and elements of third order or
 //! with face and volume nodes (27-node hexahedra, 18-node prisms), unnamed physical groups,
 //! missing contact groups, contact surfaces of other faces than 4-node quadrangles
-//! (node-to-node contact; independent meshes come with mortar contact), unmatched or
+//! (node-to-node contact; pair independent meshes with `contact.mortar`), unmatched or
 //! ambiguous contact nodes, interfaces whose nodes are shared rather than duplicated.
 
 use std::collections::HashMap;
