@@ -72,11 +72,22 @@
 //! # Partial coverage
 //!
 //! A slave face that the master covers only in part (its segments' area below 1 − 10⁻⁹ of its
-//! own) takes the standard basis on that face, Φ = N̂: a dual function is negative over part of
-//! the face, and a node whose covered part lies there would get a vanishing or negative weight.
-//! Either way Σ_j Φ_j = 1 on every face, which is what makes loads consistent. A slave node's
-//! row weight is the covered integral of its multiplier and its coverage the fraction of the
-//! whole one:
+//! own), where a pad overhangs the disc's edge, keeps D diagonal, so that every row of a linear
+//! face stays one slave node against master nodes (Cichosz & Bischoff 2011, dual multipliers
+//! at boundaries):
+//!
+//! - covered at least half, it takes the dual basis of its covered part: A = D̂ M̂⁻¹ with D̂
+//!   and M̂ integrated over the segments only, which the moments above already are. The basis
+//!   is biorthogonal on the covered part, Σ_j Φ_j = 1 there, and the covered part passes the
+//!   patch test as a whole face does;
+//! - covered less, M̂ of the covered sliver is too ill-conditioned to invert safely: the face
+//!   takes the standard basis Φ = N̂ with D lumped onto its diagonal, D_jj = ∫_covered N̂_j.
+//!   The master side's loads stay consistent (Σ_j Φ_j = 1), normal gaps on a flat interface
+//!   stay exact, but a row's master point is the N̂_j-weighted mean of its covered support,
+//!   not the node: an affine tangential motion shows a small slip there.
+//!
+//! A slave node's row weight is the covered integral of its multiplier and its coverage the
+//! fraction of the whole one:
 //!
 //! ```text
 //! w_j = Σ_k D_jk = ∫_covered Φ_j dA        coverage_j = w_j / D̄_j,   D̄_j = ∫_S Φ_j dA
@@ -217,7 +228,8 @@ pub struct Interface {
     pub largest_penetration: f64,
     /// The covered fraction of each slave face, in face order.
     pub face_coverage: Vec<f64>,
-    /// Slave faces covered in part (0 < fraction < 1), which take the standard basis.
+    /// Slave faces covered in part (0 < fraction < 1): the dual basis of their covered part,
+    /// or, covered less than half, the lumped standard basis.
     pub partial_faces: usize,
     /// The number of segments (slave face, master face overlaps) integrated.
     pub segments: usize,
@@ -383,6 +395,10 @@ const SLIVER: f64 = 1e-12;
 /// A slave face is fully covered when its segments fill it to this relative tolerance.
 const FULL: f64 = 1e-9;
 
+/// A slave face whose covered fraction is at least this takes the dual basis of its covered
+/// part; a face covered less takes the lumped standard basis (module docs, Partial coverage).
+const DUAL_COVERAGE: f64 = 0.5;
+
 fn integrate_face(
     slave: &Prepared,
     face_idx: usize,
@@ -487,11 +503,13 @@ fn integrate_face(
         return Err(());
     }
 
-    // The multiplier basis Φ = Q N, Q = Xᵀ T (A = Xᵀ): dual on a fully covered face (X = M̂⁻¹ D̂ with
-    // D̂ = T ∫N, M̂ = T G Tᵀ on the segments' own points), standard (X = I) otherwise.
+    // The multiplier basis Φ = Q N, Q = Xᵀ T (A = Xᵀ): dual on the covered part of a face
+    // covered enough (X = M̂⁻¹ D̂ with D̂ = T ∫N, M̂ = T G Tᵀ on the segments' own points),
+    // standard (X = I, D lumped below) on a face covered less.
     let T = dual::matrix(face.kind);
-    let mut whole = [0.0; MAX_NODES];
-    let Q = if full {
+    let dual = output.covered >= DUAL_COVERAGE * area;
+    let mut covered = [0.0; MAX_NODES];
+    let Q = if dual {
         let mut mass = [[0.0; MAX_NODES]; MAX_NODES];
         for i in 0..n {
             for j in 0..n {
@@ -503,9 +521,9 @@ fn integrate_face(
                 }
                 mass[i][j] = sum;
             }
-            whole[i] = (0..n).map(|a| T[i][a] * d_face[a]).sum();
+            covered[i] = (0..n).map(|a| T[i][a] * d_face[a]).sum();
         }
-        let X = dual::dual_coefficients(n, &whole, &mass).ok_or(())?;
+        let X = dual::dual_coefficients(n, &covered, &mass).ok_or(())?;
         let mut Q = [[0.0; MAX_NODES]; MAX_NODES];
         for j in 0..n {
             for k in 0..n {
@@ -514,6 +532,13 @@ fn integrate_face(
         }
         Q
     } else {
+        T
+    };
+    // D̄_j = ∫ N̂_j over the whole face, which a node's coverage is measured against.
+    let whole = if full {
+        covered
+    } else {
+        let mut whole = [0.0; MAX_NODES];
         for_each_point(&polygon, |q, weight| {
             match project_along(face, plane, &slave_guess, q) {
                 Some(values) => {
@@ -525,7 +550,7 @@ fn integrate_face(
                 None => failed = true,
             }
         });
-        T
+        whole
     };
     if failed {
         return Err(());
@@ -555,6 +580,14 @@ fn integrate_face(
         }
         let n_m = master.faces[*m as usize].n_nodes();
         output.masters.push((*m, times_Q(H, n_m)));
+    }
+    if !dual {
+        // Lumped: each row of D onto its own node, which keeps one slave node per row.
+        for j in 0..n {
+            let sum: f64 = output.slave[j * n..(j + 1) * n].iter().sum();
+            output.slave[j * n..(j + 1) * n].fill(0.0);
+            output.slave[j * n + j] = sum;
+        }
     }
     output.normals = (0..n)
         .map(|a| {

@@ -541,11 +541,8 @@ fn weighted_gaps_between_coaxial_cylinders_converge_to_the_true_gap() {
     );
 }
 
-#[test]
-fn a_slave_face_half_over_the_master_edge_is_half_covered_with_the_standard_basis() {
-    // A unit quad4 slave face; master quad4 faces over x ≥ 0.5 only. Coverage 0.5, and the
-    // partly covered face takes Φ = N: weights ∫_covered N_j = 3/16 (x = 1) and 1/16 (x = 0),
-    // coverage 3/4 and 1/4 (1e-14).
+/// A unit quad4 slave face whose master quad4 faces cover x ≥ `from` only: the rows it gives.
+fn over_the_edge(from: f64) -> (Builder, Interface) {
     let mut builder = Builder::default();
     let slave = builder.patch(
         FaceKind::Quad4,
@@ -554,24 +551,40 @@ fn a_slave_face_half_over_the_master_edge_is_half_covered_with_the_standard_basi
         true,
         Perturb::None,
     );
-    let master_map = |[s, t]: [f64; 2]| [0.5 + 1.5 * s, -1.0 + 3.0 * t, 0.0];
+    let master_map = |[s, t]: [f64; 2]| [from + 1.5 * s, -1.0 + 3.0 * t, 0.0];
     let master = builder.patch(FaceKind::Quad4, [2, 3], master_map, false, Perturb::None);
     let interface = build(&builder, &slave, &master).unwrap();
+    (builder, interface)
+}
+
+#[test]
+fn a_slave_face_half_over_the_master_edge_takes_the_dual_basis_of_its_covered_half() {
+    // Coverage 0.5: weights ∫_covered N_j = 3/16 (x = 1) and 1/16 (x = 0), coverage 3/4 and
+    // 1/4; each row one slave node, its master weights reproducing the node's position (the
+    // patch test on the covered half), to 1e-14.
+    let (builder, interface) = over_the_edge(0.5);
     assert!((interface.coverage - 0.5).abs() < 1e-14);
     assert!((interface.covered_area - 0.5).abs() < 1e-14);
     assert_eq!(interface.partial_faces, 1);
     assert!((interface.face_coverage[0] - 0.5).abs() < 1e-14);
     assert_eq!(interface.rows.len(), 4);
     for row in &interface.rows {
-        let x = builder.coords[row.node as usize][0];
-        let (weight, coverage) = if x > 0.5 {
+        let x = builder.coords[row.node as usize];
+        let (weight, coverage) = if x[0] > 0.5 {
             (3.0 / 16.0, 0.75)
         } else {
             (1.0 / 16.0, 0.25)
         };
-        assert!((row.weight - weight).abs() < 1e-14, "{x}: {}", row.weight);
+        assert!((row.weight - weight).abs() < 1e-14, "{x:?}: {}", row.weight);
         assert!((row.coverage - coverage).abs() < 1e-14);
-        assert!(row.slave.iter().chain(&row.master).all(|e| e.1 >= 0.0));
+        assert_eq!(row.slave, [(row.node, 1.0)]);
+        let master_point = weighted_position(&builder.coords, &row.master);
+        for axis in 0..3 {
+            assert!(
+                (master_point[axis] - x[axis]).abs() < 1e-14,
+                "{x:?}: {master_point:?}"
+            );
+        }
         assert!(row.gap.abs() < 1e-14);
     }
     let weights: f64 = interface.rows.iter().map(|r| r.weight).sum();
@@ -579,9 +592,47 @@ fn a_slave_face_half_over_the_master_edge_is_half_covered_with_the_standard_basi
 }
 
 #[test]
+fn a_slave_face_barely_over_the_master_edge_takes_the_lumped_standard_basis() {
+    // Coverage 1/4, below the dual's 1/2: weights ∫_covered N_j = 7/64 (x = 1) and 1/64
+    // (x = 0); each row one slave node, its gap zero (the faces are coplanar); its master point
+    // the N_j-weighted mean of the covered quarter, x̄ = ∫ x N_j / ∫ N_j (1e-14).
+    let (builder, interface) = over_the_edge(0.75);
+    assert!((interface.coverage - 0.25).abs() < 1e-14);
+    assert_eq!(interface.rows.len(), 4);
+    for row in &interface.rows {
+        let x = builder.coords[row.node as usize];
+        // ∫_{3/4}^1 x·x dx / ∫ x dx and ∫ x(1 − x) dx / ∫ (1 − x) dx.
+        let (weight, mean_x) = if x[0] > 0.5 {
+            (7.0 / 64.0, (37.0 / 192.0) / (7.0 / 32.0))
+        } else {
+            (1.0 / 64.0, (5.0 / 192.0) / (1.0 / 32.0))
+        };
+        assert!((row.weight - weight).abs() < 1e-14, "{x:?}: {}", row.weight);
+        assert_eq!(row.slave, [(row.node, 1.0)]);
+        let master_point = weighted_position(&builder.coords, &row.master);
+        assert!(
+            (master_point[0] - mean_x).abs() < 1e-14,
+            "{x:?}: {master_point:?}"
+        );
+        assert!(row.gap.abs() < 1e-14);
+    }
+}
+
+/// Σ w x of the weighted nodes.
+fn weighted_position(coords: &[[f64; 3]], weights: &[(u32, f64)]) -> [f64; 3] {
+    let mut point = [0.0; 3];
+    for &(node, weight) in weights {
+        for axis in 0..3 {
+            point[axis] += weight * coords[node as usize][axis];
+        }
+    }
+    point
+}
+
+#[test]
 fn a_master_narrower_than_the_slave_receives_its_whole_consistent_load() {
     // Slave quad4 4×4 on the unit square; master tri3 over 0.3 ≤ x ≤ 0.8, its edges across
-    // slave faces (which take the standard basis). Σ w = covered area 0.5 and Σ_j w_j P_jl =
+    // slave faces (partly covered). Σ w = covered area 0.5 and Σ_j w_j P_jl =
     // ∫ N_l dA on every master node, to 1e-12; every row weight positive.
     let mut builder = Builder::default();
     let slave = builder.patch(
