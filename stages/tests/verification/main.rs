@@ -14,6 +14,7 @@ mod anisotropy;
 mod bars_in_series;
 mod cantilever;
 mod conditioning;
+mod contact_patch;
 mod cwt;
 mod element_convergence;
 mod fit;
