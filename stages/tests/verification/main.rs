@@ -15,6 +15,7 @@ mod bars_in_series;
 mod cantilever;
 mod coincident_mortar;
 mod conditioning;
+mod contact_patch;
 mod cwt;
 mod element_convergence;
 mod fit;
