@@ -107,8 +107,19 @@ impl ContactPair {
     }
 
     /// Checks that both sides are non-empty, their nodes below `n_nodes`, their weights finite
-    /// and summing to 1 within `1e-9`.
+    /// and summing to 1 within `1e-9`, the normal a unit vector (within `1e-9`) and the area
+    /// finite and positive.
     pub fn check(&self, n_nodes: usize) -> Result<(), String> {
+        let length = norm(self.normal);
+        if !((length - 1.0).abs() <= 1e-9) {
+            return Err(format!(
+                "its normal {:?} is not a unit vector (length {length})",
+                self.normal
+            ));
+        }
+        if !(self.area > 0.0 && self.area.is_finite()) {
+            return Err(format!("its area {} m² is not positive", self.area));
+        }
         for (side, entries) in [("pad", &self.pad), ("disc", &self.disc)] {
             if entries.is_empty() {
                 return Err(format!("the {side} side has no node"));

@@ -229,6 +229,10 @@ fn check_mesh(mesh: &Mesh) -> Result<(), StageError> {
             mesh.nodes[node]
         )));
     }
+    for (index, pair) in mesh.contact_pairs.iter().enumerate() {
+        pair.check(mesh.n_nodes())
+            .map_err(|reason| StageError::new(format!("contact pair {index}: {reason}")))?;
+    }
     Ok(())
 }
 

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use super::Assemble;
 use crate::artifact::material::{ElasticLaw, EngineeringConstants, Frame, Material};
-use crate::artifact::{Artifact, Mesh, Model};
+use crate::artifact::{Artifact, ContactPair, Mesh, Model};
 use crate::fixtures::{assemble, try_assemble};
 use crate::mesh::structured;
 use crate::stage::{Input, Inputs, Outputs, Stage, StageError};
@@ -162,6 +162,36 @@ fn inverted_element_is_named_with_its_det_j() {
         "{err}"
     );
     assert!(err.message.contains("element 4 (det J = -"), "{err}");
+}
+
+/// A contact pair the stages could not read (a node out of range, weights that do not sum to
+/// one, a normal that is no direction, no area) is refused before anything is assembled.
+#[test]
+fn a_broken_contact_pair_is_named_with_what_is_wrong() {
+    let brake = crate::fixtures::small_brake();
+    for (break_pair, expected) in [
+        (
+            (|pair: &mut ContactPair| pair.disc[0].0 = 1_000_000) as fn(&mut ContactPair),
+            "contact pair 3: the disc side names node 1000000, but the mesh has",
+        ),
+        (
+            |pair| pair.pad[0].1 = 0.5,
+            "contact pair 3: the pad side's weights sum to 0.5, not 1",
+        ),
+        (
+            |pair| pair.normal = [0.0, 0.0, 2.0],
+            "contact pair 3: its normal [0.0, 0.0, 2.0] is not a unit vector (length 2)",
+        ),
+        (
+            |pair| pair.area = f64::NAN,
+            "contact pair 3: its area NaN m² is not positive",
+        ),
+    ] {
+        let mut mesh = brake.clone();
+        break_pair(&mut mesh.contact_pairs[3]);
+        let err = try_assemble(&mesh, "hub, pad_backs").unwrap_err();
+        assert!(err.message.contains(expected), "{err}");
+    }
 }
 
 #[test]
