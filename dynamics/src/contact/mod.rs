@@ -18,6 +18,7 @@
 //! - Sliding friction drags the pad along the disc's motion: r_t = μ r_n, r_b = 0.
 
 pub mod lcp;
+pub mod pad_face;
 
 use crate::artifact::ContactFrames;
 use crate::artifact::Model;

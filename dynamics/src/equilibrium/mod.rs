@@ -64,7 +64,6 @@
 //! The summary's `pressure_Pa` is the largest of the pressures applied.
 
 mod checks;
-mod figure;
 pub mod floating;
 mod solve;
 mod tables;
@@ -73,6 +72,7 @@ mod tests;
 
 use crate::artifact::{Artifact, ArtifactType, Model};
 use crate::contact::lcp::LcpSettings;
+use crate::contact::pad_face;
 use crate::stage::{HasParams, Inputs, Outputs, Params, PortSpec, Stage, StageError};
 
 pub use checks::{SMALL_STRAIN, back_reactions, largest_strain};
@@ -249,7 +249,12 @@ impl Stage for SlidingEquilibrium {
             .zip(&model.mesh.contact_pairs)
             .map(|(r, pair)| r / pair.area)
             .collect();
-        let pressure = figure::pressure_figure(&model.mesh, &pressure)?;
+        let peak = pressure.iter().copied().fold(0.0, f64::max);
+        let pressure: Vec<Option<f64>> = pressure
+            .into_iter()
+            .map(|pressure| (pressure > 0.0).then_some(pressure))
+            .collect();
+        let pressure = pad_face::figure(&model.mesh, &pressure, peak, "pressure (Pa)")?;
         let vtu = Artifact::document(
             "vtu",
             crate::vtu_writer::equilibrium_vtu(model, &equilibrium)?,

@@ -76,12 +76,13 @@ mod tests;
 
 use faer::c64;
 
-use crate::artifact::{Artifact, ArtifactType, Basis, ComplexModes, Equilibrium, Model};
+use crate::artifact::{Artifact, ArtifactType, Basis, ComplexModes, Equilibrium, Figure, Model};
+use crate::contact::pad_face;
 use crate::stage::{
     HasParams, Inputs, Outputs, Params, PortSpec, Resources, RunContext, Stage, StageError,
 };
 use crate::table::Table;
-use contact::Solver;
+use contact::{PairState, Solver};
 use reduced::{FullStep, ReducedModel};
 use scheme::{ContactState, Failure, Run, Settings, SolveBy, Structure};
 
@@ -292,6 +293,16 @@ impl Stage for Transient {
                 "energy_figure",
                 ArtifactType::Figure,
                 "the energy audit against time",
+            ),
+            PortSpec::one(
+                "contact_states",
+                ArtifactType::Table,
+                "one row per pair: x, y, z (its disc point); shares of the steps it ended open, sticking, sliding",
+            ),
+            PortSpec::one(
+                "contact_states_figure",
+                ArtifactType::Figure,
+                "the share of steps each pair stuck, on the pad faces",
             ),
         ]
     }
@@ -720,6 +731,7 @@ fn outputs(
             .collect(),
     );
     let summary = summary_table(settings, run, residual_indicator);
+    let (contact_states, contact_states_figure) = contact_states(model, &run.pair_steps)?;
     let figure = figure::history(history, settings)?;
     let energy_figure = figure::energy(history)?;
     Ok(Outputs::from([
@@ -735,7 +747,47 @@ fn outputs(
         ("summary".to_string(), Artifact::Table(summary)),
         ("history_figure".to_string(), Artifact::Figure(figure)),
         ("energy_figure".to_string(), Artifact::Figure(energy_figure)),
+        (
+            "contact_states".to_string(),
+            Artifact::Table(contact_states),
+        ),
+        (
+            "contact_states_figure".to_string(),
+            Artifact::Figure(contact_states_figure),
+        ),
     ]))
+}
+
+/// Per pair: where it is and the shares of the steps it ended open, sticking and sliding; and
+/// the map of the share sticking on the pad faces (grey: open at every step).
+fn contact_states(model: &Model, pair_steps: &[[u64; 3]]) -> Result<(Table, Figure), StageError> {
+    let pairs = &model.mesh.contact_pairs;
+    let position: Vec<[f64; 3]> = pairs
+        .iter()
+        .map(|pair| pair.disc_position(&model.mesh.nodes))
+        .collect();
+    let share = |state: PairState| -> Vec<f64> {
+        pair_steps
+            .iter()
+            .map(|steps| steps[state as usize] as f64 / steps.iter().sum::<u64>().max(1) as f64)
+            .collect()
+    };
+    let (open, stick) = (share(PairState::Open), share(PairState::Stick));
+    let table = Table::new()
+        .with("pair", (0..pairs.len() as i64).collect::<Vec<i64>>())
+        .with("x", position.iter().map(|x| x[0]).collect::<Vec<f64>>())
+        .with("y", position.iter().map(|x| x[1]).collect::<Vec<f64>>())
+        .with("z", position.iter().map(|x| x[2]).collect::<Vec<f64>>())
+        .with("open", open.clone())
+        .with("stick", stick.clone())
+        .with("slide", share(PairState::Slide));
+    let sticking: Vec<Option<f64>> = open
+        .iter()
+        .zip(&stick)
+        .map(|(&open, &stick)| (open < 1.0).then_some(stick))
+        .collect();
+    let figure = pad_face::figure(&model.mesh, &sticking, 1.0, "share of steps sticking")?;
+    Ok((table, figure))
 }
 
 /// `M` on the rows of [`Model::nodal_table`] (node-major, three per node).

@@ -144,6 +144,8 @@ pub struct Run {
     pub worst_contact_residual: f64,
     pub most_contact_iterations: usize,
     pub peak_penetration: f64,
+    /// Per pair, the steps it ended open, sticking and sliding ([`PairState`] order).
+    pub pair_steps: Vec<[u64; 3]>,
     /// Factorisations of the active-set contact solver (for benchmarks, like the timings).
     pub contact_factorisations: usize,
     /// Steps whose single-precision contact solution was refined in double precision.
@@ -423,6 +425,7 @@ impl<'s> Operators<'s> {
             worst_contact_residual: 0.0,
             most_contact_iterations: 0,
             peak_penetration: 0.0,
+            pair_steps: vec![[0; 3]; self.n_pairs()],
         };
         self.record(&mut state, 0);
         state
@@ -592,6 +595,8 @@ impl<'s> Operators<'s> {
         for p in 0..n_pairs {
             let penetration = -(self.contact_state.gap[p] + state.delta[3 * p]);
             state.peak_penetration = state.peak_penetration.max(penetration);
+            let pair_state = classify(&state.r, &state.w, p, self.contact_state.sliding_speed[p]);
+            state.pair_steps[p][pair_state as usize] += 1;
         }
         state.step = step;
         self.record(state, report.iterations);
@@ -693,6 +698,8 @@ struct State {
     worst_contact_residual: f64,
     most_contact_iterations: usize,
     peak_penetration: f64,
+    /// Per pair, the steps it ended open, sticking and sliding ([`PairState`] order).
+    pair_steps: Vec<[u64; 3]>,
 }
 
 /// A step's scratch vectors.
@@ -778,6 +785,7 @@ pub fn integrate(
         worst_contact_residual: state.worst_contact_residual,
         most_contact_iterations: state.most_contact_iterations,
         peak_penetration: state.peak_penetration,
+        pair_steps: state.pair_steps,
         contact_factorisations: contact_solver.factorisations,
         contact_refinements: contact_solver.refinements,
     })

@@ -81,6 +81,53 @@ fn grows_at_its_most_unstable_rate(inputs: &Inputs) -> f64 {
     (measured - expected) / expected
 }
 
+/// The contact states per pair add up, over the pairs, to the history's fractions over the
+/// steps (a step's row in the history counts the pairs in each state at its end).
+#[test]
+fn each_pairs_share_of_states_adds_up_to_the_historys_fractions() {
+    let inputs = brake_inputs();
+    let most = most_unstable(&inputs);
+    let tau = 2.0 * PI / most.im / 60.0;
+    let outputs = Transient
+        .run(
+            &transient_params(&[
+                ("tau", Value::Float(tau)),
+                ("duration", Value::Float(600.0 * tau)),
+                ("amplitude", Value::Float(1e-3)),
+            ]),
+            &inputs,
+        )
+        .unwrap();
+    let history = outputs["history"].as_table().unwrap();
+    let states = outputs["contact_states"].as_table().unwrap();
+    let model: &Model = inputs.get("model").unwrap();
+    assert_eq!(states.n_rows(), model.mesh.contact_pairs.len());
+    for state in ["open", "stick", "slide"] {
+        let per_pair = f64_column(states, state);
+        let over_pairs = per_pair.iter().sum::<f64>() / per_pair.len() as f64;
+        // Row 0 is the start, before any step.
+        let per_step = &f64_column(history, state)[1..];
+        let over_steps = per_step.iter().sum::<f64>() / per_step.len() as f64;
+        assert!(
+            (over_pairs - over_steps).abs() < 1e-12,
+            "{state}: {over_pairs} over the pairs, {over_steps} over the steps"
+        );
+    }
+    let stick = f64_column(states, "stick");
+    assert!(stick.iter().any(|&share| share > 0.0) && stick.iter().any(|&share| share < 1.0));
+    for pair in 0..states.n_rows() {
+        let total: f64 = ["open", "stick", "slide"]
+            .iter()
+            .map(|state| f64_column(states, state)[pair])
+            .sum();
+        assert!((total - 1.0).abs() < 1e-12, "pair {pair}: {total}");
+    }
+    assert!(matches!(
+        outputs["contact_states_figure"],
+        Artifact::Figure(_)
+    ));
+}
+
 #[test]
 fn bad_parameters_are_refused_with_the_figure_that_matters() {
     let inputs = brake_inputs();

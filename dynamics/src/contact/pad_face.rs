@@ -1,5 +1,7 @@
-//! The contact pressure over the pad faces: one panel per side (upper, lower), each pair a
-//! round marker at (angle, radius) coloured by its pressure r_n / area.
+//! A field over the pad faces, one value per contact pair: one panel per side (upper, lower),
+//! each pair a round marker at its disc point's (angle, radius), coloured by its value (grey
+//! where it has none): the equilibrium's contact pressure, the transient's share of steps
+//! sticking.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -9,12 +11,15 @@ use crate::artifact::mesh::Mesh;
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::StageError;
 
-struct PressureMap<'a> {
+struct PadFaceMap<'a> {
     mesh: &'a Mesh,
-    pressure: &'a [f64],
+    values: &'a [Option<f64>],
+    /// The colour bar's top (its bottom is 0) and label.
+    peak: f64,
+    label: &'a str,
 }
 
-impl Drawing for PressureMap<'_> {
+impl Drawing for PadFaceMap<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         let polar: Vec<(f64, f64)> = self
             .mesh
@@ -28,7 +33,7 @@ impl Drawing for PressureMap<'_> {
                 )
             })
             .collect();
-        let peak = self.pressure.iter().copied().fold(0.0, f64::max);
+        let peak = self.peak;
         let span = |values: &mut dyn Iterator<Item = f64>| {
             let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), v| {
                 (low.min(v), high.max(v))
@@ -65,31 +70,35 @@ impl Drawing for PressureMap<'_> {
                 .contact_pairs
                 .iter()
                 .zip(&polar)
-                .zip(self.pressure)
+                .zip(self.values)
                 .filter(|((pair, _), _)| (pair.normal[2] >= 0.0) == upper)
-                .map(|((_, &(angle, radius)), &pressure)| {
-                    let level = if peak > 0.0 { pressure / peak } else { 0.0 };
-                    let color = if pressure > 0.0 {
-                        plot::viridis(level)
-                    } else {
-                        RGBColor(200, 200, 200)
+                .map(|((_, &(angle, radius)), &value)| {
+                    let color = match value {
+                        Some(value) => plot::viridis(if peak > 0.0 { value / peak } else { 0.0 }),
+                        None => RGBColor(200, 200, 200),
                     };
                     Circle::new((angle, radius), 7, color.filled())
                 });
             chart.draw_series(markers).map_err(drawing_error)?;
         }
-        // Colour bar: 0 to the peak pressure (grey: open pairs).
-        plot::colour_bar(
-            &colorbar,
-            0.0..peak.max(f64::MIN_POSITIVE),
-            "pressure (Pa)",
-            64,
-        )?;
+        plot::colour_bar(&colorbar, 0.0..peak.max(f64::MIN_POSITIVE), self.label, 64)?;
         Ok(())
     }
 }
 
-/// The pressure figure of a set of contact pairs.
-pub fn pressure_figure(mesh: &Mesh, pressure: &[f64]) -> Result<Figure, StageError> {
-    plot::render(&PressureMap { mesh, pressure }, plot::DEFAULT_SIZE)
+/// The map of `values` (one per pair of `mesh`, `None` grey) on the pad faces, coloured from 0
+/// to `peak`, the colour bar labelled `label`.
+pub fn figure(
+    mesh: &Mesh,
+    values: &[Option<f64>],
+    peak: f64,
+    label: &str,
+) -> Result<Figure, StageError> {
+    let map = PadFaceMap {
+        mesh,
+        values,
+        peak,
+        label,
+    };
+    plot::render(&map, plot::DEFAULT_SIZE)
 }
