@@ -424,7 +424,7 @@ pub fn structure_of<'a>(
         dof_of_node: &model.dof_of_node,
         H_rows: crate::contact::h_columns(model, frames),
     };
-    let body_of_node = model.mesh.bodies_of_nodes().0;
+    let body_of_node = model.bodies_of_nodes().0;
     let body_of_pair: Vec<usize> = model
         .mesh
         .contact_pairs

@@ -1,0 +1,413 @@
+//! Tied interfaces: parts meshed apart (a lining and its backplate, a friction ring and its
+//! hat), held together by eliminating the DOFs of one side.
+//!
+//! # Collocation
+//!
+//! A tie `slave -> master` names two node sets of the mesh. The master set's boundary faces
+//! (those whose nodes are all in the set, one element each, any face kind) form the master
+//! surface Γ, with its faces' shape functions N_l. Each node s of the slave set is projected
+//! onto Γ: x(ξ*) is the closest point of the nearest face ([`Projector`]; ξ* clamped into the
+//! face where s lies beyond Γ's edge), and the node's displacement is held to the surface's
+//! there (code_aster's `LIAISON_MAIL`):
+//!
+//! ```text
+//! u_s = Σ_l N_l(ξ*) u_l          (l over the nodes of that face)
+//! ```
+//!
+//! The weights w_sl = N_l(ξ*) sum to 1 (the shape functions are a partition of unity) and are
+//! the same for x, y and z: a tie is a linear combination of nodes, not of DOFs. A slave node
+//! farther than `tie_distance` from Γ is refused: collocation assumes the two surfaces meet.
+//!
+//! # Elimination
+//!
+//! Let u_f gather the DOFs of the nodes that are not tied (the free ones, clamped axes left
+//! out as everywhere). Every DOF of the mesh is then u = T u_f, T the identity on the free
+//! nodes and w_sl I₃ on the row of a tied node s and the columns of its master l. The strain
+//! and kinetic energies ½ uᵀ K u and ½ u̇ᵀ M u̇ become ½ u_fᵀ (Tᵀ K T) u_f and so on, and a
+//! load's work fᵀ u becomes (Tᵀ f)ᵀ u_f:
+//!
+//! ```text
+//! K_red = Tᵀ K T      M_red = Tᵀ M T      C_red = Tᵀ C T      f_red = Tᵀ f
+//! ```
+//!
+//! exactly: the constraints hold identically, with no penalty to choose and no multiplier to
+//! solve for, and the reduced matrices stay symmetric and positive (semi-)definite.
+//!
+//! # Why the blocks stay 3×3
+//!
+//! T = W ⊗ I₃, with W the node-by-node matrix of the weights (W_aa = 1 on a free node a,
+//! W_sl = w_sl on a tied node s). Block by block,
+//!
+//! ```text
+//! (Tᵀ K T)_mn = Σ_a Σ_b W_am W_bn K_ab          (each a 3×3 block)
+//! ```
+//!
+//! so an element's block (a, b) lands on the blocks (m, n) for every master m of a and n of
+//! b (a free node is its own master with weight 1), scaled by W_am W_bn. Every node of the
+//! reduced model keeps its DOFs together and the pattern is still one dense 3×3 block per pair
+//! of neighbouring nodes ([`super::sparse`]); the nodes of the elements at a slave node become
+//! neighbours of the nodes of its master face.
+//!
+//! # The patch test
+//!
+//! Let the slave nodes lie on Γ (x_s = x(ξ*)). A linear displacement field u(x) = a + G x is
+//! then in the constrained space, since every face kind interpolates linear fields exactly:
+//! Σ_l N_l(ξ*) (a + G x_l) = a + G x(ξ*) = a + G x_s. A problem whose exact solution is linear
+//! (constant stress, consistent loads) has that solution in the finite-element space of
+//! either mesh, so the constrained minimiser of the energy is that solution: the tied model
+//! reproduces constant stress exactly, to round-off, whatever the two meshes. A rigid
+//! translation is always kept (Σ_l w_sl = 1); a rigid rotation θ only if the slave node lies
+//! on Γ, a slave node at a distance d from Γ being displaced by |θ| d from where its masters
+//! put it.
+//!
+//! # Rules
+//!
+//! - A node is tied once: a node in two slave sets, or in the slave set and on the master
+//!   surface of ties (the same one or another, which would chain ties), is refused, as are
+//!   slave and master sets that share a node.
+//! - A tied node has no DOF, so it cannot be clamped; its masters can.
+//! - Contact pairs reading a tied node read its masters instead ([`Tied::substitute_pairs`]):
+//!   the node is replaced in its side by its masters, weights multiplied and merged per node.
+//!   A pair's pad anchor (which carries the pair's slave DOF in the stability) cannot be tied.
+//!
+//! Errors are one line naming the tie, its two sets and the figure at fault.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use crate::artifact::TiedNode;
+use crate::artifact::mesh::{ContactPair, Mesh};
+use crate::fem::faces::Side;
+use crate::fem::mortar::Projector;
+use crate::mesh::mortar_pairs::surface;
+use crate::stage::StageError;
+
+/// One entry of `ties`: the nodes of the set `slave` follow the surface of the set `master`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Tie {
+    pub slave: String,
+    pub master: String,
+}
+
+impl fmt::Display for Tie {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "`{} -> {}`", self.slave, self.master)
+    }
+}
+
+/// The ties written `slave_set -> master_set`, one per entry.
+pub fn parse_ties(entries: &[String]) -> Result<Vec<Tie>, StageError> {
+    entries
+        .iter()
+        .map(|entry| {
+            let parsed = entry.split_once("->").and_then(|(slave, master)| {
+                let (slave, master) = (slave.trim(), master.trim());
+                let valid = |name: &str| !name.is_empty() && !name.contains("->");
+                (valid(slave) && valid(master)).then(|| Tie {
+                    slave: slave.to_string(),
+                    master: master.to_string(),
+                })
+            });
+            parsed.ok_or_else(|| {
+                StageError::new(format!(
+                    "ties: `{entry}` is not `slave_set -> master_set` (two node sets of the mesh)"
+                ))
+            })
+        })
+        .collect()
+}
+
+/// The tied nodes of every tie, and what the messages and the log say of them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tied {
+    pub ties: Vec<Tie>,
+    /// The tied nodes, by increasing node.
+    pub nodes: Vec<TiedNode>,
+    /// The tie (index into `ties`) of each of `nodes`.
+    pub tie_of: Vec<usize>,
+    /// Per tie: the largest distance (m) from a slave node to the master surface.
+    pub largest_distance: Vec<f64>,
+}
+
+impl Tied {
+    /// Whether each node of a mesh of `n_nodes` nodes is tied.
+    pub fn is_tied(&self, n_nodes: usize) -> Vec<bool> {
+        let mut tied = vec![false; n_nodes];
+        for node in &self.nodes {
+            tied[node.node as usize] = true;
+        }
+        tied
+    }
+
+    /// The index of `node` among the tied nodes.
+    fn find(&self, node: u32) -> Option<usize> {
+        self.nodes
+            .binary_search_by_key(&node, |tied| tied.node)
+            .ok()
+    }
+
+    /// An error if a tied node is clamped on any axis (`clamped` per node, from the entries
+    /// `clamped_sets`), naming the node, its tie and the clamped set.
+    pub fn refuse_clamped(
+        &self,
+        mesh: &Mesh,
+        clamped: &[[bool; 3]],
+        clamped_sets: &[String],
+    ) -> Result<(), StageError> {
+        let Some(index) = self
+            .nodes
+            .iter()
+            .position(|tied| clamped[tied.node as usize].iter().any(|&axis| axis))
+        else {
+            return Ok(());
+        };
+        let node = self.nodes[index].node;
+        let tie = &self.ties[self.tie_of[index]];
+        let by = clamped_sets
+            .iter()
+            .map(|entry| entry.split_once(':').map_or(entry.as_str(), |(name, _)| name))
+            .map(str::trim)
+            .find(|name| {
+                mesh.node_sets
+                    .get(*name)
+                    .is_some_and(|set| set.contains(&node))
+            })
+            .unwrap_or("?");
+        Err(StageError::new(format!(
+            "tie {tie}: node {node} of `{}` is clamped (by `{by}`): a tied node has no DOF of its \
+             own and follows `{}`; clamp the master side, or take the node out of `{}`",
+            tie.slave, tie.master, tie.slave
+        )))
+    }
+
+    /// Replaces each tied node of the contact pairs' sides by its masters, weights multiplied
+    /// and merged per node (in order of first appearance, so the pad anchor stays first);
+    /// pairs without a tied node are left as they are, bit for bit. An error if a pair's pad
+    /// anchor is tied.
+    pub fn substitute_pairs(&self, pairs: &mut [ContactPair]) -> Result<(), StageError> {
+        if self.nodes.is_empty() {
+            return Ok(());
+        }
+        for (index, pair) in pairs.iter_mut().enumerate() {
+            if !pair.nodes().any(|node| self.find(node).is_some()) {
+                continue;
+            }
+            let anchor = pair.pad_node();
+            if let Some(tied) = self.find(anchor) {
+                let tie = &self.ties[self.tie_of[tied]];
+                return Err(StageError::new(format!(
+                    "contact pair {index}: its pad node {anchor} (the pair's anchor, which \
+                     carries its slave DOF) is tied by {tie}: contact needs nodes with DOFs of \
+                     their own; tie the other way round (`{} -> {}`)",
+                    tie.master, tie.slave
+                )));
+            }
+            pair.pad = self.substitute(&pair.pad);
+            pair.disc = self.substitute(&pair.disc);
+        }
+        Ok(())
+    }
+
+    /// `side` with each tied node replaced by its masters.
+    fn substitute(&self, side: &[(u32, f64)]) -> Vec<(u32, f64)> {
+        let mut merged: Vec<(u32, f64)> = Vec::with_capacity(side.len());
+        let mut add = |node: u32, weight: f64| match merged.iter_mut().find(|(n, _)| *n == node) {
+            Some(entry) => entry.1 += weight,
+            None => merged.push((node, weight)),
+        };
+        for &(node, weight) in side {
+            match self.find(node) {
+                None => add(node, weight),
+                Some(tied) => {
+                    for &(master, master_weight) in &self.nodes[tied].masters {
+                        add(master, weight * master_weight);
+                    }
+                }
+            }
+        }
+        merged
+    }
+}
+
+/// The nodes of node set `name`, checked to be in the mesh; an error names the tie.
+fn node_set<'m>(mesh: &'m Mesh, tie: &Tie, name: &str) -> Result<&'m [u32], StageError> {
+    let Some(nodes) = mesh.node_sets.get(name) else {
+        let available: Vec<&str> = mesh.node_sets.keys().map(String::as_str).collect();
+        return Err(StageError::new(format!(
+            "tie {tie}: node set `{name}` is not in the mesh (the mesh has: {})",
+            if available.is_empty() {
+                "no node sets".to_string()
+            } else {
+                available.join(", ")
+            }
+        )));
+    };
+    if let Some(node) = nodes.iter().find(|&&node| node as usize >= mesh.n_nodes()) {
+        return Err(StageError::new(format!(
+            "tie {tie}: node set `{name}` names node {node}, but the mesh has {} nodes",
+            mesh.n_nodes()
+        )));
+    }
+    Ok(nodes)
+}
+
+/// The tied nodes of the ties `entries` (`slave_set -> master_set`), each slave node at most
+/// `tie_distance` (m) from its master surface (module doc). No entries, no ties.
+pub fn tie_nodes(mesh: &Mesh, entries: &[String], tie_distance: f64) -> Result<Tied, StageError> {
+    let ties = parse_ties(entries)?;
+    if ties.is_empty() {
+        return Ok(Tied::default());
+    }
+    if !(tie_distance >= 0.0 && tie_distance.is_finite()) {
+        return Err(StageError::new(format!(
+            "tie_distance must be a finite length ≥ 0, not {tie_distance}"
+        )));
+    }
+    // Sets, overlaps and surfaces, all checked before any projection.
+    let mut slave_of: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut surfaces = Vec::with_capacity(ties.len());
+    for (index, tie) in ties.iter().enumerate() {
+        let slaves = node_set(mesh, tie, &tie.slave)?;
+        let masters = node_set(mesh, tie, &tie.master)?;
+        if slaves.is_empty() {
+            return Err(StageError::new(format!(
+                "tie {tie}: slave set `{}` has no node",
+                tie.slave
+            )));
+        }
+        let side = Side::new(&tie.master, masters.iter().copied());
+        if let Some(shared) = slaves.iter().find(|&&node| side.contains(node)) {
+            return Err(StageError::new(format!(
+                "tie {tie}: node {shared} is in both `{}` and `{}`: the slave and master sets \
+                 must not overlap (a node cannot follow itself)",
+                tie.slave, tie.master
+            )));
+        }
+        for &node in slaves {
+            if let Some(&other) = slave_of.get(&node) {
+                if other != index {
+                    return Err(StageError::new(format!(
+                        "node {node} is tied twice, by {} and by {tie}: a node follows one \
+                         master surface",
+                        ties[other]
+                    )));
+                }
+            } else {
+                slave_of.insert(node, index);
+            }
+        }
+        let master_surface = surface(mesh, &side);
+        if master_surface.faces.is_empty() {
+            return Err(StageError::new(format!(
+                "tie {tie}: master set `{}` holds no boundary face (all the nodes of one \
+                 element face), so `{}` has no surface to follow",
+                tie.master, tie.slave
+            )));
+        }
+        surfaces.push(master_surface);
+    }
+    for (index, master_surface) in surfaces.iter().enumerate() {
+        let tie = &ties[index];
+        for &node in master_surface.faces.iter().flat_map(|(_, nodes)| nodes) {
+            if let Some(&other) = slave_of.get(&node) {
+                return Err(StageError::new(format!(
+                    "node {node} is tied by {} (a node of `{}`) and is a master of {tie} (a \
+                     node of `{}`'s surface): chains of ties are refused, tie both to one master",
+                    ties[other], ties[other].slave, tie.master
+                )));
+            }
+        }
+    }
+
+    let mut nodes: Vec<(TiedNode, usize)> = Vec::with_capacity(slave_of.len());
+    let mut largest_distance = vec![0.0f64; ties.len()];
+    for (index, (tie, master_surface)) in ties.iter().zip(&surfaces).enumerate() {
+        let projector = Projector::new(&mesh.nodes, master_surface, tie_distance)
+            .map_err(|err| StageError::new(format!("tie {tie}: {err}")))?;
+        let mut missed = Vec::new();
+        let slaves = &mesh.node_sets[&tie.slave];
+        for &node in slaves {
+            let Some(projection) = projector.project(mesh.nodes[node as usize]) else {
+                missed.push(node);
+                continue;
+            };
+            largest_distance[index] = largest_distance[index].max(projection.distance);
+            let masters: Vec<(u32, f64)> = projection
+                .weights
+                .into_iter()
+                .filter(|&(_, weight)| weight != 0.0)
+                .collect();
+            nodes.push((TiedNode { node, masters }, index));
+        }
+        if !missed.is_empty() {
+            return Err(missed_error(
+                mesh,
+                tie,
+                &projector,
+                &missed,
+                slaves.len(),
+                tie_distance,
+            ));
+        }
+        tracing::info!(
+            "tie {tie}: {} nodes of `{}` tied to {} faces of `{}`, the farthest {:.3e} m away",
+            slaves.len(),
+            tie.slave,
+            master_surface.faces.len(),
+            tie.master,
+            largest_distance[index]
+        );
+    }
+    nodes.sort_by_key(|(tied, _)| tied.node);
+    let (nodes, tie_of) = nodes.into_iter().unzip();
+    Ok(Tied {
+        ties,
+        nodes,
+        tie_of,
+        largest_distance,
+    })
+}
+
+/// The error for the slave nodes `missed` that found no master face within `tie_distance`:
+/// the farthest of them by its distance, or, if none has a closest point at all, their count.
+fn missed_error(
+    mesh: &Mesh,
+    tie: &Tie,
+    projector: &Projector,
+    missed: &[u32],
+    n_slaves: usize,
+    tie_distance: f64,
+) -> StageError {
+    let mut farthest: Option<(f64, u32)> = None;
+    let mut nowhere = Vec::new();
+    for &node in missed {
+        match projector.nearest(mesh.nodes[node as usize]) {
+            Some(projection) => {
+                if farthest.is_none_or(|(distance, _)| projection.distance > distance) {
+                    farthest = Some((projection.distance, node));
+                }
+            }
+            None => nowhere.push(node),
+        }
+    }
+    match farthest {
+        Some((distance, node)) => StageError::new(format!(
+            "tie {tie}: node {node} of `{}` is {distance:.3e} m from the surface of `{}`, farther \
+             than tie_distance = {tie_distance:.3e} m ({} of the {n_slaves} nodes of `{}` are \
+             farther)",
+            tie.slave,
+            tie.master,
+            missed.len() - nowhere.len(),
+            tie.slave
+        )),
+        None => StageError::new(format!(
+            "tie {tie}: {} of the {n_slaves} nodes of `{}` project nowhere on the surface of \
+             `{}` (the closest-point iteration fails on every face: distorted faces?), the first \
+             node {}",
+            nowhere.len(),
+            tie.slave,
+            tie.master,
+            nowhere[0]
+        )),
+    }
+}
