@@ -43,6 +43,7 @@ use crate::table::Table;
 use crate::artifact::ElementKind;
 use crate::artifact::material::{ElasticLaw, Elasticity, Material};
 use crate::fem::element::{self, Degenerate, ElementMatrices, element_elasticity};
+pub use ties::TieMethod;
 
 /// The parts of the short form, whose materials are this stage's parameters.
 pub const SHORT_FORM_PARTS: [&str; 2] = ["disc", "pad"];
@@ -104,6 +105,10 @@ crate::stage_params! {
         #[unit = "m"]
         #[min = 0.0]
         tie_distance: f64 = 1e-4,
+        /// how ties hold their slave nodes: `collocation` (each at its closest point of the
+        /// master surface) or `mortar` (the dual mortar rows: constant stress passes
+        /// non-matching meshes exactly)
+        tie_method: TieMethod = TieMethod::Collocation,
     }
 }
 
@@ -114,6 +119,7 @@ impl AssembleParams {
             clamped: &self.clamped,
             ties: &self.ties,
             tie_distance: self.tie_distance,
+            tie_method: self.tie_method,
         }
     }
 
@@ -373,6 +379,7 @@ pub fn assemble_with(
         clamped,
         ties: &[],
         tie_distance: 0.0,
+        tie_method: TieMethod::Collocation,
     };
     assemble_constrained(mesh, &constraints, materials)
 }
@@ -387,6 +394,8 @@ pub struct Constraints<'a> {
     pub ties: &'a [String],
     /// The largest distance (m) from a slave node to its master surface.
     pub tie_distance: f64,
+    /// How the ties hold their slave nodes.
+    pub tie_method: TieMethod,
 }
 
 /// The model of `mesh` with `materials` by part index, held by `constraints`, and its summary
@@ -398,7 +407,12 @@ pub fn assemble_constrained(
 ) -> Result<(Model, Table), StageError> {
     check_mesh(mesh)?;
     let clamped = dofs::clamped_axes(mesh, constraints.clamped)?;
-    let tied = ties::tie_nodes(mesh, constraints.ties, constraints.tie_distance)?;
+    let tied = ties::tie_nodes(
+        mesh,
+        constraints.ties,
+        constraints.tie_distance,
+        constraints.tie_method,
+    )?;
     tied.refuse_clamped(mesh, &clamped, constraints.clamped)?;
     let mut contact_pairs = None;
     if !tied.nodes.is_empty() {

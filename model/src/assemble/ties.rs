@@ -75,12 +75,29 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use faer::Mat;
+use faer::linalg::solvers::Solve;
+
 use crate::artifact::TiedNode;
 use crate::artifact::mesh::{ContactPair, Mesh};
 use crate::fem::faces::Side;
-use crate::fem::mortar::Projector;
+use crate::fem::mortar::{self, Projector, Row, Settings, Surface};
 use crate::mesh::mortar_pairs::surface;
 use crate::stage::StageError;
+
+crate::choice! {
+    /// How a tie holds its slave nodes to the master surface (module doc).
+    pub enum TieMethod {
+        /// Each slave node at its closest point of the master surface, u_s = Σ_l N_l(ξ*) u_l.
+        Collocation = "collocation",
+        /// The dual mortar rows, ∫ Φ_j (u_slave − u_master) dA = 0 for each slave node j:
+        /// constant stress passes non-matching interfaces exactly.
+        Mortar = "mortar",
+    }
+}
+
+#[cfg(test)]
+mod tests;
 
 /// One entry of `ties`: the nodes of the set `slave` follow the surface of the set `master`.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -251,9 +268,14 @@ fn node_set<'m>(mesh: &'m Mesh, tie: &Tie, name: &str) -> Result<&'m [u32], Stag
     Ok(nodes)
 }
 
-/// The tied nodes of the ties `entries` (`slave_set -> master_set`), each slave node at most
-/// `tie_distance` (m) from its master surface (module doc). No entries, no ties.
-pub fn tie_nodes(mesh: &Mesh, entries: &[String], tie_distance: f64) -> Result<Tied, StageError> {
+/// The tied nodes of the ties `entries` (`slave_set -> master_set`) by `method`, each slave
+/// node at most `tie_distance` (m) from its master surface (module doc). No entries, no ties.
+pub fn tie_nodes(
+    mesh: &Mesh,
+    entries: &[String],
+    tie_distance: f64,
+    method: TieMethod,
+) -> Result<Tied, StageError> {
     let ties = parse_ties(entries)?;
     if ties.is_empty() {
         return Ok(Tied::default());
@@ -322,40 +344,20 @@ pub fn tie_nodes(mesh: &Mesh, entries: &[String], tie_distance: f64) -> Result<T
     let mut nodes: Vec<(TiedNode, usize)> = Vec::with_capacity(slave_of.len());
     let mut largest_distance = vec![0.0f64; ties.len()];
     for (index, (tie, master_surface)) in ties.iter().zip(&surfaces).enumerate() {
-        let projector = Projector::new(&mesh.nodes, master_surface, tie_distance)
-            .map_err(|err| StageError::new(format!("tie {tie}: {err}")))?;
-        let mut missed = Vec::new();
         let slaves = &mesh.node_sets[&tie.slave];
-        for &node in slaves {
-            let Some(projection) = projector.project(mesh.nodes[node as usize]) else {
-                missed.push(node);
-                continue;
-            };
-            largest_distance[index] = largest_distance[index].max(projection.distance);
-            let masters: Vec<(u32, f64)> = projection
-                .weights
-                .into_iter()
-                .filter(|&(_, weight)| weight != 0.0)
-                .collect();
-            nodes.push((TiedNode { node, masters }, index));
-        }
-        if !missed.is_empty() {
-            return Err(missed_error(
-                mesh,
-                tie,
-                &projector,
-                &missed,
-                slaves.len(),
-                tie_distance,
-            ));
-        }
+        let (tied, distance) = match method {
+            TieMethod::Collocation => collocate(mesh, tie, master_surface, tie_distance)?,
+            TieMethod::Mortar => mortar_rows(mesh, tie, master_surface, tie_distance)?,
+        };
+        largest_distance[index] = distance;
+        nodes.extend(tied.into_iter().map(|tied| (tied, index)));
         tracing::info!(
-            "tie {tie}: {} nodes of `{}` tied to {} faces of `{}`, the farthest {:.3e} m away",
+            "tie {tie} ({method}): {} nodes of `{}` tied to {} faces of `{}`, the farthest \
+             {distance:.3e} m away",
             slaves.len(),
             tie.slave,
             master_surface.faces.len(),
             tie.master,
-            largest_distance[index]
         );
     }
     nodes.sort_by_key(|(tied, _)| tied.node);
@@ -366,6 +368,208 @@ pub fn tie_nodes(mesh: &Mesh, entries: &[String], tie_distance: f64) -> Result<T
         tie_of,
         largest_distance,
     })
+}
+
+/// Collocation: each node of the slave set at its closest point of `master_surface`, with the
+/// shape functions there as weights; and the largest distance.
+fn collocate(
+    mesh: &Mesh,
+    tie: &Tie,
+    master_surface: &Surface,
+    tie_distance: f64,
+) -> Result<(Vec<TiedNode>, f64), StageError> {
+    let projector = Projector::new(&mesh.nodes, master_surface, tie_distance)
+        .map_err(|err| StageError::new(format!("tie {tie}: {err}")))?;
+    let slaves = &mesh.node_sets[&tie.slave];
+    let mut missed = Vec::new();
+    let mut tied = Vec::with_capacity(slaves.len());
+    let mut largest: f64 = 0.0;
+    for &node in slaves {
+        let Some(projection) = projector.project(mesh.nodes[node as usize]) else {
+            missed.push(node);
+            continue;
+        };
+        largest = largest.max(projection.distance);
+        let masters: Vec<(u32, f64)> = projection
+            .weights
+            .into_iter()
+            .filter(|&(_, weight)| weight != 0.0)
+            .collect();
+        tied.push(TiedNode { node, masters });
+    }
+    if !missed.is_empty() {
+        return Err(missed_error(
+            mesh,
+            tie,
+            &projector,
+            &missed,
+            slaves.len(),
+            tie_distance,
+        ));
+    }
+    Ok((tied, largest))
+}
+
+/// The dual mortar rows of the slave set's faces against `master_surface`
+/// ([`crate::fem::mortar`]): Σ_k S_jk u_k = Σ_l P_jl u_l for each slave node j, solved for the
+/// slave nodes, u_s = (S⁻¹ P) u_m (S is the identity on fully covered linear faces; a
+/// quadratic face's mid-edge rows and partly covered faces couple a few slave nodes, solved
+/// group by group). Every node of the slave set needs a row, within `tie_distance` (its
+/// weighted gap) of the master surface. Returns the tied nodes and the largest |gap|.
+fn mortar_rows(
+    mesh: &Mesh,
+    tie: &Tie,
+    master_surface: &Surface,
+    tie_distance: f64,
+) -> Result<(Vec<TiedNode>, f64), StageError> {
+    let slaves = &mesh.node_sets[&tie.slave];
+    let slave_surface = surface(mesh, &Side::new(&tie.slave, slaves.iter().copied()));
+    if slave_surface.faces.is_empty() {
+        return Err(StageError::new(format!(
+            "tie {tie}: slave set `{}` holds no boundary face (all the nodes of one element \
+             face), which the mortar method integrates over (collocation ties nodes alone)",
+            tie.slave
+        )));
+    }
+    // Faces a little farther than the tie distance are paired too, so that a gap too wide
+    // is named with its figure below rather than as faces that do not overlap.
+    let settings = Settings {
+        search_distance: 10.0 * tie_distance,
+        ..Settings::default()
+    };
+    let interface = mortar::interface(&mesh.nodes, &slave_surface, master_surface, &settings)
+        .map_err(|err| StageError::new(format!("tie {tie}: {err}")))?;
+    let row_of: BTreeMap<u32, usize> = interface
+        .rows
+        .iter()
+        .enumerate()
+        .map(|(index, row)| (row.node, index))
+        .collect();
+    let uncovered: Vec<u32> = slaves
+        .iter()
+        .copied()
+        .filter(|node| !row_of.contains_key(node))
+        .collect();
+    if let Some(first) = uncovered.first() {
+        return Err(StageError::new(format!(
+            "tie {tie}: {} of the {} nodes of `{}` are not covered by the surface of `{}` within \
+             tie_distance = {tie_distance:.3e} m (the first node {first}): the mortar method \
+             ties nodes whose faces the master surface covers",
+            uncovered.len(),
+            slaves.len(),
+            tie.slave,
+            tie.master
+        )));
+    }
+    if let Some(row) = interface
+        .rows
+        .iter()
+        .filter(|row| !(row.gap.abs() <= tie_distance))
+        .max_by(|a, b| a.gap.abs().total_cmp(&b.gap.abs()))
+    {
+        let farther = interface
+            .rows
+            .iter()
+            .filter(|row| !(row.gap.abs() <= tie_distance))
+            .count();
+        return Err(StageError::new(format!(
+            "tie {tie}: node {} of `{}` is {:.3e} m from the surface of `{}`, farther than \
+             tie_distance = {tie_distance:.3e} m ({farther} of the {} nodes of `{}` are farther)",
+            row.node,
+            tie.slave,
+            row.gap.abs(),
+            tie.master,
+            slaves.len(),
+            tie.slave
+        )));
+    }
+    let largest = interface
+        .rows
+        .iter()
+        .map(|row| row.gap.abs())
+        .fold(0.0, f64::max);
+    // Groups of slave nodes coupled by S, each solved on its own.
+    let n_rows = interface.rows.len();
+    let mut parent: Vec<usize> = (0..n_rows).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for (index, row) in interface.rows.iter().enumerate() {
+        for &(node, _) in &row.slave {
+            let other = row_of[&node];
+            let (a, b) = (root(&mut parent, index), root(&mut parent, other));
+            if a != b {
+                parent[b.max(a)] = a.min(b);
+            }
+        }
+    }
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for index in 0..n_rows {
+        groups.entry(root(&mut parent, index)).or_default().push(index);
+    }
+    let mut tied = Vec::with_capacity(n_rows);
+    for group in groups.values() {
+        let rows: Vec<&Row> = group.iter().map(|&index| &interface.rows[index]).collect();
+        if let [row] = rows[..] {
+            // S_jj = 1: u_j = Σ_l P_jl u_l.
+            tied.push(TiedNode {
+                node: row.node,
+                masters: row.master.clone(),
+            });
+            continue;
+        }
+        let local: BTreeMap<u32, usize> = rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| (row.node, i))
+            .collect();
+        let mut masters: Vec<u32> = rows
+            .iter()
+            .flat_map(|row| row.master.iter().map(|&(node, _)| node))
+            .collect();
+        masters.sort_unstable();
+        masters.dedup();
+        let k = rows.len();
+        let mut S = Mat::<f64>::zeros(k, k);
+        let mut P = Mat::<f64>::zeros(k, masters.len());
+        for (i, row) in rows.iter().enumerate() {
+            for &(node, weight) in &row.slave {
+                S[(i, local[&node])] += weight;
+            }
+            for &(node, weight) in &row.master {
+                let Ok(l) = masters.binary_search(&node) else {
+                    continue;
+                };
+                P[(i, l)] += weight;
+            }
+        }
+        let W = S.partial_piv_lu().solve(&P);
+        if !(0..k).all(|i| (0..masters.len()).all(|l| W[(i, l)].is_finite())) {
+            return Err(StageError::new(format!(
+                "tie {tie}: the mortar rows of nodes {:?}… of `{}` cannot be solved for them \
+                 (singular); tie with `tie_method: collocation`",
+                &rows.iter().map(|row| row.node).take(4).collect::<Vec<_>>(),
+                tie.slave
+            )));
+        }
+        for (i, row) in rows.iter().enumerate() {
+            let weights: Vec<(u32, f64)> = masters
+                .iter()
+                .enumerate()
+                .map(|(l, &master)| (master, W[(i, l)]))
+                .filter(|&(_, weight)| weight != 0.0)
+                .collect();
+            tied.push(TiedNode {
+                node: row.node,
+                masters: weights,
+            });
+        }
+    }
+    Ok((tied, largest))
 }
 
 /// The error for the slave nodes `missed` that found no master face within `tie_distance`:
