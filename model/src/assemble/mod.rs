@@ -19,11 +19,13 @@
 //! ([`sparse`]): the matrices are bit-identical from run to run.
 //!
 //! Parts meshed apart are joined by `ties`, each `slave_set -> master_set`: every node of the
-//! slave set is held to the master set's surface where it projects, u_s = Σ_l N_l(ξ*) u_l, and
-//! its DOFs are eliminated, `K_red = Tᵀ K T` (likewise `M`, `C`), exactly ([`ties`]). The model
-//! records the tied nodes ([`Model::tied`]) so that every output shows them moving with their
-//! masters, and its contact pairs read a tied node's masters in its stead. Without ties the
-//! model is the one assembled before ties existed, bit for bit.
+//! slave set follows the master set's surface, u_s = Σ_l w_sl u_l, and its DOFs are
+//! eliminated, `K_red = Tᵀ K T` (likewise `M`, `C`), exactly ([`ties`]). The weights are the
+//! master face's shape functions where the node projects (`tie_method: collocation`, the
+//! default), or the dual mortar rows (`mortar`, which passes the patch test on non-matching
+//! meshes). The model records the tied nodes ([`Model::tied`]) so that every output shows
+//! them moving with their masters, and its contact pairs read a tied node's masters in its
+//! stead. Without ties the model is the one assembled before ties existed, bit for bit.
 
 pub mod dofs;
 pub mod sparse;

@@ -1,22 +1,48 @@
 //! Tied interfaces: parts meshed apart (a lining and its backplate, a friction ring and its
 //! hat), held together by eliminating the DOFs of one side.
 //!
-//! # Collocation
-//!
 //! A tie `slave -> master` names two node sets of the mesh. The master set's boundary faces
 //! (those whose nodes are all in the set, one element each, any face kind) form the master
-//! surface Γ, with its faces' shape functions N_l. Each node s of the slave set is projected
-//! onto Γ: x(ξ*) is the closest point of the nearest face ([`Projector`]; ξ* clamped into the
-//! face where s lies beyond Γ's edge), and the node's displacement is held to the surface's
-//! there (code_aster's `LIAISON_MAIL`):
+//! surface Γ_m, with its faces' shape functions N_l; every node of the slave set is tied to
+//! it. Each tied node s gets weights w_sl over master nodes l, the same for x, y and z, and
+//! summing to 1:
 //!
 //! ```text
-//! u_s = Σ_l N_l(ξ*) u_l          (l over the nodes of that face)
+//! u_s = Σ_l w_sl u_l
 //! ```
 //!
-//! The weights w_sl = N_l(ξ*) sum to 1 (the shape functions are a partition of unity) and are
-//! the same for x, y and z: a tie is a linear combination of nodes, not of DOFs. A slave node
-//! farther than `tie_distance` from Γ is refused: collocation assumes the two surfaces meet.
+//! A tie is thus a linear combination of nodes, not of DOFs. Two methods give the weights
+//! ([`TieMethod`]).
+//!
+//! # Collocation (`tie_method: collocation`, the default)
+//!
+//! Each slave node s is projected onto Γ_m: x(ξ*) is the closest point of the nearest face
+//! ([`Projector`]; ξ* clamped into the face where s lies beyond Γ_m's edge), and the node is
+//! held to the surface there (code_aster's `LIAISON_MAIL`):
+//!
+//! ```text
+//! w_sl = N_l(ξ*)          (l over the nodes of that face)
+//! ```
+//!
+//! The shape functions are a partition of unity, so the weights sum to 1. A slave node
+//! farther than `tie_distance` from Γ_m is refused: collocation assumes the surfaces meet.
+//!
+//! # Mortar (`tie_method: mortar`)
+//!
+//! The slave set's boundary faces form a slave surface Γ_s, and the constraint is weak: for
+//! each slave node j, with Φ_j the dual multiplier basis of [`crate::fem::mortar`]
+//! (∫ Φ_j N_k = δ_jk D_jj on a fully covered linear face, Σ_j Φ_j = 1),
+//!
+//! ```text
+//! ∫_Γs Φ_j (u_slave − u_master) dA = 0     ⇔     Σ_k S_jk u_k = Σ_l P_jl u_l
+//! ```
+//!
+//! the rows of [`crate::fem::mortar::interface`] (S_jk = D_jk / w_j, P_jl = M_jl / w_j). S is
+//! the identity on fully covered linear faces, so u_j = Σ_l P_jl u_l; a quadratic face's
+//! mid-edge rows (and faces the master covers in part) couple a few slave nodes, and the rows
+//! are solved for them group by group, W = S⁻¹ P (S 1 = 1 and P 1 = 1, so W 1 = 1). Every
+//! node of the slave set needs a row (the master surface must cover its faces), and its
+//! weighted gap must be within `tie_distance`.
 //!
 //! # Elimination
 //!
@@ -31,7 +57,9 @@
 //! ```
 //!
 //! exactly: the constraints hold identically, with no penalty to choose and no multiplier to
-//! solve for, and the reduced matrices stay symmetric and positive (semi-)definite.
+//! solve for, and the reduced matrices stay symmetric and positive (semi-)definite. A force on
+//! a tied node goes to its masters by the same weights (`Model::add_nodal_force`); a tied
+//! node's displacement is read back from its masters' (`Model::node_displacement`).
 //!
 //! # Why the blocks stay 3×3
 //!
@@ -46,19 +74,41 @@
 //! b (a free node is its own master with weight 1), scaled by W_am W_bn. Every node of the
 //! reduced model keeps its DOFs together and the pattern is still one dense 3×3 block per pair
 //! of neighbouring nodes ([`super::sparse`]); the nodes of the elements at a slave node become
-//! neighbours of the nodes of its master face.
+//! neighbours of its masters.
 //!
 //! # The patch test
 //!
-//! Let the slave nodes lie on Γ (x_s = x(ξ*)). A linear displacement field u(x) = a + G x is
-//! then in the constrained space, since every face kind interpolates linear fields exactly:
-//! Σ_l N_l(ξ*) (a + G x_l) = a + G x(ξ*) = a + G x_s. A problem whose exact solution is linear
-//! (constant stress, consistent loads) has that solution in the finite-element space of
-//! either mesh, so the constrained minimiser of the energy is that solution: the tied model
-//! reproduces constant stress exactly, to round-off, whatever the two meshes. A rigid
-//! translation is always kept (Σ_l w_sl = 1); a rigid rotation θ only if the slave node lies
-//! on Γ, a slave node at a distance d from Γ being displaced by |θ| d from where its masters
-//! put it.
+//! Constant stress σ across the interface is reproduced exactly when (i) the exact, linear
+//! displacement u(x) = a + G x is in the constrained space and (ii) the tied interface
+//! transmits the constant traction t = σ n consistently. Integrating by parts on each side,
+//! the discrete equations differ from the exact solution's by the interface term
+//!
+//! ```text
+//! ∫_Γ t · (v_master − v_slave) dA          for every admissible v
+//! ```
+//!
+//! which must vanish. (i) holds for both methods when the slave nodes lie on Γ_m: every face
+//! kind interpolates linear fields, so Σ_l N_l(ξ*) (a + G x_l) = a + G x_s, and for the mortar
+//! rows ∫ Φ_j (u_slave − u) = 0 when both traces are the linear field itself. (ii) is where
+//! they differ:
+//!
+//! - **Mortar** passes: t is constant and Σ_j Φ_j = 1, so the term is t · Σ_j ∫ Φ_j
+//!   (v_master − v_slave) dA = 0 by the constraints themselves. Constant stress is exact to
+//!   round-off on any pair of meshes whose surfaces coincide (flat faces integrate exactly).
+//! - **Collocation** holds the slave nodes only: between them the slave faces (their own
+//!   shape functions) and the master faces (theirs) part, and the term vanishes only where
+//!   the slave trace can follow the master's exactly, on coincident meshes and on a slave
+//!   side that refines the master's (each master face cut into slave faces). Elsewhere a
+//!   master node receives Σ_s w_sl ∫ N_s dA of the slave side's traction instead of its own
+//!   ∫ N_l dA: the stress next to the interface is off by per cents, by tens of per cents
+//!   on a coarse slave over a fine master, whose nodes between the slave nodes carry nothing
+//!   (see the tests). The resultant is always carried whole (Σ_l w_sl = 1). Choose the finer
+//!   side as the slave, or use the mortar method.
+//!
+//! A rigid translation is always kept (Σ_l w_sl = 1); a rigid rotation θ only if the slave
+//! nodes lie on Γ_m, a slave node at a distance d being displaced by |θ| d from where its
+//! masters put it (a floating body tied across a gap then fails the equilibrium's check that
+//! its rigid motions cost no energy).
 //!
 //! # Rules
 //!
@@ -69,6 +119,7 @@
 //! - Contact pairs reading a tied node read its masters instead ([`Tied::substitute_pairs`]):
 //!   the node is replaced in its side by its masters, weights multiplied and merged per node.
 //!   A pair's pad anchor (which carries the pair's slave DOF in the stability) cannot be tied.
+//! - Parts tied together are one body ([`crate::artifact::Model::bodies_of_nodes`]).
 //!
 //! Errors are one line naming the tie, its two sets and the figure at fault.
 
