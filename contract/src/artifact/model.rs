@@ -337,3 +337,120 @@ pub struct RealModes {
     /// ‖K φ − ω² M φ‖ / ‖K φ‖ per mode.
     pub residuals: Vec<f64>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three nodes, the third tied to the first two; DOFs 0..6 on the first two.
+    fn tied_model() -> Model {
+        let identity = || CscMatrix::from_triplets(5, 5, (0..5).map(|i| (i, i, 1.0)).collect());
+        Model {
+            mesh: Mesh {
+                nodes: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.25, 0.0, 0.0]],
+                ..Mesh::default()
+            },
+            dof_of_node: vec![
+                [Some(0), Some(1), Some(2)],
+                [Some(3), None, Some(4)],
+                [None; 3],
+            ],
+            M: identity(),
+            K: identity(),
+            C: identity(),
+            tied: vec![TiedNode {
+                node: 2,
+                masters: vec![(0, 0.75), (1, 0.25)],
+            }],
+        }
+    }
+
+    #[test]
+    fn a_tied_node_moves_and_is_loaded_through_its_masters() {
+        let model = tied_model();
+        model.check_dof_map().unwrap();
+        let u = [1.0, 2.0, 3.0, 5.0, 7.0];
+        assert_eq!(model.node_displacement(0, &u), [1.0, 2.0, 3.0]);
+        // Node 1 is clamped along y.
+        assert_eq!(model.node_displacement(1, &u), [5.0, 0.0, 7.0]);
+        assert_eq!(model.node_displacement(2, &u), [2.0, 1.5, 4.0]);
+        assert_eq!(
+            model.nodal_displacements(&u),
+            vec![1.0, 2.0, 3.0, 5.0, 0.0, 7.0, 2.0, 1.5, 4.0]
+        );
+        let mut forces = vec![0.0; 5];
+        let on_clamped = model.add_nodal_force(2, [4.0, 8.0, 12.0], &mut forces);
+        assert_eq!(forces, vec![3.0, 6.0, 9.0, 1.0, 3.0]);
+        assert_eq!(on_clamped, [0.0, 2.0, 0.0]);
+        assert_eq!(model.node_terms(2).collect::<Vec<_>>(), vec![(0, 0.75), (1, 0.25)]);
+        assert_eq!(model.node_terms(1).collect::<Vec<_>>(), vec![(1, 1.0)]);
+        let table = model.nodal_table(vec![("u".into(), u.to_vec())]);
+        assert_eq!(
+            table.column("u"),
+            Some(&crate::table::ColumnData::F64(vec![
+                1.0, 2.0, 3.0, 5.0, 0.0, 7.0, 2.0, 1.5, 4.0
+            ]))
+        );
+        // One body: the tied node joins its masters'.
+        assert_eq!(model.bodies_of_nodes().0[2], model.bodies_of_nodes().0[0]);
+        // The ties are part of the fingerprint; none, the digest of the matrices alone.
+        let mut untied = model.clone();
+        untied.tied.clear();
+        assert_ne!(model.fingerprint(), untied.fingerprint());
+    }
+
+    #[test]
+    fn broken_ties_are_named() {
+        let check = |edit: &dyn Fn(&mut Model)| {
+            let mut model = tied_model();
+            edit(&mut model);
+            model.check_ties().unwrap_err().message
+        };
+        assert_eq!(
+            check(&|model| model.tied[0].masters[1].1 = 0.3),
+            "model ties node 2 with weights summing to 1.05, not 1"
+        );
+        assert_eq!(
+            check(&|model| model.tied[0].masters[1].0 = 7),
+            "model ties node 2 to node 7, but its mesh has 3 nodes"
+        );
+        assert_eq!(
+            check(&|model| model.tied[0].node = 5),
+            "model ties node 5, but its mesh has 3 nodes"
+        );
+        assert_eq!(
+            check(&|model| model.dof_of_node[2] = [Some(0), None, None]),
+            "model ties node 2, which has DOFs of its own"
+        );
+        assert_eq!(
+            check(&|model| {
+                model.dof_of_node[1] = [None; 3];
+                model.tied.insert(
+                    0,
+                    TiedNode {
+                        node: 1,
+                        masters: vec![(0, 1.0)],
+                    },
+                )
+            }),
+            "model ties node 2 to node 1, which is tied itself"
+        );
+        assert_eq!(
+            check(&|model| {
+                model.tied.push(TiedNode {
+                    node: 1,
+                    masters: vec![(0, 1.0)],
+                })
+            }),
+            "model's tied nodes are not in increasing order, or node 1 is tied twice"
+        );
+        assert_eq!(
+            check(&|model| model.tied[0].masters = vec![(0, 0.5), (0, 0.5)]),
+            "model ties node 2 to node 0 twice"
+        );
+        assert_eq!(
+            check(&|model| model.tied[0].masters.clear()),
+            "model ties node 2 to no master"
+        );
+    }
+}

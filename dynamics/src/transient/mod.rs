@@ -738,7 +738,8 @@ fn outputs(
     ]))
 }
 
-/// `M` on the rows of [`Model::nodal_table`] (node-major, three per node).
+/// `M` on the rows of [`Model::nodal_table`] (node-major, three per node); the rows of clamped
+/// and tied nodes have no entry (a tied node's mass is on its masters' rows).
 fn mass_table(model: &Model) -> Table {
     let mut row_of_dof = vec![0i64; model.n_dofs()];
     if model.dof_of_node.is_empty() {
