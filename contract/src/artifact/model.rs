@@ -77,15 +77,19 @@ impl Model {
     /// within [`TIE_WEIGHT_TOLERANCE`].
     pub fn check_ties(&self) -> Result<(), StageError> {
         let n_nodes = self.mesh.n_nodes();
-        let mut previous: Option<u32> = None;
+        // In order first: the checks below look nodes up by binary search.
+        if let Some(pair) = self
+            .tied
+            .windows(2)
+            .find(|pair| pair[0].node >= pair[1].node)
+        {
+            return Err(StageError::new(format!(
+                "model's tied nodes are not in increasing order, or node {} is tied twice",
+                pair[1].node
+            )));
+        }
         for tied in &self.tied {
             let node = tied.node;
-            if previous.is_some_and(|previous| previous >= node) {
-                return Err(StageError::new(format!(
-                    "model's tied nodes are not in increasing order, or node {node} is tied twice"
-                )));
-            }
-            previous = Some(node);
             if node as usize >= n_nodes {
                 return Err(StageError::new(format!(
                     "model ties node {node}, but its mesh has {n_nodes} nodes"
@@ -121,7 +125,10 @@ impl Model {
                         "model ties node {node} to node {master} with weight {weight}"
                     )));
                 }
-                if tied.masters[..index].iter().any(|&(other, _)| other == master) {
+                if tied.masters[..index]
+                    .iter()
+                    .any(|&(other, _)| other == master)
+                {
                     return Err(StageError::new(format!(
                         "model ties node {node} to node {master} twice"
                     )));
@@ -382,7 +389,10 @@ mod tests {
         let on_clamped = model.add_nodal_force(2, [4.0, 8.0, 12.0], &mut forces);
         assert_eq!(forces, vec![3.0, 6.0, 9.0, 1.0, 3.0]);
         assert_eq!(on_clamped, [0.0, 2.0, 0.0]);
-        assert_eq!(model.node_terms(2).collect::<Vec<_>>(), vec![(0, 0.75), (1, 0.25)]);
+        assert_eq!(
+            model.node_terms(2).collect::<Vec<_>>(),
+            vec![(0, 0.75), (1, 0.25)]
+        );
         assert_eq!(model.node_terms(1).collect::<Vec<_>>(), vec![(1, 1.0)]);
         let table = model.nodal_table(vec![("u".into(), u.to_vec())]);
         assert_eq!(

@@ -670,8 +670,8 @@ fn a_pressure_set_written_wrong_is_an_error_naming_it() {
 /// backplate's back (`pad_backs`) guided in-plane.
 fn tied_pad(ties: &str, tie_method: &str) -> Model {
     use crate::artifact::mesh::ContactPair;
-    use squeal_model::assemble::{Assemble, assemble_model};
     use crate::mesh::structured::block;
+    use squeal_model::assemble::{Assemble, assemble_model};
     let (width, offset) = (0.02, 1.0);
     let mut mesh = Mesh::default();
     let mut add = |name: &str, counts: [usize; 3], z0: f64, height: f64, part: u32| {
@@ -701,12 +701,19 @@ fn tied_pad(ties: &str, tie_method: &str) -> Model {
         .map(|(&disc, &pad)| {
             let x = mesh.nodes[disc as usize];
             assert!((0..2).all(|axis| (x[axis] - mesh.nodes[pad as usize][axis]).abs() < 1e-15));
-            ContactPair::node_to_node(disc, pad, [0.0, 0.0, 1.0], cell * cell * share(x[0]) * share(x[1]))
+            ContactPair::node_to_node(
+                disc,
+                pad,
+                [0.0, 0.0, 1.0],
+                cell * cell * share(x[0]) * share(x[1]),
+            )
         })
         .collect();
     mesh.contact_pairs = pairs;
-    mesh.node_sets.insert("base".into(), mesh.node_sets["disc_z0"].clone());
-    mesh.node_sets.insert("pad_backs".into(), mesh.node_sets["plate_z1"].clone());
+    mesh.node_sets
+        .insert("base".into(), mesh.node_sets["disc_z0"].clone());
+    mesh.node_sets
+        .insert("pad_backs".into(), mesh.node_sets["plate_z1"].clone());
     let params = Params::defaults(
         &Assemble,
         &[

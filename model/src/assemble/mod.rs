@@ -422,8 +422,7 @@ pub fn assemble_constrained(
         tied.substitute_pairs(&mut pairs)?;
         contact_pairs = Some(pairs);
     }
-    let (dof_of_node, n_dofs) =
-        dofs::number_free(mesh, &clamped, &tied.is_tied(mesh.n_nodes()))?;
+    let (dof_of_node, n_dofs) = dofs::number_free(mesh, &clamped, &tied.is_tied(mesh.n_nodes()))?;
     if n_dofs == 0 {
         return Err(StageError::new(
             "every node is clamped: the model has no free DOF",

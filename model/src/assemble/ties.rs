@@ -233,7 +233,11 @@ impl Tied {
         let tie = &self.ties[self.tie_of[index]];
         let by = clamped_sets
             .iter()
-            .map(|entry| entry.split_once(':').map_or(entry.as_str(), |(name, _)| name))
+            .map(|entry| {
+                entry
+                    .split_once(':')
+                    .map_or(entry.as_str(), |(name, _)| name)
+            })
             .map(str::trim)
             .find(|name| {
                 mesh.node_sets
@@ -560,7 +564,10 @@ fn mortar_rows(
     }
     let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for index in 0..n_rows {
-        groups.entry(root(&mut parent, index)).or_default().push(index);
+        groups
+            .entry(root(&mut parent, index))
+            .or_default()
+            .push(index);
     }
     let mut tied = Vec::with_capacity(n_rows);
     for group in groups.values() {

@@ -66,7 +66,13 @@ fn stacked(lower_counts: [usize; 2], upper_counts: [usize; 2], kind: ElementKind
     let [nx, ny] = lower_counts;
     add_block(&mut mesh, "lower", [0.0; 3], [a, b, h_lower], [nx, ny, 2]);
     let [nx, ny] = upper_counts;
-    add_block(&mut mesh, "upper", [0.0, 0.0, h_lower], [a, b, h_upper], [nx, ny, 2]);
+    add_block(
+        &mut mesh,
+        "upper",
+        [0.0, 0.0, h_lower],
+        [a, b, h_upper],
+        [nx, ny, 2],
+    );
     let origin = node_at(&mesh, [0.0; 3]);
     let x_axis = node_at(&mesh, [a, 0.0, 0.0]);
     mesh.node_sets.insert("origin".into(), vec![origin]);
@@ -236,7 +242,10 @@ fn a_mortar_tied_patch_reproduces_uniaxial_stress_exactly_either_side_the_slave(
             for ties in ["upper_z0 -> lower_z1", "lower_z1 -> upper_z0"] {
                 let (displacement, stress) = uniaxial_patch(&mesh, ties, TieMethod::Mortar);
                 let error = displacement.max(stress);
-                assert!(error <= 1e-9, "{kind} {lower:?} | {upper:?} {ties}: error {error:e}");
+                assert!(
+                    error <= 1e-9,
+                    "{kind} {lower:?} | {upper:?} {ties}: error {error:e}"
+                );
                 worst = worst.max(error);
             }
         }
@@ -281,7 +290,10 @@ fn a_collocated_patch_is_exact_where_the_slave_refines_the_master_only() {
                 "collocated patch test {kind} {lower:?} | {upper:?} ({ties}): displacement \
                  error {displacement:.2e}, stress error {stress:.2e}"
             );
-            assert!(displacement > 1e-6 && stress < 1.0, "{kind} {upper:?} {ties}");
+            assert!(
+                displacement > 1e-6 && stress < 1.0,
+                "{kind} {upper:?} {ties}"
+            );
         }
     }
 }
@@ -308,13 +320,13 @@ fn a_tied_model_records_its_nodes_and_keeps_mass_and_symmetry_exact() {
         assert!((sum - 1.0).abs() < 1e-14);
         // Held where it is: Σ w x_l is the node's own position on the flat interface.
         let x = mesh.nodes[tied.node as usize];
-        for axis in 0..3 {
+        for (axis, x) in x.iter().enumerate() {
             let at: f64 = tied
                 .masters
                 .iter()
                 .map(|&(master, weight)| weight * mesh.nodes[master as usize][axis])
                 .sum();
-            assert!((at - x[axis]).abs() < 1e-14, "{tied:?}");
+            assert!((at - x).abs() < 1e-14, "{tied:?}");
         }
     }
     assert_eq!(model.n_dofs(), 3 * (mesh.n_nodes() - slaves.len()));
@@ -345,20 +357,32 @@ fn a_tied_model_records_its_nodes_and_keeps_mass_and_symmetry_exact() {
     assert_eq!(model.K.row_idx, model.M.row_idx);
     assert_eq!(model.K.col_ptr, model.C.col_ptr);
     // The same on any number of threads, and the model round-trips through its encoding.
-    let on_threads = |threads: usize| {
+    let on_threads = |threads: usize, method: TieMethod| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
             .install(|| {
-                assemble_model(&mesh, &params("", "upper_z0 -> lower_z1"))
+                assemble_model(&mesh, &params_by("", "upper_z0 -> lower_z1", method))
                     .unwrap()
                     .0
             })
     };
     let bytes = Artifact::Model(Box::new(model.clone())).encode();
-    assert_eq!(bytes, Artifact::Model(Box::new(on_threads(1))).encode());
-    assert_eq!(bytes, Artifact::Model(Box::new(on_threads(3))).encode());
+    assert_eq!(
+        bytes,
+        Artifact::Model(Box::new(on_threads(1, TieMethod::Collocation))).encode()
+    );
+    assert_eq!(
+        bytes,
+        Artifact::Model(Box::new(on_threads(3, TieMethod::Collocation))).encode()
+    );
+    let mortar = Artifact::Model(Box::new(on_threads(1, TieMethod::Mortar))).encode();
+    assert_eq!(
+        mortar,
+        Artifact::Model(Box::new(on_threads(3, TieMethod::Mortar))).encode()
+    );
+    assert_ne!(mortar, bytes);
     assert_eq!(
         Artifact::decode(&bytes).unwrap(),
         Artifact::Model(Box::new(model.clone()))
@@ -388,7 +412,7 @@ fn a_tied_model_records_its_nodes_and_keeps_mass_and_symmetry_exact() {
 }
 
 #[test]
-fn an_untied_model_is_unchanged_by_the_ties_parameters() {
+fn an_untied_model_is_the_model_before_ties_bit_for_bit() {
     // No ties: no tied node, and the model of the stage's defaults whatever `tie_distance`.
     let mesh = structured::stacked_blocks(0.02, 0.03, 0.01);
     let base = run_stage(&mesh, &[("clamped", Value::Str("base".into()))]).unwrap();
@@ -416,6 +440,20 @@ fn an_untied_model_is_unchanged_by_the_ties_parameters() {
     );
     assert_eq!(with_empty.last(), Some(&0));
     assert_eq!(with_one.len(), with_empty.len() + 2);
+
+    // The coarse brake's model (the quick study's) has the matrices it had before ties: the
+    // digest of M, C, K recorded from the build before them.
+    let (model, _) = crate::fixtures::assemble(&crate::fixtures::coarse_brake(), "hub, pad_backs");
+    assert!(model.tied.is_empty());
+    let fingerprint: String = model
+        .fingerprint()
+        .iter()
+        .map(|byte| format!("{byte:02x}"))
+        .collect();
+    assert_eq!(
+        fingerprint,
+        "6f79ff6bc73a061fe20ef1fbf2ac92ec689bb600ea38a8a4e72b91d7628dfe41"
+    );
 }
 
 /// A cantilever of length 1 m and square section 0.1 m along x, clamped at x = 0, as one block
@@ -432,7 +470,13 @@ fn beam(halves: Option<([usize; 2], [usize; 2])>, counts: [usize; 3]) -> (Mesh, 
         }
         Some((left, right)) => {
             let n_half = counts[0] / 2;
-            add_block(&mut mesh, "left", [0.0; 3], [0.5, 0.1, 0.1], [n_half, left[0], left[1]]);
+            add_block(
+                &mut mesh,
+                "left",
+                [0.0; 3],
+                [0.5, 0.1, 0.1],
+                [n_half, left[0], left[1]],
+            );
             add_block(
                 &mut mesh,
                 "right",
@@ -477,7 +521,11 @@ fn bend_and_vibrate(mesh: &Mesh, ties: &str, method: TieMethod) -> (f64, [f64; 2
             )])),
         )
         .unwrap();
-    let frequencies = modes["frequencies"].as_table().unwrap().f64("freq_hz").unwrap();
+    let frequencies = modes["frequencies"]
+        .as_table()
+        .unwrap()
+        .f64("freq_hz")
+        .unwrap();
     (deflection, [frequencies[0], frequencies[1]])
 }
 
@@ -588,7 +636,12 @@ fn contact_pairs_read_the_masters_of_a_tied_node_and_refuse_a_tied_anchor() {
             .all(|node| model.masters(node).is_none())
     );
 
-    mesh.contact_pairs = vec![ContactPair::node_to_node(free, slave, [0.0, 0.0, 1.0], 1e-4)];
+    mesh.contact_pairs = vec![ContactPair::node_to_node(
+        free,
+        slave,
+        [0.0, 0.0, 1.0],
+        1e-4,
+    )];
     assert_eq!(
         error(&mesh, "lower_z0", "upper_z0 -> lower_z1"),
         format!(
@@ -749,7 +802,8 @@ fn refused_ties_are_named_with_their_sets_and_the_figure_at_fault() {
     );
     let message = mortar(&aside, "upper_z0 -> lower_z1");
     assert!(
-        message.starts_with("tie `upper_z0 -> lower_z1`: `upper_z0` projects nowhere on `lower_z1`"),
+        message
+            .starts_with("tie `upper_z0 -> lower_z1`: `upper_z0` projects nowhere on `lower_z1`"),
         "{message}"
     );
 }
