@@ -554,8 +554,9 @@ fn mortar_rows(
         i
     }
     for (index, row) in interface.rows.iter().enumerate() {
-        for &(node, _) in &row.slave {
-            let other = row_of[&node];
+        // Every slave node has a row (checked above), so every node of S is found.
+        for other in row.slave.iter().filter_map(|(node, _)| row_of.get(node)) {
+            let other = *other;
             let (a, b) = (root(&mut parent, index), root(&mut parent, other));
             if a != b {
                 parent[b.max(a)] = a.min(b);
@@ -596,7 +597,9 @@ fn mortar_rows(
         let mut P = Mat::<f64>::zeros(k, masters.len());
         for (i, row) in rows.iter().enumerate() {
             for &(node, weight) in &row.slave {
-                S[(i, local[&node])] += weight;
+                if let Some(&column) = local.get(&node) {
+                    S[(i, column)] += weight;
+                }
             }
             for &(node, weight) in &row.master {
                 let Ok(l) = masters.binary_search(&node) else {
