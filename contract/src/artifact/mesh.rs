@@ -418,6 +418,13 @@ impl Mesh {
     /// Connected components of the elements: the body of each node (`usize::MAX` for a node in
     /// no element), numbered by first element.
     pub fn bodies_of_nodes(&self) -> (Vec<usize>, usize) {
+        self.bodies_of_linked_nodes(&[])
+    }
+
+    /// [`Mesh::bodies_of_nodes`] with the two nodes of each of `links` in one body as well (a
+    /// tied node and its master): bodies joined by a link become one, numbered by its first
+    /// element.
+    pub fn bodies_of_linked_nodes(&self, links: &[(u32, u32)]) -> (Vec<usize>, usize) {
         let mut parent: Vec<usize> = (0..self.n_nodes()).collect();
         fn root(parent: &mut [usize], mut node: usize) -> usize {
             while parent[node] != node {
@@ -433,6 +440,12 @@ impl Mesh {
                 if other != first {
                     parent[other] = first;
                 }
+            }
+        }
+        for &(a, b) in links {
+            let (a, b) = (root(&mut parent, a as usize), root(&mut parent, b as usize));
+            if a != b {
+                parent[b] = a;
             }
         }
         let mut body_of_root = vec![usize::MAX; self.n_nodes()];

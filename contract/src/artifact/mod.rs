@@ -17,7 +17,7 @@ pub use complex_modes::{ComplexMode, ComplexModes, ComplexShape, ShapeMatrices};
 pub use equilibrium::{ContactFrames, Equilibrium};
 pub use material::{ElasticLaw, Material};
 pub use mesh::{ContactPair, Element, ElementKind, Elements, Mesh};
-pub use model::{CscMatrix, Model, RealModes};
+pub use model::{CscMatrix, Model, RealModes, TiedNode};
 
 use crate::table::Table;
 
@@ -25,7 +25,8 @@ use crate::table::Table;
 /// type changes its layout, so that no entry is decoded with another layout.
 /// 2: meshes hold elements of several kinds.
 /// 3: a contact pair holds weighted node sets on each side (`ContactPair::pad`, `disc`).
-pub const ENCODING_VERSION: u32 = 3;
+/// 4: a model holds its tied nodes (`Model::tied`, one more byte when there are none).
+pub const ENCODING_VERSION: u32 = 4;
 
 /// A value produced by one stage and consumed by others.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -51,6 +51,7 @@ fn free_model(nodes: Vec<[f64; 3]>, pairs: Vec<ContactPair>) -> Model {
         M: CscMatrix::default(),
         K: CscMatrix::default(),
         C: CscMatrix::default(),
+        tied: Vec::new(),
     }
 }
 

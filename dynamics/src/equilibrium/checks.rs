@@ -49,10 +49,13 @@ pub fn back_reactions(
                     degenerate.det_j, degenerate.location
                 ))
             })?;
-        let displacement = |dof: usize| {
-            model.dof_of_node[element.nodes[dof / 3] as usize][dof % 3]
-                .map_or(0.0, |free| u[free as usize])
-        };
+        // A tied node moves with its masters.
+        let nodal: Vec<[f64; 3]> = element
+            .nodes
+            .iter()
+            .map(|&node| model.node_displacement(node, u))
+            .collect();
+        let displacement = |dof: usize| nodal[dof / 3][dof % 3];
         let n_dofs = 3 * element.nodes.len();
         for row in 0..n_dofs {
             if !in_set[element.nodes[row / 3] as usize] {
@@ -86,9 +89,7 @@ pub fn largest_strain(model: &Model, u: &[f64]) -> (f64, usize) {
         let displacement: Vec<[f64; 3]> = element
             .nodes
             .iter()
-            .map(|&node| {
-                model.dof_of_node[node as usize].map(|dof| dof.map_or(0.0, |dof| u[dof as usize]))
-            })
+            .map(|&node| model.node_displacement(node, u))
             .collect();
         let Some(gradient) =
             element::centre_displacement_gradient(element.kind, &coords, &displacement)

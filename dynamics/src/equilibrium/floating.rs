@@ -110,11 +110,10 @@ pub fn pressure_load(model: &Model, pressure: f64, set: &str) -> Result<Pressure
         load.force[side] += resultant_z.abs();
         load.n_faces += 1;
         for (node, force) in face.nodes.iter().zip(&nodal) {
+            // A tied node's force goes to its masters (Tᵀ f).
+            let on_clamped = model.add_nodal_force(*node, *force, &mut load.forces);
             for axis in 0..3 {
-                match model.dof_of_node[*node as usize][axis] {
-                    Some(dof) => load.forces[dof as usize] += force[axis],
-                    None => clamped_resultant[axis] += force[axis],
-                }
+                clamped_resultant[axis] += on_clamped[axis];
             }
         }
     }
@@ -178,7 +177,8 @@ fn rigid_motion(coefficients: &[f64; 6], x: [f64; 3], centroid: [f64; 3], length
 pub fn floating_bodies(model: &Model) -> Result<FloatingBodies, StageError> {
     let mesh = &model.mesh;
     let n = model.n_dofs();
-    let (body_of_node, n_bodies) = mesh.bodies_of_nodes();
+    // Tied parts are one body with their masters.
+    let (body_of_node, n_bodies) = model.bodies_of_nodes();
     let mut nodes_of_body: Vec<Vec<u32>> = vec![Vec::new(); n_bodies];
     for (node, &body) in body_of_node.iter().enumerate() {
         if body != usize::MAX {
@@ -212,6 +212,10 @@ pub fn floating_bodies(model: &Model) -> Result<FloatingBodies, StageError> {
         // Gram matrix of the clamp conditions on (t, θ).
         let mut gram = Mat::<f64>::zeros(6, 6);
         for (node, x) in nodes.iter().zip(&points) {
+            // A tied node has no DOF but is not clamped: its masters hold it.
+            if model.masters(*node).is_some() {
+                continue;
+            }
             for axis in 0..3 {
                 if model.dof_of_node[*node as usize][axis].is_some() {
                     continue;

@@ -663,3 +663,89 @@ fn a_pressure_set_written_wrong_is_an_error_naming_it() {
         "{err}"
     );
 }
+
+/// A disc block under a pad of two parts meshed apart, one metre off the axis: a lining
+/// (2 × 2 across, its bottom paired node to node with the disc's top) under a backplate
+/// (3 × 3 across), tied by `ties` with `tie_method`; the disc held at its base, the
+/// backplate's back (`pad_backs`) guided in-plane.
+fn tied_pad(ties: &str, tie_method: &str) -> Model {
+    use crate::artifact::mesh::ContactPair;
+    use crate::mesh::structured::block;
+    use squeal_model::assemble::{Assemble, assemble_model};
+    let (width, offset) = (0.02, 1.0);
+    let mut mesh = Mesh::default();
+    let mut add = |name: &str, counts: [usize; 3], z0: f64, height: f64, part: u32| {
+        let piece = block([width, width, height], counts, "disc");
+        let first = mesh.nodes.len() as u32;
+        mesh.nodes
+            .extend(piece.nodes.iter().map(|x| [x[0] + offset, x[1], x[2] + z0]));
+        mesh.elements.extend_shifted(&piece.elements, first, part);
+        for (set, nodes) in &piece.node_sets {
+            let nodes = nodes.iter().map(|node| node + first).collect();
+            mesh.node_sets.insert(format!("{name}_{set}"), nodes);
+        }
+    };
+    add("disc", [2, 2, 2], 0.0, 0.03, 0);
+    add("lining", [2, 2, 1], 0.03, 0.004, 1);
+    add("plate", [3, 3, 1], 0.034, 0.006, 1);
+    mesh.parts = vec!["disc".into(), "pad".into()];
+    let cell = width / 2.0;
+    let share = |c: f64| {
+        let edge = (c - offset).abs() < 1e-12 || (c - offset - width).abs() < 1e-12;
+        let side = c.abs() < 1e-12 || (c - width).abs() < 1e-12;
+        if edge || side { 0.5 } else { 1.0 }
+    };
+    let pairs: Vec<ContactPair> = mesh.node_sets["disc_z1"]
+        .iter()
+        .zip(&mesh.node_sets["lining_z0"])
+        .map(|(&disc, &pad)| {
+            let x = mesh.nodes[disc as usize];
+            assert!((0..2).all(|axis| (x[axis] - mesh.nodes[pad as usize][axis]).abs() < 1e-15));
+            ContactPair::node_to_node(
+                disc,
+                pad,
+                [0.0, 0.0, 1.0],
+                cell * cell * share(x[0]) * share(x[1]),
+            )
+        })
+        .collect();
+    mesh.contact_pairs = pairs;
+    mesh.node_sets
+        .insert("base".into(), mesh.node_sets["disc_z0"].clone());
+    mesh.node_sets
+        .insert("pad_backs".into(), mesh.node_sets["plate_z1"].clone());
+    let params = Params::defaults(
+        &Assemble,
+        &[
+            ("clamped", Value::Str("base, pad_backs:xy".into())),
+            ("ties", Value::Str(ties.into())),
+            ("tie_method", Value::Str(tie_method.into())),
+        ],
+    )
+    .read::<Assemble>()
+    .unwrap();
+    assemble_model(&mesh, &params).unwrap().0
+}
+
+/// The lining and its backplate, tied, float as one body: the pressure on the backplate's back
+/// passes the tie and the contact carries it whole, whichever side the slave and either
+/// method.
+#[test]
+fn a_pad_of_a_lining_tied_to_its_backplate_carries_the_pressure() {
+    for method in ["collocation", "mortar"] {
+        for ties in ["lining_z1 -> plate_z0", "plate_z0 -> lining_z1"] {
+            let model = tied_pad(ties, method);
+            assert!(!model.tied.is_empty());
+            let (equilibrium, report) =
+                pressed(&model, 0.38, Solver::SemismoothNewton, &settings());
+            let applied = report.applied.unwrap();
+            assert_eq!(applied.floating_bodies, 1, "{method} {ties}");
+            let expected = PRESSURE * 0.02 * 0.02;
+            let contact = side_force(&model.mesh, &equilibrium.r_n, true);
+            assert!(
+                (contact - expected).abs() <= 1e-10 * expected,
+                "{method} {ties}: {contact} N against {expected} N"
+            );
+        }
+    }
+}

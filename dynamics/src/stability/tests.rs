@@ -71,6 +71,7 @@ fn friction_direction_damping_of_one_sliding_point() {
         M: diagonal(m),
         K: diagonal(k),
         C: diagonal(0.0),
+        tied: Vec::new(),
     };
     let frames = crate::contact::frames(&mesh, omega).unwrap();
     let equilibrium = Equilibrium {

@@ -435,7 +435,7 @@ pub fn structure_of<'a>(
         dof_of_node: &model.dof_of_node,
         H_rows: crate::contact::h_columns(model, frames),
     };
-    let body_of_node = model.mesh.bodies_of_nodes().0;
+    let body_of_node = model.bodies_of_nodes().0;
     let body_of_pair: Vec<usize> = model
         .mesh
         .contact_pairs
@@ -790,7 +790,8 @@ fn contact_states(model: &Model, pair_steps: &[[u64; 3]]) -> Result<(Table, Figu
     Ok((table, figure))
 }
 
-/// `M` on the rows of [`Model::nodal_table`] (node-major, three per node).
+/// `M` on the rows of [`Model::nodal_table`] (node-major, three per node); the rows of clamped
+/// and tied nodes have no entry (a tied node's mass is on its masters' rows).
 fn mass_table(model: &Model) -> Table {
     let mut row_of_dof = vec![0i64; model.n_dofs()];
     if model.dof_of_node.is_empty() {

@@ -67,13 +67,9 @@ impl<'a> Projector<'a> {
             if !self.faces.boxes[f].contains(point) {
                 continue;
             }
-            let face: &Face = &self.faces.faces[f];
-            let Some(xi) = geometry::closest_point(face, point) else {
+            let Some((distance, xi, at)) = self.onto(f, point) else {
                 continue;
             };
-            let xi = geometry::clamp_xi(face.kind, xi);
-            let at = face.point(xi);
-            let distance = norm(sub(point, at));
             if !(distance <= self.search_distance) {
                 continue;
             }
@@ -82,9 +78,63 @@ impl<'a> Projector<'a> {
             }
         }
         let (distance, f, xi, at) = best?;
+        Some(self.projection(f, xi, at, distance))
+    }
+
+    /// The closest projection of `point` onto the surface whatever its distance (the search
+    /// distance ignored): every face, those whose boxes are nearest first, until no box is
+    /// nearer than the best point found. `None` only if no face gives a closest point (its
+    /// iteration fails). Slower than [`Projector::project`]: for the few points it leaves out,
+    /// to say how far they are.
+    pub fn nearest(&self, point: [f64; 3]) -> Option<Projection> {
+        // A face lies in its box, so the distance to the box bounds the face's from below.
+        let mut order: Vec<(f64, usize)> = self
+            .faces
+            .boxes
+            .iter()
+            .enumerate()
+            .map(|(f, b)| {
+                let outside: [f64; 3] = std::array::from_fn(|axis| {
+                    (b.low[axis] - point[axis])
+                        .max(point[axis] - b.high[axis])
+                        .max(0.0)
+                });
+                (norm(outside), f)
+            })
+            .collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut best: Option<(f64, usize, [f64; 2], [f64; 3])> = None;
+        for (bound, f) in order {
+            if best.is_some_and(|(smallest, ..)| bound > smallest) {
+                break;
+            }
+            let Some((distance, xi, at)) = self.onto(f, point) else {
+                continue;
+            };
+            if best.is_none_or(|(smallest, best_f, ..)| {
+                distance < smallest || (distance == smallest && f < best_f)
+            }) {
+                best = Some((distance, f, xi, at));
+            }
+        }
+        let (distance, f, xi, at) = best?;
+        Some(self.projection(f, xi, at, distance))
+    }
+
+    /// The closest point of face `f` to `point` (ξ clamped into the face): its distance, ξ*
+    /// and x(ξ*); `None` if the iteration fails.
+    fn onto(&self, f: usize, point: [f64; 3]) -> Option<(f64, [f64; 2], [f64; 3])> {
+        let face: &Face = &self.faces.faces[f];
+        let xi = geometry::closest_point(face, point)?;
+        let xi = geometry::clamp_xi(face.kind, xi);
+        let at = face.point(xi);
+        Some((norm(sub(point, at)), xi, at))
+    }
+
+    fn projection(&self, f: usize, xi: [f64; 2], at: [f64; 3], distance: f64) -> Projection {
         let face = &self.faces.faces[f];
         let shapes = face.shapes(xi);
-        Some(Projection {
+        Projection {
             face: f,
             xi,
             point: at,
@@ -95,7 +145,7 @@ impl<'a> Projector<'a> {
                 .zip(&shapes.values)
                 .map(|(&node, &value)| (node, value))
                 .collect(),
-        })
+        }
     }
 }
 

@@ -868,9 +868,12 @@ fn points_project_onto_faces_of_each_kind_at_their_parameters_and_distance() {
             assert!((sum - 1.0).abs() < 1e-14, "{kind}");
             assert!(dot(projection.normal, normal) > 1.0 - 1e-12);
         }
-        // Beyond the search distance: nothing.
+        // Beyond the search distance: nothing, but `nearest` still finds it, 0.2 m away.
         let away: [f64; 3] = std::array::from_fn(|i| on[i] + 0.2 * normal[i]);
         assert!(projector.project(away).is_none(), "{kind}");
+        let nearest = projector.nearest(away).unwrap();
+        assert!((nearest.distance - 0.2).abs() < 1e-12, "{kind}");
+        assert!((nearest.xi[0] - xi0[0]).abs() < 1e-10, "{kind}");
         assert!(project_point(&builder.coords, &surface, on, 0.1).is_some());
     }
     // On a mesh of many faces, a node's projection lands on the face under it.

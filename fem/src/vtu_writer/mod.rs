@@ -153,17 +153,10 @@ pub fn complex_modes_vtu(
     write_grid(&model.mesh, &point_data).map_err(StageError::new)
 }
 
-/// A field over the free DOFs as one 3-vector per node, zero on clamped DOFs.
+/// A field over the free DOFs as one 3-vector per node, zero on clamped DOFs, a tied node's
+/// its masters' by their weights ([`Model::nodal_displacements`]).
 fn nodal_vectors(model: &Model, field: &[f64]) -> Vec<f64> {
-    let mut vectors = vec![0.0; 3 * model.mesh.n_nodes()];
-    for (node, dofs) in model.dof_of_node.iter().enumerate() {
-        for (axis, dof) in dofs.iter().enumerate() {
-            if let Some(dof) = dof {
-                vectors[3 * node + axis] = field[*dof as usize];
-            }
-        }
-    }
-    vectors
+    model.nodal_displacements(field)
 }
 
 /// The VTU text of a sliding equilibrium: the displacement (elastic part, without the pads'

@@ -208,6 +208,7 @@ fn clamped_block() -> (Model, RealModes) {
         M: identity.clone(),
         K: identity.clone(),
         C: identity,
+        tied: Vec::new(),
     };
     let modes = RealModes {
         omega: vec![2.0 * PI * 100.0, 2.0 * PI * 250.3],

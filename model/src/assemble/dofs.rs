@@ -1,17 +1,25 @@
 //! Degrees of freedom: three displacements per node, minus those of the clamped node sets
 //! (all three, or only the axes written after a colon: `pad_backs:xy` guides the pad backs
-//! in-plane and leaves them free along z),
+//! in-plane and leaves them free along z) and those of the tied nodes (which follow their
+//! masters, [`super::ties`]),
 //! numbered node by node (node-major), so that a node's free DOFs are consecutive and the
 //! sparse matrices have one dense 3×3 block per pair of neighbouring nodes.
 
 use crate::artifact::mesh::Mesh;
 use crate::stage::StageError;
 
-/// Free DOF index of each node's x, y, z displacement (`None` where clamped).
+/// Free DOF index of each node's x, y, z displacement (`None` where clamped or tied).
 pub type DofOfNode = Vec<[Option<u32>; 3]>;
 
 /// The DOF numbering (see [`DofOfNode`]) and the number of free DOFs.
 pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, usize), StageError> {
+    let clamped = clamped_axes(mesh, clamped_sets)?;
+    number_free(mesh, &clamped, &vec![false; mesh.n_nodes()])
+}
+
+/// The clamped axes of each node: those of every entry of `clamped_sets` (`set` or
+/// `set:axes`) whose set holds it.
+pub fn clamped_axes(mesh: &Mesh, clamped_sets: &[String]) -> Result<Vec<[bool; 3]>, StageError> {
     let mut entries = Vec::with_capacity(clamped_sets.len());
     for entry in clamped_sets {
         let (name, axes) = match entry.split_once(':') {
@@ -65,6 +73,17 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
             }
         }
     }
+    Ok(clamped)
+}
+
+/// The DOF numbering of the nodes neither `clamped` (per axis) nor `tied`, node by node, and
+/// the number of free DOFs.
+pub fn number_free(
+    mesh: &Mesh,
+    clamped: &[[bool; 3]],
+    tied: &[bool],
+) -> Result<(DofOfNode, usize), StageError> {
+    let n_nodes = mesh.n_nodes();
     let mut in_element = vec![false; n_nodes];
     for &node in mesh.elements.all_nodes() {
         if let Some(slot) = in_element.get_mut(node as usize) {
@@ -74,7 +93,7 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
     // A free node outside every element has neither mass nor stiffness: M and K would be
     // singular. That is a broken mesh, not something to solve around.
     let orphans: Vec<usize> = (0..n_nodes)
-        .filter(|&node| !in_element[node] && clamped[node] != [true; 3])
+        .filter(|&node| !in_element[node] && clamped[node] != [true; 3] && !tied[node])
         .collect();
     if let Some(first) = orphans.first() {
         return Err(StageError::new(format!(
@@ -84,10 +103,10 @@ pub fn number_dofs(mesh: &Mesh, clamped_sets: &[String]) -> Result<(DofOfNode, u
     }
     let mut next_dof: u32 = 0;
     let mut dof_of_node = Vec::with_capacity(n_nodes);
-    for axes_clamped in clamped {
+    for (axes_clamped, &tied) in clamped.iter().zip(tied) {
         let mut dofs = [None; 3];
         for axis in 0..3 {
-            if !axes_clamped[axis] {
+            if !axes_clamped[axis] && !tied {
                 dofs[axis] = Some(next_dof);
                 next_dof += 1;
             }

@@ -13,12 +13,23 @@
 //! `materials` input (`material.*` stages, each naming its parts), or, when none is connected,
 //! the short form for a mesh of the two parts `disc` and `pad`, whose constants are this
 //! stage's `*_disc` and `*_pad` parameters (the paper's Table 1 by default). An element whose
-//! material axes vary in space (a cylindrical frame) takes them at its centre. The DOFs of the node sets listed in `clamped` are removed (`u = 0` there); the
-//! others are numbered node by node ([`dofs`]). Element matrices are computed in parallel and
-//! summed in a fixed order ([`sparse`]): the matrices are bit-identical from run to run.
+//! material axes vary in space (a cylindrical frame) takes them at its centre. The DOFs of the
+//! node sets listed in `clamped` are removed (`u = 0` there); the others are numbered node by
+//! node ([`dofs`]). Element matrices are computed in parallel and summed in a fixed order
+//! ([`sparse`]): the matrices are bit-identical from run to run.
+//!
+//! Parts meshed apart are joined by `ties`, each `slave_set -> master_set`: every node of the
+//! slave set follows the master set's surface, u_s = Σ_l w_sl u_l, and its DOFs are
+//! eliminated, `K_red = Tᵀ K T` (likewise `M`, `C`), exactly ([`ties`]). The weights are the
+//! master face's shape functions where the node projects (`tie_method: collocation`, the
+//! default), or the dual mortar rows (`mortar`, which passes the patch test on non-matching
+//! meshes). The model records the tied nodes ([`Model::tied`]) so that every output shows
+//! them moving with their masters, and its contact pairs read a tied node's masters in its
+//! stead. Without ties the model is the one assembled before ties existed, bit for bit.
 
 pub mod dofs;
 pub mod sparse;
+pub mod ties;
 
 #[cfg(test)]
 mod tests;
@@ -34,6 +45,7 @@ use crate::table::Table;
 use crate::artifact::ElementKind;
 use crate::artifact::material::{ElasticLaw, Elasticity, Material};
 use crate::fem::element::{self, Degenerate, ElementMatrices, element_elasticity};
+pub use ties::TieMethod;
 
 /// The parts of the short form, whose materials are this stage's parameters.
 pub const SHORT_FORM_PARTS: [&str; 2] = ["disc", "pad"];
@@ -45,9 +57,9 @@ const ELEMENTS_NAMED_IN_ERRORS: usize = 5;
 pub struct Assemble;
 
 crate::stage_params! {
-    /// The parameters of `assemble`: the clamped node sets, and the short form's materials of
-    /// the parts `disc` and `pad` (the paper's Table 1 by default), used when no `materials`
-    /// are connected.
+    /// The parameters of `assemble`: the clamped node sets, the tied parts, and the short
+    /// form's materials of the parts `disc` and `pad` (the paper's Table 1 by default), used
+    /// when no `materials` are connected.
     pub struct AssembleParams {
         /// Young's modulus of the disc
         #[unit = "Pa"]
@@ -87,10 +99,32 @@ crate::stage_params! {
         beta_pad: f64 = 72.5e-8,
         /// node sets whose DOFs are fixed (`set:xy` fixes only those axes); empty for a free body
         clamped: Vec<String> = vec!["hub".into(), "pad_backs".into()],
+        /// tied parts, each `slave_set -> master_set`: every node of the slave set follows the
+        /// master set's surface where it projects (u = Σ N_l(ξ*) u_l), its DOFs eliminated;
+        /// empty for none
+        ties: Vec<String> = vec![],
+        /// the largest distance from a slave node of a tie to its master surface
+        #[unit = "m"]
+        #[min = 0.0]
+        tie_distance: f64 = 1e-4,
+        /// how ties hold their slave nodes: `collocation` (each at its closest point of the
+        /// master surface) or `mortar` (the dual mortar rows: constant stress passes
+        /// non-matching meshes exactly)
+        tie_method: TieMethod = TieMethod::Collocation,
     }
 }
 
 impl AssembleParams {
+    /// The clamps and ties of these parameters.
+    pub fn constraints(&self) -> Constraints<'_> {
+        Constraints {
+            clamped: &self.clamped,
+            ties: &self.ties,
+            tie_distance: self.tie_distance,
+            tie_method: self.tie_method,
+        }
+    }
+
     /// The short form's material of part `part`: `disc` or `pad` ([`SHORT_FORM_PARTS`]).
     pub fn material(&self, part: &str) -> Result<Material, StageError> {
         let (E, nu, rho, alpha, beta) = match part {
@@ -172,7 +206,7 @@ impl Stage for Assemble {
     }
 
     fn doc(&self) -> &'static str {
-        "Assemble mass, stiffness and Rayleigh damping of a mesh of solid elements (hexahedra, tetrahedra, wedges), clamping node sets"
+        "Assemble mass, stiffness and Rayleigh damping of a mesh of solid elements (hexahedra, tetrahedra, wedges), clamping node sets and tying parts meshed apart"
     }
 
     fn inputs(&self) -> Vec<PortSpec> {
@@ -203,7 +237,7 @@ impl Stage for Assemble {
         let mesh: &Mesh = inputs.get("mesh")?;
         let params = params.read::<Self>()?;
         let materials = part_materials(mesh, &params, &inputs.get_list("materials")?)?;
-        let (model, summary) = assemble_with(mesh, &params.clamped, &materials)?;
+        let (model, summary) = assemble_constrained(mesh, &params.constraints(), &materials)?;
         Ok(Outputs::from([
             ("model".to_string(), Artifact::Model(Box::new(model))),
             ("summary".to_string(), Artifact::Table(summary)),
@@ -333,11 +367,11 @@ fn warn_of_linear_tetrahedra(mesh: &Mesh) {
     }
 }
 
-/// The model of `mesh` with the short form's materials and the node sets `params.clamped`
-/// fixed, and its summary table.
+/// The model of `mesh` with the short form's materials, the node sets `params.clamped` fixed
+/// and the parts of `params.ties` tied, and its summary table.
 pub fn assemble_model(mesh: &Mesh, params: &AssembleParams) -> Result<(Model, Table), StageError> {
     let materials = part_materials(mesh, params, &[])?;
-    assemble_with(mesh, &params.clamped, &materials)
+    assemble_constrained(mesh, &params.constraints(), &materials)
 }
 
 /// The model of `mesh` with `materials` by part index and the node sets `clamped` fixed, and
@@ -347,8 +381,52 @@ pub fn assemble_with(
     clamped: &[String],
     materials: &[Material],
 ) -> Result<(Model, Table), StageError> {
+    let constraints = Constraints {
+        clamped,
+        ties: &[],
+        tie_distance: 0.0,
+        tie_method: TieMethod::Collocation,
+    };
+    assemble_constrained(mesh, &constraints, materials)
+}
+
+/// What holds a model: the clamped node sets and the ties (as `assemble`'s parameters of the
+/// same names).
+#[derive(Debug, Clone, Copy)]
+pub struct Constraints<'a> {
+    /// `set` or `set:axes`, as [`dofs::clamped_axes`] reads them.
+    pub clamped: &'a [String],
+    /// `slave_set -> master_set`, as [`ties::tie_nodes`] reads them.
+    pub ties: &'a [String],
+    /// The largest distance (m) from a slave node to its master surface.
+    pub tie_distance: f64,
+    /// How the ties hold their slave nodes.
+    pub tie_method: TieMethod,
+}
+
+/// The model of `mesh` with `materials` by part index, held by `constraints`, and its summary
+/// table.
+pub fn assemble_constrained(
+    mesh: &Mesh,
+    constraints: &Constraints,
+    materials: &[Material],
+) -> Result<(Model, Table), StageError> {
     check_mesh(mesh)?;
-    let (dof_of_node, n_dofs) = dofs::number_dofs(mesh, clamped)?;
+    let clamped = dofs::clamped_axes(mesh, constraints.clamped)?;
+    let tied = ties::tie_nodes(
+        mesh,
+        constraints.ties,
+        constraints.tie_distance,
+        constraints.tie_method,
+    )?;
+    tied.refuse_clamped(mesh, &clamped, constraints.clamped)?;
+    let mut contact_pairs = None;
+    if !tied.nodes.is_empty() {
+        let mut pairs = mesh.contact_pairs.clone();
+        tied.substitute_pairs(&mut pairs)?;
+        contact_pairs = Some(pairs);
+    }
+    let (dof_of_node, n_dofs) = dofs::number_free(mesh, &clamped, &tied.is_tied(mesh.n_nodes()))?;
     if n_dofs == 0 {
         return Err(StageError::new(
             "every node is clamped: the model has no free DOF",
@@ -409,15 +487,27 @@ pub fn assemble_with(
         })
         .collect();
 
-    let assembled = sparse::assemble(mesh, &dof_of_node, n_dofs, &elements, &damping);
+    let substitution = sparse::Substitution::new(mesh.n_nodes(), &tied.nodes);
+    let assembled = sparse::assemble(
+        mesh,
+        &dof_of_node,
+        n_dofs,
+        &substitution,
+        &elements,
+        &damping,
+    );
     let summary = summary_table(mesh, materials, &dof_of_node, &elements, n_dofs);
-    let model = Model {
+    let mut model = Model {
         mesh: mesh.clone(),
         dof_of_node: dof_of_node.clone(),
         M: assembled.M,
         K: assembled.K,
         C: assembled.C,
+        tied: tied.nodes,
     };
+    if let Some(pairs) = contact_pairs {
+        model.mesh.contact_pairs = pairs;
+    }
     Ok((model, summary))
 }
 

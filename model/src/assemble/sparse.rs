@@ -7,11 +7,20 @@
 //! adds the contributions of the node's elements in increasing element order. Every entry is
 //! therefore the same floating-point sum whatever the number of threads, and the matrices are
 //! bit-identical from run to run (the engine caches them by content hash).
+//!
+//! Tied nodes ([`super::ties`]) are substituted on the fly: every node a stands for the free
+//! nodes m of its [`Substitution`] with weights w (a node that is not tied for itself with
+//! weight 1), and an element's 3×3 block (a, b) is added to the blocks (m_a, m_b) scaled by
+//! w_a w_b, which is Tᵀ K T block by block. A node's columns then gather the elements of every
+//! node standing for it, still in increasing element order. Without ties every weight is
+//! exactly 1 and every sum is the one made without the substitution, bit for bit; with ties
+//! the terms of an entry and of its transpose may come in different orders, and the lower
+//! triangle is then copied from the upper one to keep the matrices exactly symmetric.
 
 use rayon::prelude::*;
 
-use crate::artifact::CscMatrix;
 use crate::artifact::mesh::Mesh;
+use crate::artifact::{CscMatrix, TiedNode};
 use crate::fem::element::{ElementMatrices, packed_index};
 
 /// The assembled matrices over the free DOFs.
@@ -21,17 +30,67 @@ pub struct Assembled {
     pub C: CscMatrix,
 }
 
-/// Elements of each node, in increasing element order (compressed rows).
+/// What each node of the mesh stands for: the free nodes whose displacements make its own,
+/// with their weights (compressed rows). A node that is not tied is itself with weight 1; a
+/// tied node is its masters.
+pub struct Substitution {
+    offsets: Vec<usize>,
+    terms: Vec<(u32, f64)>,
+    tied: bool,
+}
+
+impl Substitution {
+    /// The substitution of `tied` (sorted by node) on a mesh of `n_nodes` nodes.
+    pub fn new(n_nodes: usize, tied: &[TiedNode]) -> Substitution {
+        let mut offsets = Vec::with_capacity(n_nodes + 1);
+        let mut terms = Vec::with_capacity(n_nodes);
+        offsets.push(0);
+        let mut next = tied.iter().peekable();
+        for node in 0..n_nodes {
+            match next.peek() {
+                Some(tie) if tie.node as usize == node => {
+                    terms.extend_from_slice(&tie.masters);
+                    next.next();
+                }
+                _ => terms.push((node as u32, 1.0)),
+            }
+            offsets.push(terms.len());
+        }
+        Substitution {
+            offsets,
+            terms,
+            tied: !tied.is_empty(),
+        }
+    }
+
+    /// The (free node, weight) that `node` stands for.
+    pub fn of(&self, node: usize) -> &[(u32, f64)] {
+        &self.terms[self.offsets[node]..self.offsets[node + 1]]
+    }
+
+    /// The weight of `master` in what `node` stands for, if it is there.
+    fn weight(&self, node: usize, master: u32) -> Option<f64> {
+        self.of(node)
+            .iter()
+            .find(|(other, _)| *other == master)
+            .map(|(_, weight)| *weight)
+    }
+}
+
+/// Elements of each node, in increasing element order (compressed rows): those of the mesh
+/// nodes that stand for it.
 struct NodeElements {
     offsets: Vec<usize>,
     elements: Vec<u32>,
 }
 
 impl NodeElements {
-    fn new(mesh: &Mesh) -> NodeElements {
+    fn new(mesh: &Mesh, substitution: &Substitution) -> NodeElements {
         let mut offsets = vec![0usize; mesh.n_nodes() + 1];
         for &node in mesh.elements.all_nodes() {
-            offsets[node as usize + 1] += 1;
+            for &(master, _) in substitution.of(node as usize) {
+                offsets[master as usize + 1] += 1;
+            }
         }
         for node in 0..mesh.n_nodes() {
             offsets[node + 1] += offsets[node];
@@ -40,14 +99,16 @@ impl NodeElements {
         let mut elements = vec![0u32; offsets[mesh.n_nodes()]];
         for (element_idx, element) in mesh.elements.iter().enumerate() {
             for &node in element.nodes {
-                elements[next[node as usize]] = element_idx as u32;
-                next[node as usize] += 1;
+                for &(master, _) in substitution.of(node as usize) {
+                    elements[next[master as usize]] = element_idx as u32;
+                    next[master as usize] += 1;
+                }
             }
         }
         NodeElements { offsets, elements }
     }
 
-    /// Elements of `node`; an element appears once per occurrence of the node in it.
+    /// Elements of `node`; an element appears once per occurrence of a node standing for it.
     fn of(&self, node: usize) -> &[u32] {
         &self.elements[self.offsets[node]..self.offsets[node + 1]]
     }
@@ -57,6 +118,7 @@ impl NodeElements {
 /// free DOFs precede it in the node's columns.
 fn neighbourhoods(
     mesh: &Mesh,
+    substitution: &Substitution,
     node_elements: &NodeElements,
     free_dirs: &[Vec<usize>],
 ) -> Vec<(Vec<u32>, Vec<usize>)> {
@@ -69,7 +131,8 @@ fn neighbourhoods(
             let mut nodes: Vec<u32> = node_elements
                 .of(node)
                 .iter()
-                .flat_map(|&element| mesh.elements.nodes(element as usize).iter().copied())
+                .flat_map(|&element| mesh.elements.nodes(element as usize).iter())
+                .flat_map(|&other| substitution.of(other as usize).iter().map(|term| term.0))
                 .collect();
             nodes.sort_unstable();
             nodes.dedup();
@@ -112,22 +175,24 @@ fn pattern(
 }
 
 /// Assembles the element matrices (`elements[e]`, damping `(α, β)` of element `e`) over the
-/// free DOFs `dof_of_node` (node-major numbering, `n_dofs` in all).
+/// free DOFs `dof_of_node` (node-major numbering, `n_dofs` in all), the tied nodes substituted
+/// by their masters (`substitution`; a tied node has no DOF).
 pub fn assemble(
     mesh: &Mesh,
     dof_of_node: &[[Option<u32>; 3]],
     n_dofs: usize,
+    substitution: &Substitution,
     elements: &[ElementMatrices],
     damping: &[(f64, f64)],
 ) -> Assembled {
     let n_nodes = mesh.n_nodes();
-    let node_elements = NodeElements::new(mesh);
+    let node_elements = NodeElements::new(mesh, substitution);
     let free_dirs: Vec<Vec<usize>> = dof_of_node
         .iter()
         .map(|dofs| (0..3).filter(|&dir| dofs[dir].is_some()).collect())
         .collect();
 
-    let neighbours = neighbourhoods(mesh, &node_elements, &free_dirs);
+    let neighbours = neighbourhoods(mesh, substitution, &node_elements, &free_dirs);
     let (col_ptr, row_idx) = pattern(n_dofs, dof_of_node, &free_dirs, &neighbours);
 
     let nnz = row_idx.len();
@@ -172,38 +237,55 @@ pub fn assemble(
                 let element_nodes = mesh.elements.nodes(element_idx);
                 let matrices = &elements[element_idx];
                 let (alpha, beta) = damping[element_idx];
-                let Some(local_col) = element_nodes
-                    .iter()
-                    .position(|&other| other as usize == node)
-                else {
-                    continue;
-                };
-                for (local_row, &other) in element_nodes.iter().enumerate() {
-                    let Ok(neighbour) = nodes.binary_search(&other) else {
+                // Every local node standing for this one (itself when nothing is tied).
+                for (local_col, &column_node) in element_nodes.iter().enumerate() {
+                    let Some(column_weight) =
+                        substitution.weight(column_node as usize, node as u32)
+                    else {
                         continue;
                     };
-                    let row_base = offsets[neighbour];
-                    for (column_rank, &col_dir) in column_dirs.iter().enumerate() {
-                        let element_col = 3 * local_col + col_dir;
-                        for (row_rank, &row_dir) in free_dirs[other as usize].iter().enumerate() {
-                            let element_row = 3 * local_row + row_dir;
-                            let position = column_rank * column_len + row_base + row_rank;
-                            let stiffness =
-                                matrices.stiffness[packed_index(element_row, element_col)];
-                            let mass = if row_dir == col_dir {
-                                matrices.mass[packed_index(local_row, local_col)]
-                            } else {
-                                0.0
+                    for (local_row, &row_node) in element_nodes.iter().enumerate() {
+                        for &(other, row_weight) in substitution.of(row_node as usize) {
+                            let Ok(neighbour) = nodes.binary_search(&other) else {
+                                continue;
                             };
-                            K_node[position] += stiffness;
-                            M_node[position] += mass;
-                            C_node[position] += alpha * mass + beta * stiffness;
+                            let weight = row_weight * column_weight;
+                            let row_base = offsets[neighbour];
+                            for (column_rank, &col_dir) in column_dirs.iter().enumerate() {
+                                let element_col = 3 * local_col + col_dir;
+                                for (row_rank, &row_dir) in
+                                    free_dirs[other as usize].iter().enumerate()
+                                {
+                                    let element_row = 3 * local_row + row_dir;
+                                    let position = column_rank * column_len + row_base + row_rank;
+                                    let stiffness =
+                                        matrices.stiffness[packed_index(element_row, element_col)];
+                                    let mass = if row_dir == col_dir {
+                                        matrices.mass[packed_index(local_row, local_col)]
+                                    } else {
+                                        0.0
+                                    };
+                                    K_node[position] += weight * stiffness;
+                                    M_node[position] += weight * mass;
+                                    C_node[position] += weight * (alpha * mass + beta * stiffness);
+                                }
+                            }
                         }
+                    }
+                    if !substitution.tied {
+                        // The node itself, once: an element listing a node twice is
+                        // degenerate and refused before assembly.
+                        break;
                     }
                 }
             }
         });
 
+    if substitution.tied {
+        for values in [&mut M_values, &mut K_values, &mut C_values] {
+            mirror_upper(&col_ptr, &row_idx, values);
+        }
+    }
     let matrix = |col_ptr: Vec<usize>, row_idx: Vec<usize>, values: Vec<f64>| CscMatrix {
         n_rows: n_dofs,
         n_cols: n_dofs,
@@ -216,5 +298,25 @@ pub fn assemble(
         M: matrix(col_ptr.clone(), row_idx.clone(), M_values),
         K: matrix(col_ptr.clone(), row_idx.clone(), K_values),
         C: matrix(col_ptr, row_idx, C_values),
+    }
+}
+
+/// Copies each entry above the diagonal to its mirror below it, in a pattern that is
+/// symmetric: the matrix becomes exactly symmetric.
+fn mirror_upper(col_ptr: &[usize], row_idx: &[usize], values: &mut [f64]) {
+    let n = col_ptr.len() - 1;
+    for col in 0..n {
+        for entry in col_ptr[col]..col_ptr[col + 1] {
+            let row = row_idx[entry];
+            if row <= col {
+                continue;
+            }
+            // (row, col) lies below the diagonal: take (col, row), in column `row` (whose rows
+            // are sorted).
+            let column = &row_idx[col_ptr[row]..col_ptr[row + 1]];
+            if let Ok(offset) = column.binary_search(&col) {
+                values[entry] = values[col_ptr[row] + offset];
+            }
+        }
     }
 }

@@ -140,6 +140,7 @@ mod tests {
             M: identity(2.0),
             K: identity(3.0),
             C: identity(0.5),
+            tied: Vec::new(),
         };
         let inputs = crate::stage::Inputs(BTreeMap::from([(
             "model".to_string(),

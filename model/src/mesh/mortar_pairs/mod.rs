@@ -102,8 +102,9 @@ pub fn mortar_pairs(
     Ok((pairs, coverage))
 }
 
-/// The boundary faces of `side`, each turned to face out of its element.
-fn surface<'a>(mesh: &Mesh, side: &Side<'a>) -> Surface<'a> {
+/// The boundary faces of `side`, each turned to face out of its element (also the master
+/// surface of a tie, [`crate::assemble::ties`]).
+pub(crate) fn surface<'a>(mesh: &Mesh, side: &Side<'a>) -> Surface<'a> {
     Surface {
         name: side.name,
         faces: boundary_faces(mesh, side)
