@@ -110,7 +110,7 @@ crate::stage_params! {
         /// how ties hold their slave nodes: `collocation` (each at its closest point of the
         /// master surface) or `mortar` (the dual mortar rows: constant stress passes
         /// non-matching meshes exactly)
-        tie_method: TieMethod = TieMethod::Collocation,
+        tie_method: TieMethod = TieMethod::Mortar,
     }
 }
 

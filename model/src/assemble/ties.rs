@@ -14,7 +14,7 @@
 //! A tie is thus a linear combination of nodes, not of DOFs. Two methods give the weights
 //! ([`TieMethod`]).
 //!
-//! # Collocation (`tie_method: collocation`, the default)
+//! # Collocation (`tie_method: collocation`)
 //!
 //! Each slave node s is projected onto Γ_m: x(ξ*) is the closest point of the nearest face
 //! ([`Projector`]; ξ* clamped into the face where s lies beyond Γ_m's edge), and the node is
@@ -27,7 +27,7 @@
 //! The shape functions are a partition of unity, so the weights sum to 1. A slave node
 //! farther than `tie_distance` from Γ_m is refused: collocation assumes the surfaces meet.
 //!
-//! # Mortar (`tie_method: mortar`)
+//! # Mortar (`tie_method: mortar`, the default)
 //!
 //! The slave set's boundary faces form a slave surface Γ_s, and the constraint is weak: for
 //! each slave node j, with Φ_j the dual multiplier basis of [`crate::fem::mortar`]
@@ -38,8 +38,8 @@
 //! ```
 //!
 //! the rows of [`crate::fem::mortar::interface`] (S_jk = D_jk / w_j, P_jl = M_jl / w_j). S is
-//! the identity on fully covered linear faces, so u_j = Σ_l P_jl u_l; a quadratic face's
-//! mid-edge rows (and faces the master covers in part) couple a few slave nodes, and the rows
+//! diagonal on linear faces (the covered part of a partly covered face too), so
+//! u_j = Σ_l P_jl u_l; a quadratic face's mid-edge rows couple a few slave nodes, and the rows
 //! are solved for them group by group, W = S⁻¹ P (S 1 = 1 and P 1 = 1, so W 1 = 1). Every
 //! node of the slave set needs a row (the master surface must cover its faces), and its
 //! weighted gap must be within `tie_distance`.

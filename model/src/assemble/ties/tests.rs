@@ -81,12 +81,15 @@ fn stacked(lower_counts: [usize; 2], upper_counts: [usize; 2], kind: ElementKind
 }
 
 /// `assemble`'s parameters: the defaults with `clamped` and `ties` as given.
+/// `assemble`'s parameters with `clamped` and `ties`, tied by collocation (the cases below
+/// name the mortar method where they take it).
 fn params(clamped: &str, ties: &str) -> AssembleParams {
     Params::defaults(
         &Assemble,
         &[
             ("clamped", Value::Str(clamped.into())),
             ("ties", Value::Str(ties.into())),
+            ("tie_method", Value::Str("collocation".into())),
         ],
     )
     .read::<Assemble>()
@@ -101,9 +104,14 @@ fn params_by(clamped: &str, ties: &str, method: TieMethod) -> AssembleParams {
     }
 }
 
-/// The model of `mesh` clamped and tied as given, by the stage as a study runs it.
+/// The model of `mesh` clamped and tied as given, by the stage as a study runs it (by
+/// collocation unless `overrides` name the method).
 fn run_stage(mesh: &Mesh, overrides: &[(&str, Value)]) -> Result<Model, StageError> {
-    let params = Params::defaults(&Assemble, overrides);
+    let mut overrides = overrides.to_vec();
+    if !overrides.iter().any(|(name, _)| *name == "tie_method") {
+        overrides.push(("tie_method", Value::Str("collocation".into())));
+    }
+    let params = Params::defaults(&Assemble, &overrides);
     let inputs = Inputs(BTreeMap::from([(
         "mesh".to_string(),
         Input::One(Arc::new(Artifact::Mesh(Box::new(mesh.clone())))),
