@@ -163,6 +163,19 @@ pub fn first_inverted(kind: ElementKind, coords: &[[f64; 3]]) -> Option<Degenera
     })
 }
 
+/// The strain of a displacement gradient `g = ∂u_i/∂x_j` in the Voigt order of the elasticity
+/// matrices (xx, yy, zz, xy, yz, zx), shears engineering (γ_xy = g_xy + g_yx).
+pub fn engineering_strain(g: &[[f64; 3]; 3]) -> [f64; 6] {
+    [
+        g[0][0],
+        g[1][1],
+        g[2][2],
+        g[0][1] + g[1][0],
+        g[1][2] + g[2][1],
+        g[2][0] + g[0][2],
+    ]
+}
+
 /// The displacement gradient `∂u_i/∂x_j` at the element's centre, from its nodal
 /// displacements: the compatible part of the strain, a material-free estimate of its size.
 /// `None` for an element inverted at its centre.

@@ -68,7 +68,7 @@ use squeal_stages::assemble::{AssembleParams, with_default_materials};
 use squeal_stages::contact::lcp::LcpSettings;
 use squeal_stages::equilibrium::floating::pressure_load;
 use squeal_stages::equilibrium::{Load, PressureOn, Solver, back_reactions, solve};
-use squeal_stages::fem::element::{hex8, quadrature, shapes};
+use squeal_stages::fem::element::{self, hex8, quadrature, shapes};
 use squeal_stages::fem::faces::Side;
 use squeal_stages::mesh::convert::as_kind;
 use squeal_stages::mesh::mortar_pairs::{Coverage, mortar_pairs};
@@ -345,14 +345,7 @@ fn stress_error(case: &ContactPatch, mesh: &Mesh, params: &AssembleParams, u: &[
                 .iter()
                 .map(|point| {
                     let g = gradient_at(element.kind, &coords, &displacement, point.xi);
-                    [
-                        g[0][0],
-                        g[1][1],
-                        g[2][2],
-                        g[0][1] + g[1][0],
-                        g[1][2] + g[2][1],
-                        g[2][0] + g[0][2],
-                    ]
+                    element::engineering_strain(&g)
                 })
                 .collect()
         };

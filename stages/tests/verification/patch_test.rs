@@ -112,14 +112,7 @@ fn patch_test(case: &Patch, kind: ElementKind) {
         }
     }
     // Constant strain ε = sym(∇u) (engineering shears), hence constant stress σ = D ε.
-    let expected_strain = [
-        gradient[0][0],
-        gradient[1][1],
-        gradient[2][2],
-        gradient[0][1] + gradient[1][0],
-        gradient[1][2] + gradient[2][1],
-        gradient[2][0] + gradient[0][2],
-    ];
+    let expected_strain = element::engineering_strain(&gradient);
     let D = params
         .material("disc")
         .expect("default material")
