@@ -477,6 +477,16 @@ impl Mesh {
         self.nodes.len()
     }
 
+    /// The names of the node sets, comma-separated ("no node sets" if none), for the error
+    /// that names a set the mesh lacks.
+    pub fn node_set_names(&self) -> String {
+        if self.node_sets.is_empty() {
+            return "no node sets".to_string();
+        }
+        let names: Vec<&str> = self.node_sets.keys().map(String::as_str).collect();
+        names.join(", ")
+    }
+
     pub fn n_dofs(&self) -> usize {
         3 * self.nodes.len()
     }

@@ -48,15 +48,10 @@ pub fn clamped_axes(mesh: &Mesh, clamped_sets: &[String]) -> Result<Vec<[bool; 3
         .filter(|name| !mesh.node_sets.contains_key(*name))
         .collect();
     if !missing.is_empty() {
-        let available: Vec<&str> = mesh.node_sets.keys().map(String::as_str).collect();
         return Err(StageError::new(format!(
             "clamped node sets not in the mesh: {} (the mesh has: {})",
             missing.join(", "),
-            if available.is_empty() {
-                "no node sets".to_string()
-            } else {
-                available.join(", ")
-            }
+            mesh.node_set_names()
         )));
     }
     let n_nodes = mesh.n_nodes();

@@ -304,14 +304,9 @@ impl Tied {
 /// The nodes of node set `name`, checked to be in the mesh; an error names the tie.
 fn node_set<'m>(mesh: &'m Mesh, tie: &Tie, name: &str) -> Result<&'m [u32], StageError> {
     let Some(nodes) = mesh.node_sets.get(name) else {
-        let available: Vec<&str> = mesh.node_sets.keys().map(String::as_str).collect();
         return Err(StageError::new(format!(
             "tie {tie}: node set `{name}` is not in the mesh (the mesh has: {})",
-            if available.is_empty() {
-                "no node sets".to_string()
-            } else {
-                available.join(", ")
-            }
+            mesh.node_set_names()
         )));
     };
     if let Some(node) = nodes.iter().find(|&&node| node as usize >= mesh.n_nodes()) {

@@ -251,11 +251,7 @@ fn named_side<'a>(mesh: &Mesh, name: &'a str, param: &str) -> Result<Side<'a>, S
     let nodes = mesh.node_sets.get(name).ok_or_else(|| {
         StageError::new(format!(
             "{param}: the mesh has no node set `{name}` (its node sets: {})",
-            mesh.node_sets
-                .keys()
-                .cloned()
-                .collect::<Vec<_>>()
-                .join(", ")
+            mesh.node_set_names()
         ))
     })?;
     Ok(Side::new(name, nodes.iter().copied()))
