@@ -23,7 +23,10 @@
 //! }
 //! ```
 //!
-//! A field without `= default` is required. A stage names its struct once, in
+//! A field without `= default` is required. Parameters that several stages share are one
+//! struct of their own, taken whole by each: `..scheme: SchemeParams,` before the fields
+//! gives the struct a field `scheme` and the stage every parameter of `SchemeParams`, under
+//! their own names. A stage names its struct once, in
 //! [`HasParams`]; [`DeclaredParams`], which the engine calls, follows from it.
 
 use std::collections::BTreeMap;
@@ -493,6 +496,7 @@ macro_rules! stage_params {
     (
         $(#[$struct_attr:meta])*
         $vis:vis struct $Name:ident {
+            $(.. $shared:ident : $Shared:ty,)*
             $(
                 $(#[doc = $doc:literal])*
                 $(#[unit = $unit:literal])?
@@ -504,12 +508,16 @@ macro_rules! stage_params {
         $(#[$struct_attr])*
         #[derive(Debug, Clone, PartialEq)]
         $vis struct $Name {
+            $( pub $shared: $Shared, )*
             $( $(#[doc = $doc])* pub $field: $ty, )*
         }
 
         impl $crate::params::StageParams for $Name {
             fn specs() -> Vec<$crate::params::ParamSpec> {
-                vec![$(
+                let shared: Vec<Vec<$crate::params::ParamSpec>> = vec![$(
+                    <$Shared as $crate::params::StageParams>::specs()
+                ),*];
+                let own = vec![$(
                     $crate::params::ParamSpec {
                         name: stringify!($field),
                         ty: <$ty as $crate::params::ParamValue>::param_type(
@@ -519,14 +527,18 @@ macro_rules! stage_params {
                         unit: $crate::stage_params!(@unit $($unit)?),
                         doc: concat!($($doc),*).trim(),
                     }
-                ),*]
+                ),*];
+                shared.into_iter().flatten().chain(own).collect()
             }
 
             #[allow(unused_variables)]
             fn from_params(
                 params: &$crate::params::Params,
             ) -> Result<Self, $crate::value::StageError> {
-                Ok($Name { $( $field: params.field(stringify!($field))?, )* })
+                Ok($Name {
+                    $( $shared: <$Shared as $crate::params::StageParams>::from_params(params)?, )*
+                    $( $field: params.field(stringify!($field))?, )*
+                })
             }
 
             #[allow(unused_variables)]
@@ -534,6 +546,12 @@ macro_rules! stage_params {
                 $(
                     if name == stringify!($field) {
                         return <$ty as $crate::params::ParamValue>::from_value(value).map(drop);
+                    }
+                )*
+                $(
+                    let specs = <$Shared as $crate::params::StageParams>::specs();
+                    if specs.iter().any(|spec| spec.name == name) {
+                        return <$Shared as $crate::params::StageParams>::check_field(name, value);
                     }
                 )*
                 Err(format!("no parameter `{name}`"))
@@ -738,5 +756,41 @@ mod tests {
         params.0.remove("path");
         let err = Example::from_params(&params).unwrap_err();
         assert_eq!(err.message, "parameter `path` is missing");
+    }
+
+    stage_params! {
+        struct Extended {
+            ..base: Example,
+            /// one more
+            extra: bool = true,
+        }
+    }
+
+    #[test]
+    fn a_shared_struct_gives_its_parameters_under_their_own_names() {
+        let names: Vec<&str> = Extended::specs().iter().map(|spec| spec.name).collect();
+        assert_eq!(
+            names,
+            ["length", "count", "colour", "modes", "path", "extra"]
+        );
+        let mut params = Params(
+            Extended::specs()
+                .into_iter()
+                .filter_map(|spec| Some((spec.name.to_string(), spec.default?)))
+                .collect(),
+        );
+        params.0.insert("path".into(), Value::Str("a.msh".into()));
+        params.0.insert("count".into(), Value::Int(7));
+        let extended = Extended::from_params(&params).unwrap();
+        assert_eq!((extended.base.count, extended.extra), (7, true));
+        assert_eq!(
+            Extended::check_field("colour", &Value::Str("green".into())).unwrap_err(),
+            "`green` is not one of red | deep_blue"
+        );
+        assert!(Extended::check_field("extra", &Value::Bool(false)).is_ok());
+        assert_eq!(
+            Extended::check_field("colours", &Value::Bool(false)).unwrap_err(),
+            "no parameter `colours`"
+        );
     }
 }

@@ -118,6 +118,8 @@ fn main() {
         max_iterations: 2000,
         output_every: 1,
         record_pairs: vec![0],
+        record_dofs: Vec::new(),
+        record_contacts: false,
         snapshot_steps: Vec::new(),
         sample_steps: Vec::new(),
         solve_by: SolveBy::Choice,

@@ -64,6 +64,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
         Arc::new(basis::ReductionBasis),
         Arc::new(basis::pareto::Pareto),
         Arc::new(transient::Transient),
+        Arc::new(transient::lumped::TransientMatrices),
         Arc::new(export::vtu::MeshVtu),
         Arc::new(export::vtu::ModesVtu),
         Arc::new(export::matrix_market::MatrixMarket),

@@ -92,6 +92,8 @@ pub(super) fn enrich(
         max_iterations: 2000,
         output_every: n_steps,
         record_pairs: Vec::new(),
+        record_dofs: Vec::new(),
+        record_contacts: false,
         snapshot_steps: Vec::new(),
         sample_steps: spread_steps(n_steps, probe.samples),
         solve_by: SolveBy::Choice,

@@ -805,6 +805,8 @@ fn a_reduced_run_by_the_inverse_of_its_blocks_agrees_with_one_by_the_factor() {
             max_iterations: 2000,
             output_every: 1,
             record_pairs: Vec::new(),
+            record_dofs: Vec::new(),
+            record_contacts: false,
             snapshot_steps: vec![n_steps / 2, n_steps],
             sample_steps: Vec::new(),
             solve_by,

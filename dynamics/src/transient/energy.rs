@@ -15,7 +15,9 @@
 //!   feeds in through friction; `friction = r_T·s` with the slip `s = (w_t − v_g, w_b)`, what
 //!   friction dissipates (≤ 0 while sliding); `normal = r_n w_n`, impacts and separations;
 //! - `loads = −r_e·w`: the imposed loads are constant, and their work on the departure net of
-//!   the equilibrium's elastic forces is that of the equilibrium reactions, reversed.
+//!   the equilibrium's elastic forces is that of the equilibrium reactions, reversed; plus, on a
+//!   lumped model, the work `τ f^θ·v^θ` of a load `f(t)` beyond the equilibrium's (its own load
+//!   from rest, and what the DOFs driven at a prescribed velocity exert on the others).
 //!
 //! At the equilibrium `drive` and `friction` cancel (every pair slides at `v_g`); squeal gets its
 //! energy from their difference. The balance error
@@ -45,6 +47,8 @@ pub struct Audit {
     initial: f64,
     /// `τ Σ (r − r_e)·w^θ`, the contact terms' sum without their cancellation.
     contact_excess: f64,
+    /// The work of the load beyond the equilibrium's.
+    load_excess: f64,
     pub totals: Totals,
 }
 
@@ -52,6 +56,8 @@ pub struct Audit {
 pub struct StepWork<'a> {
     pub tau: f64,
     pub theta: f64,
+    /// The work of a load beyond the equilibrium's over the step, if there is one.
+    pub load_work: Option<f64>,
     pub u_old: &'a [f64],
     pub u_new: &'a [f64],
     pub v_old: &'a [f64],
@@ -81,6 +87,7 @@ impl Audit {
         Audit {
             initial: kinetic + strain,
             contact_excess: 0.0,
+            load_excess: 0.0,
             totals: Totals {
                 kinetic,
                 strain,
@@ -132,8 +139,12 @@ impl Audit {
                     .map(|d| (r[d] - work.r_e[k + d]) * w_mid[d])
                     .sum::<f64>();
         }
+        if let Some(load_work) = work.load_work {
+            totals.loads += load_work;
+            self.load_excess += load_work;
+        }
         totals.balance_error = totals.kinetic + totals.strain
             - self.initial
-            - (self.contact_excess - totals.viscous - totals.scheme);
+            - (self.contact_excess + self.load_excess - totals.viscous - totals.scheme);
     }
 }

@@ -10,18 +10,18 @@ use crate::plot::{self, DrawResult, Drawing, drawing_error};
 use crate::stage::StageError;
 
 /// A labelled curve: a quantity of the history against time.
-type Curve<'a> = (&'a str, &'a dyn Fn(&HistoryRow) -> f64);
+pub(super) type Curve<'a> = (&'a str, &'a dyn Fn(&HistoryRow) -> f64);
 
 /// Most points drawn per curve (the rows are thinned evenly beyond).
 const MAX_POINTS: usize = 4000;
 
-fn thinned(history: &[HistoryRow]) -> impl Iterator<Item = &HistoryRow> {
+pub(super) fn thinned(history: &[HistoryRow]) -> impl Iterator<Item = &HistoryRow> {
     let stride = history.len().div_ceil(MAX_POINTS).max(1);
     history.iter().step_by(stride)
 }
 
 /// Engineering labels, in exponent form below 0.01 (energies and velocities are small).
-fn axis_label(value: f64) -> String {
+pub(super) fn axis_label(value: f64) -> String {
     if value != 0.0 && value.abs() < 1e-2 {
         format!("{value:.1e}")
     } else {
@@ -29,7 +29,7 @@ fn axis_label(value: f64) -> String {
     }
 }
 
-fn span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+pub(super) fn span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), v| {
         (low.min(v), high.max(v))
     });
@@ -43,7 +43,7 @@ fn span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (low - margin)..(high + margin)
 }
 
-fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+pub(super) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
 ) -> DrawResult {
     chart
@@ -56,7 +56,7 @@ fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>
 }
 
 /// One panel: curves of `(label, values)` against time.
-fn panel<DB: DrawingBackend>(
+pub(super) fn panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     history: &[HistoryRow],
     title: &str,

@@ -68,6 +68,7 @@
 pub mod contact;
 pub mod energy;
 mod figure;
+pub mod lumped;
 pub(crate) mod products;
 pub mod reduced;
 pub mod scheme;
@@ -105,8 +106,8 @@ crate::choice! {
 }
 
 crate::stage_params! {
-    /// The parameters of `transient`.
-    pub struct TransientParams {
+    /// The parameters of the scheme, shared by `transient` and `transient.matrices`.
+    pub struct SchemeParams {
         /// theta of the scheme, in [0.5, 1] (0.5: second order, conservative)
         theta: f64 = 0.5,
         /// time step
@@ -117,19 +118,6 @@ crate::stage_params! {
         #[unit = "s"]
         #[min = 0.0]
         duration: f64 = 2e-3,
-        /// start: equilibrium plus a complex mode, or plus a normal velocity of the pads' contact
-        /// nodes
-        initial: Initial = Initial::Mode,
-        /// initial: mode, the mode number of the stability tables (0: the most unstable)
-        #[min = 0]
-        mode: i64 = 0,
-        /// initial: mode, the largest displacement component of the mode
-        #[unit = "m"]
-        #[min = 0.0]
-        amplitude: f64 = 1e-8,
-        /// initial: kick, the normal velocity given to every pad contact node
-        #[unit = "m/s"]
-        kick_velocity: f64 = 1e-3,
         /// contact solver: a chord Newton on the pairs' active set with a kept factorisation,
         /// falling back to projected Gauss-Seidel; projected Gauss-Seidel alone; or the Jacobi
         /// fixed point of the projection laws
@@ -143,25 +131,12 @@ crate::stage_params! {
         /// steps between rows of history, points and energy
         #[min = 1]
         output_every: usize = 1,
-        /// contact pairs recorded in points (empty: four spread over the pairs)
-        record_pairs: Vec<usize> = Vec::new(),
-        /// length of the final window kept as snapshots (0: the last fifth of the run)
-        #[unit = "s"]
-        #[min = 0.0]
-        snapshot_window: f64 = 0.0,
-        /// snapshots kept over the final window
-        #[min = 1]
-        n_snapshots: usize = 100,
-        /// with a basis: steps, spread over the run, at which the full step equation is checked on
-        /// the lifted reduced solution (the residual indicator); 0: no indicator (the full J is not
-        /// factorised, the summary's residual_indicator is NaN)
-        #[min = 0]
-        indicator_samples: usize = 20,
     }
 }
 
-impl TransientParams {
-    fn check(&self) -> Result<(), StageError> {
+impl SchemeParams {
+    /// Refuses a step, a duration or a tolerance the scheme cannot run with.
+    pub fn check(&self) -> Result<(), StageError> {
         let bad = |message: String| Err(StageError::new(message));
         if !(self.tau > 0.0) || !self.tau.is_finite() {
             return bad(format!(
@@ -196,8 +171,61 @@ impl TransientParams {
         Ok(())
     }
 
-    fn n_steps(&self) -> usize {
+    pub fn n_steps(&self) -> usize {
         (self.duration / self.tau).round() as usize
+    }
+
+    /// The run's settings without records, snapshots or samples.
+    pub fn settings(&self) -> Settings {
+        Settings {
+            theta: self.theta,
+            tau: self.tau,
+            n_steps: self.n_steps(),
+            solver: self.solver,
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            output_every: self.output_every,
+            record_pairs: Vec::new(),
+            record_dofs: Vec::new(),
+            record_contacts: false,
+            snapshot_steps: Vec::new(),
+            sample_steps: Vec::new(),
+            solve_by: SolveBy::Choice,
+        }
+    }
+}
+
+crate::stage_params! {
+    /// The parameters of `transient`.
+    pub struct TransientParams {
+        ..scheme: SchemeParams,
+        /// start: equilibrium plus a complex mode, or plus a normal velocity of the pads' contact
+        /// nodes
+        initial: Initial = Initial::Mode,
+        /// initial: mode, the mode number of the stability tables (0: the most unstable)
+        #[min = 0]
+        mode: i64 = 0,
+        /// initial: mode, the largest displacement component of the mode
+        #[unit = "m"]
+        #[min = 0.0]
+        amplitude: f64 = 1e-8,
+        /// initial: kick, the normal velocity given to every pad contact node
+        #[unit = "m/s"]
+        kick_velocity: f64 = 1e-3,
+        /// contact pairs recorded in points (empty: four spread over the pairs)
+        record_pairs: Vec<usize> = Vec::new(),
+        /// length of the final window kept as snapshots (0: the last fifth of the run)
+        #[unit = "s"]
+        #[min = 0.0]
+        snapshot_window: f64 = 0.0,
+        /// snapshots kept over the final window
+        #[min = 1]
+        n_snapshots: usize = 100,
+        /// with a basis: steps, spread over the run, at which the full step equation is checked on
+        /// the lifted reduced solution (the residual indicator); 0: no indicator (the full J is not
+        /// factorised, the summary's residual_indicator is NaN)
+        #[min = 0]
+        indicator_samples: usize = 20,
     }
 }
 
@@ -319,7 +347,7 @@ impl Stage for Transient {
         let equilibrium: &Equilibrium = inputs.get("equilibrium")?;
         let modes: &ComplexModes = inputs.get("complex_modes")?;
         let params = params.read::<Self>()?;
-        params.check()?;
+        params.scheme.check()?;
         model.check_dof_map()?;
         let (structure, contact_state) = structure_of(model, equilibrium)?;
         let (u0, v0) = match params.initial {
@@ -434,6 +462,7 @@ pub fn structure_of<'a>(
         K: &model.K,
         dof_of_node: &model.dof_of_node,
         H_rows: crate::contact::h_columns(model, frames),
+        load: scheme::Load::default(),
     };
     let body_of_node = model.bodies_of_nodes().0;
     let body_of_pair: Vec<usize> = model
@@ -447,6 +476,8 @@ pub fn structure_of<'a>(
         sliding_speed: frames.sliding_speed.clone(),
         r_e,
         mu: equilibrium.mu,
+        mu_static: equilibrium.mu,
+        speed_scale: 0.0,
         blocks: contact::pad_blocks(&body_of_pair),
     };
     Ok((structure, contact_state))
@@ -542,7 +573,8 @@ fn settings_of(
     n_pairs: usize,
     n_samples: usize,
 ) -> Result<Settings, StageError> {
-    let n_steps = params.n_steps();
+    let scheme = &params.scheme;
+    let n_steps = scheme.n_steps();
     if let Some(pair) = params.record_pairs.iter().find(|&&pair| pair >= n_pairs) {
         return Err(StageError::new(format!(
             "record_pairs: `{pair}` is not a pair number (0 to {})",
@@ -558,26 +590,19 @@ fn settings_of(
     let window = if params.snapshot_window > 0.0 {
         params.snapshot_window
     } else {
-        0.2 * params.duration
+        0.2 * scheme.duration
     };
-    let window_steps = ((window / params.tau).round() as usize).clamp(1, n_steps);
+    let window_steps = ((window / scheme.tau).round() as usize).clamp(1, n_steps);
     let n_snapshots = params.n_snapshots.min(window_steps);
     let stride = window_steps / n_snapshots;
     let snapshot_steps: Vec<usize> = (0..n_snapshots)
         .map(|k| n_steps - (n_snapshots - 1 - k) * stride)
         .collect();
     Ok(Settings {
-        theta: params.theta,
-        tau: params.tau,
-        n_steps,
-        solver: params.solver,
-        tolerance: params.tolerance,
-        max_iterations: params.max_iterations,
-        output_every: params.output_every,
         record_pairs,
         snapshot_steps,
         sample_steps: spread_steps(n_steps, n_samples),
-        solve_by: SolveBy::Choice,
+        ..scheme.settings()
     })
 }
 
@@ -706,17 +731,7 @@ fn outputs(
             .with(format!("pair_{pair}_un"), column(&|row| row.points[k].0))
             .with(format!("pair_{pair}_vn"), column(&|row| row.points[k].1));
     }
-    let energy = Table::new()
-        .with("t", column(&|row| row.t))
-        .with("kinetic", column(&|row| row.energy.kinetic))
-        .with("strain", column(&|row| row.energy.strain))
-        .with("viscous", column(&|row| row.energy.viscous))
-        .with("scheme", column(&|row| row.energy.scheme))
-        .with("drive", column(&|row| row.energy.drive))
-        .with("friction", column(&|row| row.energy.friction))
-        .with("normal", column(&|row| row.energy.normal))
-        .with("loads", column(&|row| row.energy.loads))
-        .with("balance_error", column(&|row| row.energy.balance_error));
+    let energy = energy_table(history);
     let snapshot_name = |t: f64| format!("step_{:08}", (t / settings.tau).round() as u64);
     let snapshots = model.nodal_table(
         run.snapshots
@@ -756,6 +771,23 @@ fn outputs(
             Artifact::Figure(contact_states_figure),
         ),
     ]))
+}
+
+/// The energy audit over time: one row per history row.
+pub(crate) fn energy_table(history: &[scheme::HistoryRow]) -> Table {
+    let column =
+        |f: &dyn Fn(&scheme::HistoryRow) -> f64| history.iter().map(f).collect::<Vec<f64>>();
+    Table::new()
+        .with("t", column(&|row| row.t))
+        .with("kinetic", column(&|row| row.energy.kinetic))
+        .with("strain", column(&|row| row.energy.strain))
+        .with("viscous", column(&|row| row.energy.viscous))
+        .with("scheme", column(&|row| row.energy.scheme))
+        .with("drive", column(&|row| row.energy.drive))
+        .with("friction", column(&|row| row.energy.friction))
+        .with("normal", column(&|row| row.energy.normal))
+        .with("loads", column(&|row| row.energy.loads))
+        .with("balance_error", column(&|row| row.energy.balance_error))
 }
 
 /// Per pair: where it is and the shares of the steps it ended open, sticking and sliding; and
@@ -830,6 +862,14 @@ pub fn peak_energy(history: &[scheme::HistoryRow]) -> f64 {
 /// The run's figures; `residual_indicator` is 0 for a run on the full model (which is its own
 /// reference), NaN for a reduced run without the indicator.
 fn summary_table(settings: &Settings, run: &Run, residual_indicator: f64) -> Table {
+    let mut quantities = run_quantities(settings, run);
+    quantities.push(("residual_indicator", residual_indicator));
+    Table::quantities(&quantities)
+}
+
+/// What every run reports: its steps, its operator, its contact solves, its energy balance and
+/// the final contact states.
+pub(crate) fn run_quantities(settings: &Settings, run: &Run) -> Vec<(&'static str, f64)> {
     let last = run.history.last().cloned().unwrap_or_default();
     let peak = peak_energy(&run.history);
     let worst_balance = run
@@ -837,7 +877,7 @@ fn summary_table(settings: &Settings, run: &Run, residual_indicator: f64) -> Tab
         .iter()
         .map(|row| row.energy.balance_error.abs())
         .fold(0.0, f64::max);
-    let quantities: Vec<(&str, f64)> = vec![
+    let quantities: Vec<(&'static str, f64)> = vec![
         ("steps", settings.n_steps as f64),
         ("tau", settings.tau),
         ("theta", settings.theta),
@@ -864,7 +904,6 @@ fn summary_table(settings: &Settings, run: &Run, residual_indicator: f64) -> Tab
         ("final_open", last.open),
         ("final_stick", last.stick),
         ("final_slide", last.slide),
-        ("residual_indicator", residual_indicator),
     ];
-    Table::quantities(&quantities)
+    quantities
 }

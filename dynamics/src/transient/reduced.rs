@@ -31,7 +31,7 @@
 
 use faer::{Mat, Par};
 
-use super::scheme::{self, ContactState, Run, StepSample, Structure};
+use super::scheme::{self, ContactState, Load, Run, StepSample, Structure};
 use crate::artifact::{Basis, CscMatrix, Model};
 use crate::stage::StageError;
 use squeal_linalg::cholesky::Cholesky;
@@ -90,6 +90,7 @@ impl<'a> ReducedModel<'a> {
             K: self.K,
             dof_of_node: &[],
             H_rows: self.H_rows.clone(),
+            load: Load::default(),
         }
     }
 }

@@ -42,6 +42,27 @@ pub struct Structure<'a> {
     pub dof_of_node: &'a [[Option<u32>; 3]],
     /// Rows of `H`, three per pair (n, t, b): `(H v)_{3p+d}` is the relative velocity.
     pub H_rows: Vec<Vec<(usize, f64)>>,
+    /// Loads beyond the equilibrium's (none for the brake, whose load the equilibrium holds).
+    pub load: Load,
+}
+
+/// A load `f(t) = constant + t rate` on the departure's equation (empty vectors: none): what a
+/// lumped model's own load, and the DOFs it drives at a prescribed velocity, add.
+#[derive(Debug, Clone, Default)]
+pub struct Load {
+    pub constant: Vec<f64>,
+    pub rate: Vec<f64>,
+}
+
+impl Load {
+    fn is_none(&self) -> bool {
+        self.constant.is_empty() && self.rate.is_empty()
+    }
+
+    /// `f(t)`'s entry `i`.
+    fn at(&self, i: usize, t: f64) -> f64 {
+        self.constant.get(i).copied().unwrap_or(0.0) + t * self.rate.get(i).copied().unwrap_or(0.0)
+    }
 }
 
 /// The contact pairs' data at the sliding equilibrium.
@@ -52,7 +73,13 @@ pub struct ContactState {
     pub sliding_speed: Vec<f64>,
     /// Equilibrium reactions, three per pair (n, t, b) (N).
     pub r_e: Vec<f64>,
+    /// The kinetic friction coefficient, and the static one that holds a pair which stuck at
+    /// a step's start (equal for the brake).
     pub mu: f64,
+    pub mu_static: f64,
+    /// The run's speed scale, below whose 1e-9 a slip on a surface at rest counts as none (0:
+    /// every pair slides on a moving surface).
+    pub speed_scale: f64,
     /// The pairs' Gauss–Seidel blocks ([`contact::pad_blocks`]): consecutive ranges covering
     /// every pair, in order.
     pub blocks: Vec<std::ops::Range<usize>>,
@@ -70,6 +97,10 @@ pub struct Settings {
     pub output_every: usize,
     /// Pairs whose normal relative displacement and velocity are recorded.
     pub record_pairs: Vec<usize>,
+    /// DOFs whose displacement and velocity are recorded in each history row.
+    pub record_dofs: Vec<usize>,
+    /// Whether each history row holds every pair's [`PairRecord`].
+    pub record_contacts: bool,
     /// Steps at which a snapshot of `u`, `v` is kept (ascending).
     pub snapshot_steps: Vec<usize>,
     /// Steps kept whole, as [`StepSample`]s (ascending).
@@ -104,8 +135,22 @@ pub struct HistoryRow {
     pub slide: f64,
     /// The recorded pairs' normal relative displacement and velocity.
     pub points: Vec<(f64, f64)>,
+    /// The recorded DOFs' displacement (from the equilibrium) and velocity.
+    pub dofs: Vec<(f64, f64)>,
+    /// Every pair, when the settings record them.
+    pub contacts: Vec<PairRecord>,
     pub energy: super::energy::Totals,
     pub contact_iterations: usize,
+}
+
+/// A pair at the end of a step: its gap, relative velocities (n, t, b), mean reaction over the
+/// step (n, t, b) and state.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairRecord {
+    pub gap: f64,
+    pub w: [f64; 3],
+    pub r: [f64; 3],
+    pub state: PairState,
 }
 
 /// A kept snapshot.
@@ -185,6 +230,13 @@ pub enum Failure {
         step: usize,
         t: f64,
     },
+}
+
+/// `out = H x`.
+fn h_times_into(H_rows: &[Vec<(usize, f64)>], x: &[f64], out: &mut [f64]) {
+    for (slot, row) in out.iter_mut().zip(H_rows) {
+        *slot = row.iter().map(|&(dof, value)| value * x[dof]).sum();
+    }
 }
 
 fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
@@ -378,18 +430,21 @@ impl<'s> Operators<'s> {
         self.contact_state.gap.len()
     }
 
-    /// The contact problem of a step with these free velocities and least normal velocities.
+    /// The contact problem of a step with these free velocities, least normal velocities and
+    /// friction coefficients.
     fn contact_problem<'a>(
         &'a self,
         w_free: &'a [f64],
         w_n_min: &'a [f64],
+        mu: &'a [f64],
     ) -> contact::Problem<'a> {
         contact::Problem {
             W: &self.delassus,
             w_free,
             w_n_min,
             sliding_speed: &self.contact_state.sliding_speed,
-            mu: self.contact_state.mu,
+            speed_scale: self.contact_state.speed_scale,
+            mu,
             force_scale: self.force_scale,
             blocks: &self.contact_state.blocks,
         }
@@ -426,6 +481,7 @@ impl<'s> Operators<'s> {
             most_contact_iterations: 0,
             peak_penetration: 0.0,
             pair_steps: vec![[0; 3]; self.n_pairs()],
+            sticking: vec![false; self.n_pairs()],
         };
         self.record(&mut state, 0);
         state
@@ -441,6 +497,7 @@ impl<'s> Operators<'s> {
                 && saved.MCK_v.len() == n
                 && saved.K_u.len() == n
                 && saved.r.len() == 3 * self.n_pairs()
+                && saved.sticking.len() == self.n_pairs()
         })
     }
 
@@ -460,19 +517,81 @@ impl<'s> Operators<'s> {
     ) -> Result<Option<contact::Report>, contact::NotConverged> {
         let mut report = None;
         let (w_new, w_n_min) = (&mut work.w_new, &work.w_n_min);
+        let work_mu = &work.mu;
         self.step_solve.solve(
             &work.rhs,
             (&mut work.w_free, &mut work.y, &mut work.v_new),
             |w_free| {
                 if self.n_pairs() > 0 {
                     let clock = std::time::Instant::now();
-                    report = Some(contact(&self.contact_problem(w_free, w_n_min), r, w_new)?);
+                    let problem = self.contact_problem(w_free, w_n_min, work_mu);
+                    report = Some(contact(&problem, r, w_new)?);
                     *contact_time += clock.elapsed().as_secs_f64();
                 }
                 Ok(&r[..])
             },
         )?;
         Ok(report)
+    }
+
+    /// The step's velocity and reactions (into `work.v_new`, `state.r`, their pair velocities
+    /// into `work.w_new`) at the friction coefficients `work.mu`.
+    fn solve_contact(
+        &self,
+        state: &mut State,
+        contact_solver: &mut ContactSolver,
+        work: &mut Work,
+        contact_time: &mut f64,
+    ) -> Result<contact::Report, contact::NotConverged> {
+        let (tolerance, max_iterations) = (self.settings.tolerance, self.settings.max_iterations);
+        let mut report = self
+            .solve_step(work, &mut state.r, contact_time, |problem, r, w| {
+                contact_solver.solve(problem, tolerance, max_iterations, r, w)
+            })?
+            .unwrap_or(contact::Report {
+                iterations: 0,
+                residual: 0.0,
+                precision: Precision::Double,
+            });
+        let finite = work.v_new.iter().all(|value| value.is_finite());
+        if report.precision == Precision::Single && finite {
+            // Reactions found with W in single precision: the step is accepted on its own
+            // end-of-step velocities, or its contact problem is refined in double precision
+            // from there and the step solved again.
+            work.w_new = h_times(&self.structure.H_rows, &work.v_new);
+            let problem = self.contact_problem(&work.w_free, &work.w_n_min, &work.mu);
+            match contact_solver.settle(&problem, tolerance, &state.r, &work.w_new) {
+                Ok(residual) => report.residual = residual,
+                Err(_) => {
+                    let refine = |problem: &contact::Problem, r: &mut [f64], w: &mut [f64]| {
+                        contact_solver.refine(problem, tolerance, max_iterations, r, w)
+                    };
+                    if let Some(refined) =
+                        self.solve_step(work, &mut state.r, contact_time, refine)?
+                    {
+                        report.iterations += refined.iterations;
+                        report.residual = refined.residual;
+                    }
+                }
+            }
+        } else if finite && self.n_pairs() > 0 {
+            // The pairs' velocities from the step's own solution: the solver's `w_free + W r`,
+            // carried from step to step by its warm start, drifts from them by round-off
+            // (1e-11 of the velocity over 10⁴ steps), and the gaps, the slips and the energy
+            // audit read them.
+            h_times_into(&self.structure.H_rows, &work.v_new, &mut work.w_new);
+            let problem = self.contact_problem(&work.w_free, &work.w_n_min, &work.mu);
+            contact_solver.adopt(&problem, &work.w_new);
+        }
+        Ok(report)
+    }
+
+    fn sliding_speed(&self, p: usize) -> f64 {
+        self.contact_state.sliding_speed[p]
+    }
+
+    fn speed_scale(&self) -> f64 {
+        self.contact_state.speed_scale
     }
 
     /// One step of the scheme, from `state` at step `state.step`.
@@ -493,6 +612,14 @@ impl<'s> Operators<'s> {
             let [Mv, Cv, Kv] = state.MCK_v[i];
             *slot = a * Mv + b * Cv + c * Kv - state.K_u[i] - self.equilibrium_force[i];
         }
+        // A load beyond the equilibrium's at t^θ (θ F¹ + (1−θ) F⁰, F affine in t).
+        let load = &self.structure.load;
+        let t_theta = (state.step as f64 + theta) * tau;
+        if !load.is_none() {
+            for (i, slot) in work.rhs.iter_mut().enumerate() {
+                *slot += load.at(i, t_theta);
+            }
+        }
         // The equivalent gap B̃ = g + τ(1−θ) w_n (Signorini on the end-of-step velocity).
         for p in 0..n_pairs {
             let gap = self.contact_state.gap[p] + state.delta[3 * p];
@@ -501,44 +628,45 @@ impl<'s> Operators<'s> {
         }
         let clock = std::time::Instant::now();
         let mut contact_time = 0.0;
-        let (tolerance, max_iterations) = (self.settings.tolerance, self.settings.max_iterations);
         let failed = |failure: contact::NotConverged| Failure::Contact {
             step,
             t,
             history: failure.history,
             iterations: failure.iterations,
         };
+        let (mu, mu_static) = (self.contact_state.mu, self.contact_state.mu_static);
+        if mu_static != mu {
+            for (slot, &sticking) in work.mu.iter_mut().zip(&state.sticking) {
+                *slot = if sticking { mu_static } else { mu };
+            }
+        }
         let mut report = self
-            .solve_step(work, &mut state.r, &mut contact_time, |problem, r, w| {
-                contact_solver.solve(problem, tolerance, max_iterations, r, w)
-            })
-            .map_err(failed)?
-            .unwrap_or(contact::Report {
-                iterations: 0,
-                residual: 0.0,
-                precision: Precision::Double,
-            });
-        let finite = work.v_new.iter().all(|value| value.is_finite());
-        if report.precision == Precision::Single && finite {
-            // Reactions found with W in single precision: the step is accepted on its own
-            // end-of-step velocities, or its contact problem is refined in double precision
-            // from there and the step solved again.
-            work.w_new = h_times(&self.structure.H_rows, &work.v_new);
-            let problem = self.contact_problem(&work.w_free, &work.w_n_min);
-            match contact_solver.settle(&problem, tolerance, &state.r, &work.w_new) {
-                Ok(residual) => report.residual = residual,
-                Err(_) => {
-                    let refine = |problem: &contact::Problem, r: &mut [f64], w: &mut [f64]| {
-                        contact_solver.refine(problem, tolerance, max_iterations, r, w)
-                    };
-                    if let Some(refined) = self
-                        .solve_step(work, &mut state.r, &mut contact_time, refine)
-                        .map_err(failed)?
-                    {
-                        report.iterations += refined.iterations;
-                        report.residual = refined.residual;
-                    }
+            .solve_contact(state, contact_solver, work, &mut contact_time)
+            .map_err(failed)?;
+        // A pair held by static friction that slips anyway slides under the kinetic law: its
+        // step is solved again with μ (each pass releases at least one pair).
+        let mut released = mu_static != mu;
+        while released {
+            released = false;
+            for p in 0..n_pairs {
+                let state_p = classify(
+                    &state.r,
+                    &work.w_new,
+                    p,
+                    self.sliding_speed(p),
+                    self.speed_scale(),
+                );
+                if work.mu[p] == mu_static && state_p == PairState::Slide {
+                    work.mu[p] = mu;
+                    released = true;
                 }
+            }
+            if released {
+                let again = self
+                    .solve_contact(state, contact_solver, work, &mut contact_time)
+                    .map_err(failed)?;
+                report.iterations += again.iterations;
+                report.residual = again.residual;
             }
         }
         timings.contact += contact_time;
@@ -563,9 +691,18 @@ impl<'s> Operators<'s> {
         for (k, slot) in state.delta.iter_mut().enumerate() {
             *slot += tau * (theta * work.w_new[k] + (1.0 - theta) * state.w[k]);
         }
+        let load_work = (!load.is_none()).then(|| {
+            (0..state.u.len())
+                .map(|i| {
+                    let v_theta = theta * work.v_new[i] + (1.0 - theta) * state.v[i];
+                    tau * load.at(i, t_theta) * v_theta
+                })
+                .sum::<f64>()
+        });
         state.audit.step(StepWork {
             tau,
             theta,
+            load_work,
             u_old: &work.u_old,
             u_new: &state.u,
             v_old: &state.v,
@@ -595,8 +732,15 @@ impl<'s> Operators<'s> {
         for p in 0..n_pairs {
             let penetration = -(self.contact_state.gap[p] + state.delta[3 * p]);
             state.peak_penetration = state.peak_penetration.max(penetration);
-            let pair_state = classify(&state.r, &state.w, p, self.contact_state.sliding_speed[p]);
+            let pair_state = classify(
+                &state.r,
+                &state.w,
+                p,
+                self.sliding_speed(p),
+                self.speed_scale(),
+            );
             state.pair_steps[p][pair_state as usize] += 1;
+            state.sticking[p] = pair_state == PairState::Stick;
         }
         state.step = step;
         self.record(state, report.iterations);
@@ -633,7 +777,7 @@ impl<'s> Operators<'s> {
         };
         let mut counts = [0usize; 3];
         for p in 0..n_pairs {
-            let pair_state = classify(&state.r, w, p, self.contact_state.sliding_speed[p]);
+            let pair_state = classify(&state.r, w, p, self.sliding_speed(p), self.speed_scale());
             counts[pair_state as usize] += 1;
         }
         let fraction = |state: PairState| {
@@ -659,6 +803,23 @@ impl<'s> Operators<'s> {
                 .iter()
                 .map(|&p| (delta[3 * p], w[3 * p]))
                 .collect(),
+            dofs: self
+                .settings
+                .record_dofs
+                .iter()
+                .map(|&dof| (state.u[dof], state.v[dof]))
+                .collect(),
+            contacts: match self.settings.record_contacts {
+                false => Vec::new(),
+                true => (0..n_pairs)
+                    .map(|p| PairRecord {
+                        gap: self.contact_state.gap[p] + delta[3 * p],
+                        w: contact::pair(w, p),
+                        r: contact::pair(&state.r, p),
+                        state: classify(&state.r, w, p, self.sliding_speed(p), self.speed_scale()),
+                    })
+                    .collect(),
+            },
             energy: state.audit.totals.clone(),
             contact_iterations,
         }
@@ -700,6 +861,8 @@ struct State {
     peak_penetration: f64,
     /// Per pair, the steps it ended open, sticking and sliding ([`PairState`] order).
     pair_steps: Vec<[u64; 3]>,
+    /// Per pair, whether it ended the last step sticking (static friction holds it).
+    sticking: Vec<bool>,
 }
 
 /// A step's scratch vectors.
@@ -714,10 +877,12 @@ struct Work {
     w_free: Vec<f64>,
     w_new: Vec<f64>,
     w_n_min: Vec<f64>,
+    /// The step's friction coefficient per pair.
+    mu: Vec<f64>,
 }
 
 impl Work {
-    fn new(n: usize, n_pairs: usize) -> Work {
+    fn new(n: usize, n_pairs: usize, mu: f64) -> Work {
         Work {
             rhs: vec![0.0; n],
             y: vec![0.0; n],
@@ -728,6 +893,7 @@ impl Work {
             w_free: vec![0.0; 3 * n_pairs],
             w_new: vec![0.0; 3 * n_pairs],
             w_n_min: vec![0.0; n_pairs],
+            mu: vec![mu; n_pairs],
         }
     }
 }
@@ -754,10 +920,10 @@ pub fn integrate(
         None => operators.initial_state(u, v),
     };
     let mut contact_solver = ContactSolver::new(settings.solver);
-    let mut work = Work::new(structure.K.n_rows, operators.n_pairs());
+    let mut work = Work::new(structure.K.n_rows, operators.n_pairs(), contact_state.mu);
     contact_solver.restore(
         state.contact.clone(),
-        &operators.contact_problem(&work.w_free, &work.w_n_min),
+        &operators.contact_problem(&work.w_free, &work.w_n_min, &work.mu),
     );
     let steps_clock = std::time::Instant::now();
     timings.steps_run = settings.n_steps.saturating_sub(state.step);

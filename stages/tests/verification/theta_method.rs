@@ -14,7 +14,7 @@ use squeal_stages::stability::matrices::solve_matrices;
 use squeal_stages::transient::contact::{Solver, pad_blocks};
 use squeal_stages::transient::mode_start;
 use squeal_stages::transient::scheme::{
-    self, ContactState, Settings, SolveBy, Structure, integrate,
+    self, ContactState, Load, Settings, SolveBy, Structure, integrate,
 };
 
 use crate::reference;
@@ -111,6 +111,8 @@ fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
         max_iterations: 5000,
         output_every: 1,
         record_pairs: Vec::new(),
+        record_dofs: Vec::new(),
+        record_contacts: false,
         snapshot_steps: Vec::new(),
         sample_steps: Vec::new(),
         solve_by: SolveBy::Choice,
@@ -123,6 +125,8 @@ fn no_contact() -> ContactState {
         sliding_speed: Vec::new(),
         r_e: Vec::new(),
         mu: 0.0,
+        mu_static: 0.0,
+        speed_scale: 0.0,
         blocks: Vec::new(),
     }
 }
@@ -179,6 +183,7 @@ fn run_chain(theta: f64, tau: f64, duration: f64) -> (Vec<f64>, scheme::Run) {
         K: &K,
         dof_of_node: &[],
         H_rows: Vec::new(),
+        load: Load::default(),
     };
     let n_steps = (duration / tau).round() as usize;
     let mut settings = settings(theta, tau, n_steps);
@@ -269,6 +274,7 @@ fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
         K: &K,
         dof_of_node: &[],
         H_rows,
+        load: Load::default(),
     };
     let gap = case.gap;
     let contact_state = ContactState {
@@ -276,6 +282,8 @@ fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
         sliding_speed: vec![case.sliding_speed],
         r_e: vec![0.0; 3],
         mu: case.mu,
+        mu_static: case.mu,
+        speed_scale: 0.0,
         blocks: pad_blocks(&[0]),
     };
     let tolerance = case.tolerance;
@@ -368,12 +376,15 @@ fn stick_slip(
         K: &K,
         dof_of_node: &[],
         H_rows,
+        load: Load::default(),
     };
     let contact_state = ContactState {
         gap: vec![0.0],
         sliding_speed: vec![belt],
         r_e: vec![normal_force, mu * normal_force, 0.0],
         mu,
+        mu_static: mu,
+        speed_scale: 0.0,
         blocks: pad_blocks(&[0]),
     };
     let tau = 2.0 * PI / (k / m).sqrt() / 2000.0;
@@ -468,6 +479,7 @@ fn theta_at_least_one_half_is_stable_for_every_step_from_a_nanosecond_to_twenty_
         K: &K,
         dof_of_node: &[],
         H_rows: Vec::new(),
+        load: Load::default(),
     };
     for &tau in &case.taus {
         for &theta in &case.thetas {
@@ -626,12 +638,15 @@ fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
         K: &K,
         dof_of_node: &[],
         H_rows: vec![vec![(2, 1.0)], vec![(0, 1.0)], Vec::new()],
+        load: Load::default(),
     };
     let contact_state = ContactState {
         gap: vec![0.0],
         sliding_speed: vec![belt],
         r_e: vec![normal_force, mu * normal_force, 0.0],
         mu,
+        mu_static: mu,
+        speed_scale: 0.0,
         blocks: pad_blocks(&[0]),
     };
     let period = 2.0 * PI / lambda.im;

@@ -168,6 +168,11 @@ impl Factorisation {
                             A[(i + d, j)] = rho * value;
                         }
                     }
+                    if W[(k + 2, k + 2)] == 0.0 {
+                        // A pair without a binormal row (a lumped contact in a plane): its
+                        // slip along b is zero whatever r_b, which stays zero instead.
+                        A[(i + 2, i + 2)] = 1.0;
+                    }
                 }
                 PairState::Slide => {
                     W_row(k, &mut row);
@@ -177,7 +182,7 @@ impl Factorisation {
                     // F_T = r_T − μ r_n d(s): ∂F_T = Δr_T − μ d Δr_n + κ (I − ŝŝᵀ) Δw_T,
                     // κ = μ r_n/‖s‖.
                     let (length, d) = slip(&linearisation.w, p, problem.sliding_speed[p]);
-                    let kappa = problem.mu * linearisation.r[k] / length;
+                    let kappa = problem.mu[p] * linearisation.r[k] / length;
                     let projector = [
                         [1.0 - d[0] * d[0], -d[0] * d[1]],
                         [-d[1] * d[0], 1.0 - d[1] * d[1]],
@@ -191,7 +196,7 @@ impl Factorisation {
                                 * (projector[e][0] * rows[0][j] + projector[e][1] * rows[1][j]);
                         }
                         A[(i + 1 + e, i + 1 + e)] += 1.0;
-                        A[(i + 1 + e, i)] -= problem.mu * d[e];
+                        A[(i + 1 + e, i)] -= problem.mu[p] * d[e];
                     }
                 }
             }
@@ -217,14 +222,18 @@ impl Factorisation {
                 PairState::Stick => [
                     normal,
                     step.rho_T[p] * (w[k + 1] - problem.sliding_speed[p]),
-                    step.rho_T[p] * w[k + 2],
+                    if problem.W.double[(k + 2, k + 2)] == 0.0 {
+                        r[k + 2]
+                    } else {
+                        step.rho_T[p] * w[k + 2]
+                    },
                 ],
                 PairState::Slide => {
                     let d = slip(w, p, problem.sliding_speed[p]).1;
                     [
                         normal,
-                        r[k + 1] - problem.mu * r[k] * d[0],
-                        r[k + 2] - problem.mu * r[k] * d[1],
+                        r[k + 1] - problem.mu[p] * r[k] * d[0],
+                        r[k + 2] - problem.mu[p] * r[k] * d[1],
                     ]
                 }
             };
@@ -340,7 +349,7 @@ impl ContactSolver {
 fn linearisation_of(problem: &Problem, r: &[f64], w: &[f64]) -> Linearisation {
     Linearisation {
         states: (0..problem.n_pairs())
-            .map(|p| classify(r, w, p, problem.sliding_speed[p]))
+            .map(|p| classify(r, w, p, problem.sliding_speed[p], problem.speed_scale))
             .collect(),
         r: r.to_vec(),
         w: w.to_vec(),

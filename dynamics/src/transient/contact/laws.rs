@@ -37,12 +37,13 @@ pub enum PairState {
 }
 
 /// Open (no reaction), sticking (no slip) or sliding, from the end-of-step reaction and
-/// velocity; a slip below 1e-9 of the sliding speed counts as sticking.
-pub fn classify(r: &[f64], w: &[f64], p: usize, sliding_speed: f64) -> PairState {
+/// velocity; a slip below 1e-9 of the sliding speed, or of `speed_scale` where that is larger
+/// (a surface at rest), counts as sticking.
+pub fn classify(r: &[f64], w: &[f64], p: usize, sliding_speed: f64, speed_scale: f64) -> PairState {
     if r[3 * p] <= 0.0 {
         return PairState::Open;
     }
-    if slip(w, p, sliding_speed).0 <= 1e-9 * sliding_speed {
+    if slip(w, p, sliding_speed).0 <= 1e-9 * sliding_speed.max(speed_scale) {
         PairState::Stick
     } else {
         PairState::Slide
@@ -70,7 +71,11 @@ pub struct Problem<'a> {
     pub w_n_min: &'a [f64],
     /// Sliding speed `|v_g|` of the disc per pair.
     pub sliding_speed: &'a [f64],
-    pub mu: f64,
+    /// The speed below whose 1e-9 a slip counts as none ([`classify`]; 0: the sliding speed).
+    pub speed_scale: f64,
+    /// Friction coefficient per pair: the kinetic one, or the static one for a pair that
+    /// stuck at the step's start.
+    pub mu: &'a [f64],
     /// Force scale of the residual (N).
     pub force_scale: f64,
     /// The pairs in the order Gauss–Seidel sweeps them, in blocks of consecutive pairs
@@ -97,7 +102,7 @@ impl Problem<'_> {
             r[1] - step.rho_T[p] * slip[0],
             r[2] - step.rho_T[p] * slip[1],
         ];
-        let radius = self.mu * r_n;
+        let radius = self.mu[p] * r_n;
         let length = norm(trial);
         let scale = if length > radius {
             radius / length
@@ -133,6 +138,6 @@ fn norm(x: [f64; 2]) -> f64 {
     (x[0] * x[0] + x[1] * x[1]).sqrt()
 }
 
-pub(super) fn pair(values: &[f64], p: usize) -> [f64; 3] {
+pub fn pair(values: &[f64], p: usize) -> [f64; 3] {
     [values[3 * p], values[3 * p + 1], values[3 * p + 2]]
 }

@@ -53,7 +53,7 @@ use delassus::velocities;
 pub use delassus::{Delassus, Precision};
 use iterative::iterate;
 pub use iterative::pad_blocks;
-pub use laws::{PairState, Problem, Solver, classify};
+pub use laws::{PairState, Problem, Solver, classify, pair};
 
 /// The least tolerance tried with passes over `W` in single precision. Below it, their
 /// rounding most often misses the tolerance, and every step would be solved twice before
@@ -211,6 +211,14 @@ impl ContactSolver {
         } else {
             self.memory.single.failed();
             Err(residual)
+        }
+    }
+
+    /// Takes the exact velocities `w` of the last solution (the step's own, `H v¹`) in place
+    /// of the iteration's: the next step's warm start builds on them.
+    pub fn adopt(&mut self, problem: &Problem, w: &[f64]) {
+        if let Some(last) = self.memory.last.as_mut() {
+            last.W_r = reaction_velocities(problem, w);
         }
     }
 

@@ -73,7 +73,8 @@ fn solve_with(solver: Solver, mu: f64) -> (Vec<f64>, Vec<f64>, Report) {
         w_free: &w_free,
         w_n_min: &w_n_min,
         sliding_speed: &sliding,
-        mu,
+        speed_scale: 0.0,
+        mu: &vec![mu; sliding.len()],
         force_scale: 0.0,
         blocks: &two_pads(),
     };
@@ -153,7 +154,8 @@ fn single_precision_solutions_are_settled_on_exact_velocities_or_refined() {
         w_free: &w_free,
         w_n_min: &w_n_min,
         sliding_speed: &sliding,
-        mu: 0.38,
+        speed_scale: 0.0,
+        mu: &vec![0.38; sliding.len()],
         force_scale: 0.0,
         blocks: &blocks,
     };
@@ -242,7 +244,8 @@ fn the_active_set_solver_reuses_its_factorisation_and_agrees_with_gauss_seidel()
                 w_free: &drifted,
                 w_n_min: &w_n_min,
                 sliding_speed: &sliding,
-                mu,
+                speed_scale: 0.0,
+                mu: &vec![mu; sliding.len()],
                 force_scale: 0.0,
                 blocks: &two_pads(),
             };
@@ -270,7 +273,8 @@ fn the_active_set_solver_reuses_its_factorisation_and_agrees_with_gauss_seidel()
             w_free: &reversed,
             w_n_min: &w_n_min,
             sliding_speed: &sliding,
-            mu,
+            speed_scale: 0.0,
+            mu: &vec![mu; sliding.len()],
             force_scale: 0.0,
             blocks: &two_pads(),
         };
@@ -303,7 +307,8 @@ fn factorisations_that_do_not_pay_for_themselves_become_rare() {
             },
             w_n_min: &w_n_min,
             sliding_speed: &sliding,
-            mu: 0.38,
+            speed_scale: 0.0,
+            mu: &vec![0.38; sliding.len()],
             force_scale: 0.0,
             blocks: &two_pads(),
         };
@@ -330,7 +335,8 @@ fn a_pressed_single_pair_sticks_or_slides_as_coulomb_says() {
             w_free: &[-1.0, 0.5, 0.0],
             w_n_min: &[0.0],
             sliding_speed: &[1.0],
-            mu,
+            speed_scale: 0.0,
+            mu: &[mu],
             force_scale: 1.0,
             blocks: &pad_blocks(&[0]),
         };
@@ -437,7 +443,8 @@ fn gauss_seidel_by_pads_agrees_with_pair_by_pair_in_fewer_sweeps() {
             w_free: &w_free,
             w_n_min: &w_n_min,
             sliding_speed: &sliding,
-            mu: 0.38,
+            speed_scale: 0.0,
+            mu: &vec![0.38; sliding.len()],
             force_scale: 0.0,
             blocks: &blocks,
         };
@@ -490,7 +497,8 @@ fn a_solve_that_cannot_converge_reports_its_residuals() {
         w_free: &w_free,
         w_n_min: &w_n_min,
         sliding_speed: &sliding,
-        mu: 0.38,
+        speed_scale: 0.0,
+        mu: &vec![0.38; sliding.len()],
         force_scale: 0.0,
         blocks: &two_pads(),
     };
