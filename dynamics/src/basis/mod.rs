@@ -162,8 +162,8 @@ impl Stage for ReductionBasis {
         "basis"
     }
     fn version(&self) -> u32 {
-        // 10: the basis holds its static modes `Ψ_o` (CHANGELOG.md, "basis")
-        10
+        // 11: the adaptive basis's probe is transient version 19 (CHANGELOG.md, "basis")
+        11
     }
     fn doc(&self) -> &'static str {
         "Reduction basis (complex modes FC_N, real modes, Craig-Bampton, a list of complex modes, or adaptive) with the interface's static modes, and the reduced M, C, K"

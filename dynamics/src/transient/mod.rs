@@ -238,8 +238,8 @@ impl Stage for Transient {
         "transient"
     }
     fn version(&self) -> u32 {
-        // 18: a reduced run's snapshots lifted by the static modes (CHANGELOG.md, "transient")
-        18
+        // 19: the pairs' velocities from the step's own solution (CHANGELOG.md, "transient")
+        19
     }
     fn doc(&self) -> &'static str {
         "Nonlinear transient from the sliding equilibrium: theta-method with contact impulses, Signorini-Coulomb at every pair, energy audit"

@@ -21,6 +21,7 @@ mod element_convergence;
 mod fit;
 mod hoffmann;
 mod krylov;
+mod lumped_transient;
 mod patch_test;
 mod plate;
 mod real_modes;

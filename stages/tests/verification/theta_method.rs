@@ -1,18 +1,17 @@
 //! The θ-method with contact impulses (`transient` stage's scheme) on small models with exact
 //! solutions: energy conservation and the modal response with its order of convergence, a
-//! mass dropped on a plane, the stick–slip oscillator, and Hoffmann's model growing at its
-//! linear rate into a limit cycle. (The brake's growth rate against its most unstable mode
-//! shares the stage tests' fixture and stays in `transient/tests.rs`.)
+//! mass dropped on a plane, and a million steps of the stick–slip oscillator. (The stick–slip
+//! oscillator's closed form and Hoffmann's model growing into a limit cycle run through
+//! `transient.matrices`, in `lumped_transient.rs`; the brake's growth rate against its most
+//! unstable mode shares the stage tests' fixture and stays in `transient/tests.rs`.)
 
 use std::f64::consts::PI;
 
-use faer::{Mat, Side, c64};
+use faer::{Mat, Side};
 use serde::Deserialize;
 use squeal_stages::NoCheckpoints;
 use squeal_stages::artifact::CscMatrix;
-use squeal_stages::stability::matrices::solve_matrices;
 use squeal_stages::transient::contact::{Solver, pad_blocks};
-use squeal_stages::transient::mode_start;
 use squeal_stages::transient::scheme::{
     self, ContactState, Load, Settings, SolveBy, Structure, integrate,
 };
@@ -60,12 +59,6 @@ struct StickSlip {
     normal_force: f64,
     mu: f64,
     belt_speed: f64,
-    /// Centre, amplitude, peak velocity and period of the cycle, relative.
-    tolerance: f64,
-    /// Steps of the last period that may stick.
-    most_sticking_steps: usize,
-    /// Balance error against the strain energy at the equilibrium, relative.
-    balance_tolerance: f64,
 }
 
 #[derive(Deserialize)]
@@ -82,23 +75,6 @@ struct Stress {
     long_run_steps: usize,
     long_run_balance_tolerance: f64,
     long_run_amplitude_tolerance: f64,
-}
-
-/// Hoffmann's model on a belt, its two springs of unit stiffness.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct HoffmannOnABelt {
-    mass: f64,
-    contact_node_mass: f64,
-    contact_stiffness: f64,
-    angles_deg: [f64; 2],
-    mu: f64,
-    normal_force: f64,
-    belt_speed: f64,
-    /// Fitted growth rate of the first 15 periods against Re λ, relative.
-    growth_tolerance: f64,
-    /// The largest peak of the last 30 periods against the largest of periods 40–60.
-    saturation_ratio: f64,
 }
 
 fn settings(theta: f64, tau: f64, n_steps: usize) -> Settings {
@@ -407,69 +383,6 @@ fn stick_slip(
 }
 
 #[test]
-fn the_stick_slip_oscillator_settles_on_its_closed_form_cycle() {
-    // m ẍ + k x = μ N while sliding on a belt at V: the limit cycle oscillates about μN/k with
-    // amplitude V/ω, its velocity touching V once per period 2π/ω.
-    let case: StickSlip = reference::load("stick_slip_oscillator");
-    let (k, belt) = (case.stiffness, case.belt_speed);
-    let relative = case.tolerance;
-    let omega = (k / case.mass).sqrt();
-    let period = 2.0 * PI / omega;
-    let n_steps = 8 * 2000;
-    let (run, x_e) = stick_slip(&case, n_steps, 1, n_steps - 2 * 2000);
-    let last_period = &run.snapshots[run.snapshots.len() - 2001..];
-    let x: Vec<f64> = last_period.iter().map(|s| x_e + s.u[1]).collect();
-    let v: Vec<f64> = last_period.iter().map(|s| s.v[1]).collect();
-    let (x_min, x_max) = x
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
-            (lo.min(x), hi.max(x))
-        });
-    let v_max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let amplitude = belt / omega;
-    assert!(
-        ((x_max + x_min) / 2.0 - x_e).abs() < relative * x_e,
-        "centre {}",
-        (x_max + x_min) / 2.0
-    );
-    assert!(
-        ((x_max - x_min) / 2.0 - amplitude).abs() < relative * amplitude,
-        "amplitude {}",
-        (x_max - x_min) / 2.0
-    );
-    assert!((v_max - belt).abs() < relative * belt, "v_max {v_max}");
-    // Period: upward zero crossings of the velocity over the last two periods, interpolated.
-    let crossings: Vec<f64> = run.snapshots[run.snapshots.len() - 2 * 2000..]
-        .windows(2)
-        .filter(|pair| pair[0].v[1] < 0.0 && pair[1].v[1] >= 0.0)
-        .map(|pair| {
-            let (v0, v1) = (pair[0].v[1], pair[1].v[1]);
-            pair[0].t + (pair[1].t - pair[0].t) * (-v0) / (v1 - v0)
-        })
-        .collect();
-    assert!(crossings.len() >= 2, "{crossings:?}");
-    let measured_period = crossings[crossings.len() - 1] - crossings[crossings.len() - 2];
-    assert!(
-        (measured_period - period).abs() < relative * period,
-        "period {measured_period} against {period}"
-    );
-    // With one friction coefficient the cycle only touches the belt's speed: it sticks for
-    // no longer than a few steps per period.
-    let sticking = run.history[run.history.len() - 2000..]
-        .iter()
-        .filter(|row| row.stick > 0.0)
-        .count();
-    assert!(
-        sticking <= case.most_sticking_steps,
-        "{sticking} steps of the last period stick"
-    );
-    assert!(
-        run.history.last().unwrap().energy.balance_error.abs()
-            < case.balance_tolerance * 0.5 * k * x_e * x_e
-    );
-}
-
-#[test]
 fn theta_at_least_one_half_is_stable_for_every_step_from_a_nanosecond_to_twenty_stiff_periods() {
     let case: Stress = reference::load("theta_method_stress");
     let (M, K, C) = chain_of(case.springs);
@@ -549,171 +462,5 @@ fn a_million_steps_of_stick_slip_keep_the_balance_and_the_cycle() {
     assert!(
         (amplitude - expected).abs() < case.long_run_amplitude_tolerance * expected,
         "amplitude {amplitude} against {expected} after {n_steps} steps"
-    );
-}
-
-impl HoffmannOnABelt {
-    /// `[k11, k12, k22]` of the two unit springs at `angles_deg`.
-    fn spring_stiffness(&self) -> [f64; 3] {
-        let [a1, a2] = self.angles_deg.map(f64::to_radians);
-        [
-            a1.cos().powi(2) + a2.cos().powi(2),
-            a1.cos() * a1.sin() + a2.cos() * a2.sin(),
-            a1.sin().powi(2) + a2.sin().powi(2),
-        ]
-    }
-
-    /// The most unstable eigenpair of the linearised sliding problem, its shape over
-    /// (x, y_A, y_B): the null vector of `λ² M + K`, with y_B = 0.
-    fn linear_mode(&self) -> (c64, [c64; 3]) {
-        let [k11, k12, k22] = self.spring_stiffness();
-        let (m, m_b, k3, mu) = (
-            self.mass,
-            self.contact_node_mass,
-            self.contact_stiffness,
-            self.mu,
-        );
-        let reduced_M = CscMatrix::from_triplets(2, 2, vec![(0, 0, m + m_b), (1, 1, m)]);
-        let reduced_K = CscMatrix::from_triplets(
-            2,
-            2,
-            vec![
-                (0, 0, k11),
-                (0, 1, k12 + mu * k3),
-                (1, 0, k12),
-                (1, 1, k22 + k3),
-            ],
-        );
-        let no_damping = CscMatrix::from_triplets(2, 2, Vec::new());
-        let lambda = solve_matrices(&reduced_M, &no_damping, &reduced_K, 0.0, 1e-12)
-            .expect("eigenvalues")
-            .iter()
-            .map(|pair| pair.lambda)
-            .max_by(|a, b| a.re.total_cmp(&b.re))
-            .expect("two eigenvalues");
-        assert!(lambda.re > 0.0, "unstable at mu = {mu}");
-        let a11 = lambda * lambda * (m + m_b) + k11;
-        let a12 = c64::new(k12 + mu * k3, 0.0);
-        (lambda, [-a12, a11, c64::new(0.0, 0.0)])
-    }
-}
-
-/// Hoffmann's two-DOF model on a belt: a mass (x along the belt, y normal) held by springs k1,
-/// k2 at 150° and 20°, pressed by a normal force N through a contact spring k3 onto a light
-/// contact node (mass m_B, sharing x, its own normal DOF y_B) that slides on the belt at V.
-/// DOFs: x, y_A, y_B. While the contact node slides, y_B = 0 and the linearised problem is
-/// Hoffmann's: `diag(m + m_B, m) q̈ + [[k11, k12 + μ k3], [k12, k22 + k3]] q = 0`.
-#[test]
-fn hoffmanns_model_grows_at_its_linear_rate_then_saturates() {
-    let case: HoffmannOnABelt = reference::load("hoffmann_transient");
-    let (m, m_b, k3, mu, normal_force, belt) = (
-        case.mass,
-        case.contact_node_mass,
-        case.contact_stiffness,
-        case.mu,
-        case.normal_force,
-        case.belt_speed,
-    );
-    let [k11, k12, k22] = case.spring_stiffness();
-    let M = CscMatrix::from_triplets(3, 3, vec![(0, 0, m + m_b), (1, 1, m), (2, 2, m_b)]);
-    let K = CscMatrix::from_triplets(
-        3,
-        3,
-        vec![
-            (0, 0, k11),
-            (0, 1, k12),
-            (1, 0, k12),
-            (1, 1, k22 + k3),
-            (1, 2, -k3),
-            (2, 1, -k3),
-            (2, 2, k3),
-        ],
-    );
-    let C = CscMatrix::from_triplets(3, 3, Vec::new());
-    let (lambda, shape) = case.linear_mode();
-    let (u0, v0) = mode_start(lambda, &shape, 1e-8);
-    let structure = Structure {
-        M: &M,
-        C: &C,
-        K: &K,
-        dof_of_node: &[],
-        H_rows: vec![vec![(2, 1.0)], vec![(0, 1.0)], Vec::new()],
-        load: Load::default(),
-    };
-    let contact_state = ContactState {
-        gap: vec![0.0],
-        sliding_speed: vec![belt],
-        r_e: vec![normal_force, mu * normal_force, 0.0],
-        mu,
-        mu_static: mu,
-        speed_scale: 0.0,
-        blocks: pad_blocks(&[0]),
-    };
-    let period = 2.0 * PI / lambda.im;
-    let steps_per_period = 400;
-    let tau = period / steps_per_period as f64;
-    let n_periods = 90;
-    let settings = settings(0.5, tau, n_periods * steps_per_period);
-    let run = integrate(
-        &structure,
-        &contact_state,
-        &settings,
-        u0,
-        v0,
-        &NoCheckpoints,
-        |_| {},
-    )
-    .unwrap();
-    let peaks: Vec<(f64, f64)> = run
-        .history
-        .chunks(steps_per_period)
-        .filter(|chunk| chunk.len() == steps_per_period)
-        .map(|chunk| {
-            let row = chunk
-                .iter()
-                .max_by(|a, b| a.kinetic.total_cmp(&b.kinetic))
-                .unwrap();
-            (row.t, row.kinetic)
-        })
-        .collect();
-    // Linear growth while the contact slides throughout: the per-period peaks of the kinetic
-    // energy grow as e^{2 Re λ t}, fitted over the first 15 periods.
-    let early = &peaks[1..16];
-    assert!(
-        run.history[..16 * steps_per_period]
-            .iter()
-            .all(|row| row.slide == 1.0)
-    );
-    let n = early.len() as f64;
-    let mean_t = early.iter().map(|p| p.0).sum::<f64>() / n;
-    let mean_y = early.iter().map(|p| p.1.ln()).sum::<f64>() / n;
-    let slope = early
-        .iter()
-        .map(|(t, e)| (t - mean_t) * (e.ln() - mean_y))
-        .sum::<f64>()
-        / early.iter().map(|(t, _)| (t - mean_t).powi(2)).sum::<f64>();
-    let growth = slope / 2.0;
-    assert!(
-        (growth - lambda.re).abs() < case.growth_tolerance * lambda.re,
-        "growth rate {growth} against Re lambda {}",
-        lambda.re
-    );
-    // Saturation: the contact node lifts off the belt once the normal vibration outgrows the
-    // preload, and the energy stays bounded (the peaks of the last 30 periods below 1.05 times
-    // the first maximum, where the linear growth would have gone on by more than six decades).
-    assert!(
-        run.history.iter().any(|row| row.open > 0.0),
-        "the contact never opens"
-    );
-    let first_maximum = peaks[40..60].iter().map(|p| p.1).fold(0.0, f64::max);
-    let later_maximum = peaks[60..].iter().map(|p| p.1).fold(0.0, f64::max);
-    assert!(
-        later_maximum <= case.saturation_ratio * first_maximum,
-        "{later_maximum} after {first_maximum}"
-    );
-    let linear = peaks[0].1 * (2.0 * lambda.re * (peaks.last().unwrap().0 - peaks[0].0)).exp();
-    assert!(
-        first_maximum < 1e-6 * linear,
-        "{first_maximum} against {linear}"
     );
 }
