@@ -676,9 +676,17 @@ fn integrate(
 /// reproducible.
 fn log_where_the_time_went(run: &Run) {
     let timings = &run.timings;
-    let per_step = |seconds: f64| 1e3 * seconds / timings.steps_run.max(1) as f64;
+    // A step of the brake takes milliseconds, one of a lumped model a microsecond.
+    let per_step = |seconds: f64| {
+        let seconds = seconds / timings.steps_run.max(1) as f64;
+        if seconds >= 1e-4 {
+            format!("{:.2} ms", 1e3 * seconds)
+        } else {
+            format!("{:.2} us", 1e6 * seconds)
+        }
+    };
     tracing::info!(
-        "transient: {} unknowns, J {} in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {:.2} ms a step: solves {:.2} ms, contact {:.2} ms ({} factorisations of the active set, {} steps refined in double precision), the rest {:.2} ms",
+        "transient: {} unknowns, J {} in {:.2} s ({} entries), the Delassus operator in {:.2} s; {} steps in {:.1} s, {} a step: solves {}, contact {} ({} factorisations of the active set, {} steps refined in double precision), the rest {}",
         run.unknowns,
         if run.by_inverse {
             "inverted by dense blocks"

@@ -248,17 +248,18 @@ impl Factorisation {
     pub(super) fn chord(
         &self,
         problem: &Problem,
-        precision: Precision,
-        tolerance: f64,
+        (precision, tolerance): (Precision, f64),
         r: &mut [f64],
         w: &mut [f64],
+        F: &mut Vec<f32>,
     ) -> Option<Report> {
-        let mut F = vec![0.0_f32; self.lu.n()];
+        F.clear();
+        F.resize(self.lu.n(), 0.0);
         let mut last_residual = f64::INFINITY;
         for iteration in 1..=CHORD_ITERATIONS {
-            self.laws(problem, r, w, &mut F);
+            self.laws(problem, r, w, F);
             // F becomes the correction A⁻¹ F, and w follows r's change.
-            self.lu.solve_in_place(&mut F);
+            self.lu.solve_in_place(F);
             for (p, state) in self.states.iter().enumerate() {
                 let (k, i) = (3 * p, self.offsets[p]);
                 for d in 0..3 {
@@ -301,21 +302,30 @@ impl ContactSolver {
     ) -> Result<Report, NotConverged> {
         self.memory.pacing.next_step();
         if let Some(factorisation) = &self.factorisation {
-            let warm_start = (r.to_vec(), w.to_vec());
-            if let Some(report) = factorisation.chord(problem, precision, tolerance, r, w) {
+            let scratch = &mut self.scratch;
+            scratch.r.clear();
+            scratch.r.extend_from_slice(r);
+            scratch.w.clear();
+            scratch.w.extend_from_slice(w);
+            let chord = factorisation.chord(problem, (precision, tolerance), r, w, &mut scratch.F);
+            if let Some(report) = chord {
                 self.memory.pacing.served();
-                let linearisation = linearisation_of(problem, r, w);
-                self.memory.previous = Some(linearisation.states.clone());
+                let states = self.memory.previous.get_or_insert_with(Vec::new);
+                states.clear();
+                states.extend(
+                    (0..problem.n_pairs())
+                        .map(|p| classify(r, w, p, problem.sliding_speed[p], problem.speed_scale)),
+                );
                 if report.iterations > REFACTORISE_AFTER && self.memory.pacing.uses >= PAYBACK_STEPS
                 {
-                    self.factorise(problem, linearisation);
+                    self.factorise(problem, linearisation_of(problem, r, w));
                 }
                 return Ok(report);
             }
             self.memory.pacing.failed();
             self.factorise_at(problem, None);
-            r.copy_from_slice(&warm_start.0);
-            w.copy_from_slice(&warm_start.1);
+            r.copy_from_slice(&self.scratch.r);
+            w.copy_from_slice(&self.scratch.w);
         }
         let report = iterate(problem, true, precision, tolerance, max_iterations, r, w)?;
         let linearisation = linearisation_of(problem, r, w);

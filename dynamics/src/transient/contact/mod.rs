@@ -102,6 +102,17 @@ pub struct ContactSolver {
     pub factorisations: usize,
     /// Solutions refined in double precision so far (likewise).
     pub refinements: usize,
+    /// Vectors a step reuses rather than allocates.
+    scratch: Scratch,
+}
+
+/// The active-set solver's warm start, kept while its chord iterates, and the chord's
+/// corrections.
+#[derive(Default)]
+struct Scratch {
+    r: Vec<f64>,
+    w: Vec<f64>,
+    F: Vec<f32>,
 }
 
 impl ContactSolver {
@@ -112,6 +123,7 @@ impl ContactSolver {
             factorisation: None,
             factorisations: 0,
             refinements: 0,
+            scratch: Scratch::default(),
         }
     }
 
@@ -179,12 +191,31 @@ impl ContactSolver {
                 self.solve_active_set(problem, precision, tolerance, max_iterations, r, w)
             }
         }?;
-        let before = self.memory.last.take().map(|last| (last.r, last.W_r));
-        self.memory.last = Some(LastSolution {
-            before,
-            r: r.to_vec(),
-            W_r: reaction_velocities(problem, w),
-        });
+        // The last solution becomes the one before, in the vectors of the one before that.
+        let last = match self.memory.last.take() {
+            Some(LastSolution {
+                r: r_0,
+                W_r: W_r_0,
+                before,
+            }) => {
+                let (mut r_1, mut W_r_1) = before.unwrap_or_default();
+                r_1.clear();
+                r_1.extend_from_slice(r);
+                W_r_1.clear();
+                W_r_1.extend(reaction_velocities(problem, w));
+                LastSolution {
+                    r: r_1,
+                    W_r: W_r_1,
+                    before: Some((r_0, W_r_0)),
+                }
+            }
+            None => LastSolution {
+                r: r.to_vec(),
+                W_r: reaction_velocities(problem, w).collect(),
+                before: None,
+            },
+        };
+        self.memory.last = Some(last);
         Ok(report)
     }
 
@@ -202,9 +233,7 @@ impl ContactSolver {
         w: &[f64],
     ) -> Result<f64, f64> {
         let residual = problem.residual(r, w);
-        if let Some(last) = self.memory.last.as_mut() {
-            last.W_r = reaction_velocities(problem, w);
-        }
+        self.adopt(problem, w);
         if residual <= tolerance {
             self.memory.single.served();
             Ok(residual)
@@ -218,7 +247,8 @@ impl ContactSolver {
     /// of the iteration's: the next step's warm start builds on them.
     pub fn adopt(&mut self, problem: &Problem, w: &[f64]) {
         if let Some(last) = self.memory.last.as_mut() {
-            last.W_r = reaction_velocities(problem, w);
+            last.W_r.clear();
+            last.W_r.extend(reaction_velocities(problem, w));
         }
     }
 
@@ -244,16 +274,13 @@ impl ContactSolver {
         )?;
         if let Some(last) = self.memory.last.as_mut() {
             last.r.copy_from_slice(r);
-            last.W_r = reaction_velocities(problem, w);
         }
+        self.adopt(problem, w);
         Ok(report)
     }
 }
 
 /// `W r = w − w_free`.
-fn reaction_velocities(problem: &Problem, w: &[f64]) -> Vec<f64> {
-    w.iter()
-        .zip(problem.w_free)
-        .map(|(w, w_free)| w - w_free)
-        .collect()
+fn reaction_velocities<'a>(problem: &'a Problem, w: &'a [f64]) -> impl Iterator<Item = f64> + 'a {
+    w.iter().zip(problem.w_free).map(|(w, w_free)| w - w_free)
 }
