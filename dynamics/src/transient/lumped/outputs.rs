@@ -17,6 +17,9 @@ use crate::table::Table;
 /// Reads a quantity of a history row.
 type Reader<'a> = Box<dyn Fn(&HistoryRow) -> f64 + 'a>;
 
+/// Most points of the phase portrait's last fifth.
+const LAST_POINTS: usize = 20_000;
+
 /// Most DOFs drawn in the history figure (the table holds them all).
 const MOST_CURVES: usize = 8;
 
@@ -316,9 +319,28 @@ struct PhasePlot<'a> {
 
 impl Drawing for PhasePlot<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
-        let points: Vec<(f64, f64)> = figure::thinned(self.history)
+        // The whole run thinned, in grey; its last fifth (a limit cycle, once there is one)
+        // at up to LAST_POINTS points, in colour.
+        let whole: Vec<(f64, f64)> = figure::thinned(self.history)
             .map(|row| self.dofs.at(row, self.dof))
             .collect();
+        let last = &self.history[self.history.len() * 4 / 5..];
+        let stride = last.len().div_ceil(LAST_POINTS).max(1);
+        let final_fifth: Vec<(f64, f64)> = last
+            .iter()
+            .step_by(stride)
+            .map(|row| self.dofs.at(row, self.dof))
+            .collect();
+        let (x_range, y_range) = (
+            span(whole.iter().map(|p| p.0)),
+            span(whole.iter().map(|p| p.1)),
+        );
+        // Ticks a hair from zero by round-off read as zero.
+        let label = |range: &std::ops::Range<f64>| {
+            let scale = 1e-9 * (range.end - range.start);
+            move |value: &f64| axis_label(if value.abs() < scale { 0.0 } else { *value })
+        };
+        let (x_label, y_label) = (label(&x_range), label(&y_range));
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!("Phase portrait of DOF {}", self.dof),
@@ -327,26 +349,29 @@ impl Drawing for PhasePlot<'_> {
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(80)
-            .build_cartesian_2d(
-                span(points.iter().map(|p| p.0)),
-                span(points.iter().map(|p| p.1)),
-            )
+            .build_cartesian_2d(x_range, y_range)
             .map_err(drawing_error)?;
         chart
             .configure_mesh()
             .x_desc(format!("q_{} (m)", self.dof))
             .y_desc(format!("v_{} (m/s)", self.dof))
-            .x_label_formatter(&|value| axis_label(*value))
-            .y_label_formatter(&|value| axis_label(*value))
+            .x_label_formatter(&x_label)
+            .y_label_formatter(&y_label)
             .label_style((plot::FONT, 13))
             .light_line_style(WHITE)
             .draw()
             .map_err(drawing_error)?;
+        let grey = RGBColor(170, 170, 170);
+        chart
+            .draw_series(LineSeries::new(whole, grey.stroke_width(1)))
+            .map_err(drawing_error)?
+            .label("the run")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
         let color = plot::series_color(0);
         chart
-            .draw_series(LineSeries::new(points, color.stroke_width(1)))
+            .draw_series(LineSeries::new(final_fifth, color.stroke_width(1)))
             .map_err(drawing_error)?
-            .label("trajectory")
+            .label("its last fifth")
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color));
         draw_legend(&mut chart)
     }
