@@ -246,7 +246,12 @@ fn the_lumped_studies_run_the_transient_from_matrices() {
     assert!((0.157..0.2).contains(&sticking), "{sticking}");
     let touching = quantity("out/belt/mu_static=0/summary.parquet", "share_stick");
     assert!(touching < 0.03, "{touching}");
-    assert!(workspace.path().join("out/belt/mu_static=0.5/phase_figure.png").exists());
+    assert!(
+        workspace
+            .path()
+            .join("out/belt/mu_static=0.5/phase_figure.png")
+            .exists()
+    );
 
     let study = pipeline("hoffmann/transient.yaml");
     workspace.run_ok(&["run", &study, "--out", "hoffmann", "--cache", "cache"]);
@@ -257,7 +262,12 @@ fn the_lumped_studies_run_the_transient_from_matrices() {
     for state in ["open", "stick", "slip"] {
         assert!(states.iter().any(|other| other == state), "no {state}");
     }
-    assert!(quantity("hoffmann/transient/summary.parquet", "relative_balance_error") < 1e-10);
+    assert!(
+        quantity(
+            "hoffmann/transient/summary.parquet",
+            "relative_balance_error"
+        ) < 1e-10
+    );
 
     let output = workspace.squeal(&["run", &study, "--set", "transient.mu=-0.1"]);
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -343,7 +353,11 @@ fn every_pipeline_validates() {
     for entry in std::fs::read_dir(&root).unwrap() {
         let path = entry.unwrap().path();
         if path.is_dir() {
-            studies.extend(std::fs::read_dir(&path).unwrap().map(|entry| entry.unwrap().path()));
+            studies.extend(
+                std::fs::read_dir(&path)
+                    .unwrap()
+                    .map(|entry| entry.unwrap().path()),
+            );
         } else {
             studies.push(path);
         }

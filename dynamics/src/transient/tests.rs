@@ -186,10 +186,10 @@ fn stage_outputs_do_not_depend_on_the_thread_count() {
 }
 
 /// Checkpoints kept in memory, one due every `every` steps.
-struct MemoryCheckpoints {
-    saved: std::sync::Mutex<Option<Vec<u8>>>,
-    calls: std::sync::atomic::AtomicUsize,
-    every: usize,
+pub(super) struct MemoryCheckpoints {
+    pub(super) saved: std::sync::Mutex<Option<Vec<u8>>>,
+    pub(super) calls: std::sync::atomic::AtomicUsize,
+    pub(super) every: usize,
 }
 
 impl crate::stage::Checkpoints for MemoryCheckpoints {

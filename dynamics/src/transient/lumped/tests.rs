@@ -164,6 +164,68 @@ fn a_spring_driven_at_a_prescribed_velocity_acts_as_the_belt_seen_from_the_mass(
 }
 
 #[test]
+fn a_lumped_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
+    // The stick–slip oscillator with static friction: the checkpoint carries which contacts
+    // stuck, as well as the state and the contact solver's memory.
+    let params = Params::defaults(
+        &TransientMatrices,
+        &[
+            ("m_path", file("stick_slip/M.mtx")),
+            ("k_path", file("stick_slip/K.mtx")),
+            ("contacts_path", file("stick_slip/contacts.yaml")),
+            ("load", Value::Str("0, -10".into())),
+            ("mu", Value::Float(0.4)),
+            ("mu_static", Value::Float(0.5)),
+            ("surface_speed", Value::Float(0.1)),
+            ("tau", Value::Float(1.5707963267948966e-4)),
+            ("duration", Value::Float(1.0)),
+            ("tolerance", Value::Float(1e-12)),
+        ],
+    );
+    let encode = |outputs: Outputs| -> Vec<(String, Vec<u8>)> {
+        outputs
+            .iter()
+            .map(|(name, artifact)| (name.clone(), artifact.encode()))
+            .collect()
+    };
+    let uninterrupted = encode(run(&params).unwrap());
+    let checkpoints = super::super::tests::MemoryCheckpoints {
+        saved: std::sync::Mutex::new(None),
+        calls: std::sync::atomic::AtomicUsize::new(0),
+        every: 997,
+    };
+    let stopping = crate::stage::Progress::new(|fraction, _| {
+        if fraction >= 0.7 {
+            panic!("stopped");
+        }
+    });
+    let inputs = Inputs::default();
+    let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        TransientMatrices.run_with(
+            &params,
+            &inputs,
+            &RunContext {
+                progress: &stopping,
+                checkpoints: &checkpoints,
+            },
+        )
+    }));
+    assert!(stopped.is_err(), "the first run was stopped");
+    assert!(checkpoints.saved.lock().unwrap().is_some());
+    let resumed = TransientMatrices
+        .run_with(
+            &params,
+            &inputs,
+            &RunContext {
+                progress: &crate::stage::Progress::new(|_, _| {}),
+                checkpoints: &checkpoints,
+            },
+        )
+        .unwrap();
+    assert!(encode(resumed) == uninterrupted, "the resumed run differs");
+}
+
+#[test]
 fn a_lumped_model_refuses_what_it_cannot_integrate_and_says_why() {
     let cases: Vec<(Vec<(&str, Value)>, &str)> = vec![
         (
