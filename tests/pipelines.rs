@@ -5,7 +5,7 @@ mod common;
 use std::path::Path;
 
 use arrow_array::{Array, Int64Array};
-use common::{Workspace, booleans, floats, pipeline, read_parquet, strings};
+use common::{Workspace, booleans, floats, pipeline, ran, read_parquet, strings};
 
 /// The default study: the coarse brake through every stage.
 #[test]
@@ -686,4 +686,63 @@ stages:
             .zip(&paper)
             .any(|(soft, paper)| soft < &(0.999 * paper))
     );
+}
+
+/// A study meshed from CAD by `mesh.cad` (`model/tests/data/blocks.geo`, a pad on a slab, each
+/// meshed on its own and paired by mortar): a sweep over one of the script's numbers caches as
+/// any other (a rerun runs nothing; a new value runs its branch only), and an edited script
+/// reruns every mesh. Needs Gmsh (`python3 -m pip install gmsh`); `.ci/run` runs it.
+#[test]
+#[ignore = "needs Gmsh; .ci/run runs it"]
+fn gmsh_a_cad_sweep_caches_by_its_numbers_and_its_script() {
+    let workspace = Workspace::new();
+    let script = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("model/tests/data/blocks.geo"),
+    )
+    .unwrap();
+    workspace.write("blocks.geo", &script);
+    let study = |thicknesses: &str| {
+        format!(
+            "study: blocks
+stages:
+  mesh:
+    kind: mesh.cad
+    params: {{ script: blocks.geo, mesh_size: 8 mm, order: 1, contact_disc: \"\", contact_pad: \"\" }}
+    matrix:
+      set: [{thicknesses}]
+  contact:
+    kind: contact.mortar
+    inputs: {{ mesh: mesh.mesh }}
+    params: {{ disc: disc_top, pad: pad_bottom }}
+  model:
+    kind: assemble
+    inputs: {{ mesh: contact.mesh }}
+    params: {{ clamped: [disc_bottom, pad_top] }}
+  modes:
+    kind: modes
+    inputs: {{ model: model.model }}
+    params: {{ n_modes: 4 }}
+"
+        )
+    };
+    let run = |text: &str| {
+        workspace.write("blocks.yaml", text);
+        workspace.run_ok(&["run", "blocks.yaml", "--out", "out", "--cache", "cache"]);
+        ran(&workspace.path().join("out"))
+    };
+    let first = run(&study("\"thickness=0.010\", \"thickness=0.012\""));
+    assert_eq!(first.len(), 8, "{first:?}");
+    assert!(run(&study("\"thickness=0.010\", \"thickness=0.012\"")).is_empty());
+    let branch = run(&study("\"thickness=0.010\", \"thickness=0.014\""));
+    assert_eq!(branch.len(), 4, "{branch:?}");
+    assert!(
+        branch.iter().all(|name| name.contains("0.014")),
+        "{branch:?}"
+    );
+    workspace.write(
+        "blocks.geo",
+        &script.replace("pad_size = 0.02", "pad_size = 0.018"),
+    );
+    let edited = run(&study("\"thickness=0.010\", \"thickness=0.014\""));
+    assert_eq!(edited.len(), 8, "{edited:?}");
 }

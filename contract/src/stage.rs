@@ -306,6 +306,14 @@ pub trait Stage: DeclaredParams + Send + Sync {
     fn pure(&self) -> bool {
         true
     }
+    /// What outside the study determines a pure stage's outputs — the bytes of a file its
+    /// parameters name, the version of a program it runs — each named: part of its cache key,
+    /// so that an edited file or another program reruns it. An error (a missing file) is
+    /// the stage's own to report when it runs: the key then holds the error's message.
+    fn external_inputs(&self, params: &Params) -> Result<Vec<(String, Vec<u8>)>, StageError> {
+        let _ = params;
+        Ok(Vec::new())
+    }
     /// Where a cluster executor runs the stage and what it asks for; [`Resources::LIGHT`]
     /// unless the stage takes minutes.
     fn resources(&self) -> Resources {

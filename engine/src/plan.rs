@@ -105,6 +105,21 @@ impl Context<'_> {
                 entry.push((self.point_coords(idx, artifact.instance), artifact.digest?));
             }
         }
+        // What outside the study the stage reads, as inputs no study can name (`@name`).
+        let params = squeal_contract::Params(instance.params.clone());
+        match stage.external_inputs(&params) {
+            Ok(externals) => {
+                for (name, bytes) in externals {
+                    digests.insert(format!("@{name}"), vec![(Vec::new(), Digest::of(&bytes))]);
+                }
+            }
+            Err(err) => {
+                digests.insert(
+                    "@error".into(),
+                    vec![(Vec::new(), Digest::of(err.message.as_bytes()))],
+                );
+            }
+        }
         Some(cache_key(
             stage.kind(),
             stage.version(),

@@ -49,6 +49,7 @@ pub fn all_kinds() -> Vec<Arc<dyn Stage>> {
     let mut kinds: Vec<Arc<dyn Stage>> = vec![
         Arc::new(mesh::brake::MeshBrake),
         Arc::new(mesh::gmsh::GmshImport),
+        Arc::new(mesh::cad::MeshCad),
         Arc::new(mesh::abaqus::AbaqusImport),
         Arc::new(mesh::nastran::NastranImport),
         Arc::new(mesh::mortar_pairs::ContactMortar),

@@ -5,6 +5,7 @@
 
 pub mod abaqus;
 pub mod brake;
+pub mod cad;
 pub mod contact_faces;
 pub mod convert;
 pub mod deck_error;

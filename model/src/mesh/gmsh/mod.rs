@@ -108,10 +108,8 @@ impl fmt::Display for MshError {
 pub struct GmshImport;
 
 crate::stage_params! {
-    /// The parameters of `mesh.gmsh`.
-    pub struct GmshParams {
-        /// the .msh file (relative to the study's folder)
-        path: PathBuf,
+    /// How a .msh file becomes a mesh: what `mesh.gmsh` and `mesh.cad` share.
+    pub struct MshReading {
         /// physical surface of the disc side of the contact interface ("" = no contact)
         contact_disc: String = "contact_disc".into(),
         /// physical surface of the pad side of the contact interface ("" = no contact)
@@ -119,6 +117,29 @@ crate::stage_params! {
         /// largest distance between paired nodes, relative to the shortest contact face edge
         #[min = 0.0]
         contact_tolerance: f64 = 1e-3,
+    }
+}
+
+impl MshReading {
+    /// The reader's options: the contact sides to pair, if any.
+    pub fn options(&self) -> Result<ReadOptions, StageError> {
+        let contact =
+            interface::contact_sides(&self.contact_disc, &self.contact_pad, "a physical surface")?
+                .map(|[disc, pad]| ContactSides {
+                    disc,
+                    pad,
+                    relative_tolerance: self.contact_tolerance,
+                });
+        Ok(ReadOptions { contact })
+    }
+}
+
+crate::stage_params! {
+    /// The parameters of `mesh.gmsh`.
+    pub struct GmshParams {
+        ..reading: MshReading,
+        /// the .msh file (relative to the study's folder)
+        path: PathBuf,
     }
 }
 
@@ -152,19 +173,10 @@ impl Stage for GmshImport {
     fn run(&self, params: &Params, _inputs: &Inputs) -> Result<Outputs, StageError> {
         let params = params.read::<Self>()?;
         let path = params.path.display();
-        let contact = interface::contact_sides(
-            &params.contact_disc,
-            &params.contact_pad,
-            "a physical surface",
-        )?
-        .map(|[disc, pad]| ContactSides {
-            disc,
-            pad,
-            relative_tolerance: params.contact_tolerance,
-        });
+        let options = params.reading.options()?;
         let bytes =
             std::fs::read(&params.path).map_err(|err| StageError::new(format!("{path}: {err}")))?;
-        let mesh = read_msh_bytes(&bytes, &ReadOptions { contact }).map_err(|err| {
+        let mesh = read_msh_bytes(&bytes, &options).map_err(|err| {
             StageError::new(match err.line {
                 Some(line) => format!("{path}:{line}: {}", err.message),
                 None => format!("{path}: {}", err.message),
