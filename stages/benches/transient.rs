@@ -289,7 +289,7 @@ fn export(
             contact_state.r_e[3 * p],
             contact_state.r_e[3 * p + 1],
             contact_state.r_e[3 * p + 2],
-            contact_state.mu
+            contact_state.mu[p]
         )
         .unwrap();
     }

@@ -475,8 +475,8 @@ pub fn structure_of<'a>(
         gap: equilibrium.gap.clone(),
         sliding_speed: frames.sliding_speed.clone(),
         r_e,
-        mu: equilibrium.mu,
-        mu_static: equilibrium.mu,
+        mu: vec![equilibrium.mu; n_pairs],
+        mu_static: vec![equilibrium.mu; n_pairs],
         speed_scale: 0.0,
         blocks: contact::pad_blocks(&body_of_pair),
     };

@@ -73,10 +73,10 @@ pub struct ContactState {
     pub sliding_speed: Vec<f64>,
     /// Equilibrium reactions, three per pair (n, t, b) (N).
     pub r_e: Vec<f64>,
-    /// The kinetic friction coefficient, and the static one that holds a pair which stuck at
-    /// a step's start (equal for the brake).
-    pub mu: f64,
-    pub mu_static: f64,
+    /// Per pair, the kinetic friction coefficient, and the static one that holds it when it
+    /// stuck at a step's start (equal for the brake).
+    pub mu: Vec<f64>,
+    pub mu_static: Vec<f64>,
     /// The run's speed scale, below whose 1e-9 a slip on a surface at rest counts as none (0:
     /// every pair slides on a moving surface).
     pub speed_scale: f64,
@@ -634,10 +634,15 @@ impl<'s> Operators<'s> {
             history: failure.history,
             iterations: failure.iterations,
         };
-        let (mu, mu_static) = (self.contact_state.mu, self.contact_state.mu_static);
-        if mu_static != mu {
-            for (slot, &sticking) in work.mu.iter_mut().zip(&state.sticking) {
-                *slot = if sticking { mu_static } else { mu };
+        let (mu, mu_static) = (&self.contact_state.mu, &self.contact_state.mu_static);
+        let static_friction = mu_static != mu;
+        if static_friction {
+            for p in 0..n_pairs {
+                work.mu[p] = if state.sticking[p] {
+                    mu_static[p]
+                } else {
+                    mu[p]
+                };
             }
         }
         let mut report = self
@@ -645,7 +650,7 @@ impl<'s> Operators<'s> {
             .map_err(failed)?;
         // A pair held by static friction that slips anyway slides under the kinetic law: its
         // step is solved again with μ (each pass releases at least one pair).
-        let mut released = mu_static != mu;
+        let mut released = static_friction;
         while released {
             released = false;
             for p in 0..n_pairs {
@@ -656,8 +661,8 @@ impl<'s> Operators<'s> {
                     self.sliding_speed(p),
                     self.speed_scale(),
                 );
-                if work.mu[p] == mu_static && state_p == PairState::Slide {
-                    work.mu[p] = mu;
+                if work.mu[p] != mu[p] && state_p == PairState::Slide {
+                    work.mu[p] = mu[p];
                     released = true;
                 }
             }
@@ -882,7 +887,8 @@ struct Work {
 }
 
 impl Work {
-    fn new(n: usize, n_pairs: usize, mu: f64) -> Work {
+    fn new(n: usize, mu: &[f64]) -> Work {
+        let n_pairs = mu.len();
         Work {
             rhs: vec![0.0; n],
             y: vec![0.0; n],
@@ -893,7 +899,7 @@ impl Work {
             w_free: vec![0.0; 3 * n_pairs],
             w_new: vec![0.0; 3 * n_pairs],
             w_n_min: vec![0.0; n_pairs],
-            mu: vec![mu; n_pairs],
+            mu: mu.to_vec(),
         }
     }
 }
@@ -920,7 +926,7 @@ pub fn integrate(
         None => operators.initial_state(u, v),
     };
     let mut contact_solver = ContactSolver::new(settings.solver);
-    let mut work = Work::new(structure.K.n_rows, operators.n_pairs(), contact_state.mu);
+    let mut work = Work::new(structure.K.n_rows, &contact_state.mu);
     contact_solver.restore(
         state.contact.clone(),
         &operators.contact_problem(&work.w_free, &work.w_n_min, &work.mu),

@@ -100,8 +100,8 @@ fn no_contact() -> ContactState {
         gap: Vec::new(),
         sliding_speed: Vec::new(),
         r_e: Vec::new(),
-        mu: 0.0,
-        mu_static: 0.0,
+        mu: Vec::new(),
+        mu_static: Vec::new(),
         speed_scale: 0.0,
         blocks: Vec::new(),
     }
@@ -257,8 +257,8 @@ fn a_mass_dropped_on_a_plane_stops_on_it_without_penetrating() {
         gap: vec![gap],
         sliding_speed: vec![case.sliding_speed],
         r_e: vec![0.0; 3],
-        mu: case.mu,
-        mu_static: case.mu,
+        mu: vec![case.mu],
+        mu_static: vec![case.mu],
         speed_scale: 0.0,
         blocks: pad_blocks(&[0]),
     };
@@ -358,8 +358,8 @@ fn stick_slip(
         gap: vec![0.0],
         sliding_speed: vec![belt],
         r_e: vec![normal_force, mu * normal_force, 0.0],
-        mu,
-        mu_static: mu,
+        mu: vec![mu],
+        mu_static: vec![mu],
         speed_scale: 0.0,
         blocks: pad_blocks(&[0]),
     };

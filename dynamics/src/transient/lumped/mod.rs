@@ -5,9 +5,10 @@
 //!
 //! The model ([`model`]): `M`, `K` and optionally `C` from Matrix Market files (symmetric:
 //! friction acts through the contacts, never through `K`), a constant load, contacts from a
-//! YAML file (each a normal row, one or two tangential rows over the DOFs and a gap), one
-//! surface moving at `surface_speed` along every contact's tangent row, Coulomb friction with a
-//! kinetic and a static coefficient, and DOFs driven at a prescribed velocity.
+//! YAML file (each a normal row, one or two tangential rows over the DOFs and a gap), the
+//! surface moving at `surface_speed` along a contact's tangent row, Coulomb friction with a
+//! kinetic and a static coefficient (each contact may give its own speed and coefficients),
+//! and DOFs driven at a prescribed velocity.
 //!
 //! Static friction: a contact that stuck at the end of a step is held, through the next step's
 //! contact problem, by `μ_s`; if it slips anyway, the step is solved again with `μ` for it (it
@@ -68,13 +69,15 @@ crate::stage_params! {
         /// constant load, one entry per DOF (empty: none)
         #[unit = "N"]
         load: Vec<f64> = Vec::new(),
-        /// kinetic friction coefficient of every contact
+        /// kinetic friction coefficient of the contacts that do not give their own
         #[min = 0.0]
         mu: f64 = 0.0,
-        /// static friction coefficient, holding a contact that sticks; 0: equal to mu
+        /// static friction coefficient, holding a contact that sticks; 0: equal to mu (a contact
+        /// may give its own)
         #[min = 0.0]
         mu_static: f64 = 0.0,
-        /// speed of the surface (a belt, a disc) along every contact's tangent row
+        /// speed of the surface (a belt, a disc) along the tangent row of the contacts that do
+        /// not give their own
         #[unit = "m/s"]
         surface_speed: f64 = 0.0,
         /// DOFs driven at a prescribed velocity
@@ -239,17 +242,11 @@ impl<'m> LumpedRun<'m> {
         let n = model.n_dofs();
         let free = model.free_dofs();
         let n_contacts = model.contacts.len();
-        let mu = params.mu;
-        let mu_static = if params.mu_static == 0.0 {
-            mu
-        } else {
-            params.mu_static
-        };
-        if mu_static < mu {
-            return Err(StageError::new(format!(
-                "mu_static = {mu_static} is below mu = {mu}: static friction holds at least what kinetic friction does"
-            )));
-        }
+        let friction: Vec<(f64, f64)> = (0..n_contacts)
+            .map(|c| model.friction(c, (params.mu, params.mu_static)))
+            .collect::<Result<_, _>>()?;
+        let mu: Vec<f64> = friction.iter().map(|friction| friction.0).collect();
+        let mu_static: Vec<f64> = friction.iter().map(|friction| friction.1).collect();
         if !params.surface_speed.is_finite() {
             return Err(StageError::new(format!(
                 "surface_speed = {} is not finite",
@@ -334,7 +331,7 @@ impl<'m> LumpedRun<'m> {
                     model,
                     free: &free,
                     speeds: &speeds,
-                    mu,
+                    mu: &mu,
                 };
                 let equilibrium = sliding.equilibrium(&f)?;
                 let modes = sliding.modes(&equilibrium)?;
@@ -352,7 +349,7 @@ impl<'m> LumpedRun<'m> {
                     let r_n = equilibrium.r_n[c];
                     r_e[3 * c] = r_n;
                     r_e[3 * c + 1] = if r_n > 0.0 {
-                        mu * speeds[c].signum() * r_n
+                        mu[c] * speeds[c].signum() * r_n
                     } else {
                         0.0
                     };

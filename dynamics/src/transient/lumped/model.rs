@@ -35,7 +35,18 @@ pub struct Contact {
     /// The gap at `q = 0` (m).
     #[serde(default)]
     pub gap: f64,
+    /// The speed of its surface along `tangent` (m/s), if not the study's `surface_speed`.
+    #[serde(default)]
+    pub surface_speed: Option<f64>,
+    /// Its kinetic and static friction coefficients, if not the study's.
+    #[serde(default)]
+    pub mu: Option<f64>,
+    #[serde(default)]
+    pub mu_static: Option<f64>,
 }
+
+/// A contact's friction: `(μ, μ_s)`.
+pub type Friction = (f64, f64);
 
 /// A lumped model over `n` DOFs.
 #[derive(Debug, Clone)]
@@ -161,6 +172,24 @@ impl LumpedModel {
             if !contact.gap.is_finite() {
                 return bad(format!("contact {c}: gap = {} is not finite", contact.gap));
             }
+            for (name, value) in [
+                ("surface_speed", contact.surface_speed),
+                ("mu", contact.mu),
+                ("mu_static", contact.mu_static),
+            ] {
+                if let Some(value) = value
+                    && (!value.is_finite() || (name != "surface_speed" && value < 0.0))
+                {
+                    return bad(format!(
+                        "contact {c}: {name} = {value} must be finite{}",
+                        if name == "surface_speed" {
+                            ""
+                        } else {
+                            " and not negative"
+                        }
+                    ));
+                }
+            }
             for &(dof, _) in &self.driven {
                 for (name, row) in [
                     ("normal", Some(&contact.normal)),
@@ -195,13 +224,31 @@ impl LumpedModel {
             .collect()
     }
 
-    /// The surface's speed as contact `c` sees it: `V − t_d V_d` over the driven DOFs.
+    /// The surface's speed as contact `c` sees it: `V − t_d V_d` over the driven DOFs, `V` its
+    /// own or `surface_speed`.
     pub fn sliding_speed(&self, c: usize, surface_speed: f64) -> f64 {
-        self.driven
-            .iter()
-            .fold(surface_speed, |speed, &(dof, velocity)| {
-                speed - self.contacts[c].tangent[dof] * velocity
-            })
+        let contact = &self.contacts[c];
+        self.driven.iter().fold(
+            contact.surface_speed.unwrap_or(surface_speed),
+            |speed, &(dof, velocity)| speed - contact.tangent[dof] * velocity,
+        )
+    }
+
+    /// Contact `c`'s friction, its own or `(mu, mu_static)` (a static coefficient of 0 meaning
+    /// μ); refused if the static one is below the kinetic.
+    pub fn friction(&self, c: usize, (mu, mu_static): Friction) -> Result<Friction, StageError> {
+        let contact = &self.contacts[c];
+        let kinetic = contact.mu.unwrap_or(mu);
+        let held = match contact.mu_static.unwrap_or(mu_static) {
+            0.0 => kinetic,
+            held => held,
+        };
+        if held < kinetic {
+            return Err(StageError::new(format!(
+                "contact {c}: mu_static = {held} is below mu = {kinetic}: static friction holds at least what kinetic friction does"
+            )));
+        }
+        Ok((kinetic, held))
     }
 
     /// `H`'s rows over the free DOFs, three per contact (n, t, b; b empty without a binormal).

@@ -56,9 +56,9 @@ pub struct SlidingEquilibrium {
 pub struct Sliding<'a> {
     pub model: &'a LumpedModel,
     pub free: &'a [usize],
-    /// Per contact, the surface's speed it sees.
+    /// Per contact, the surface's speed it sees, and its kinetic friction coefficient.
     pub speeds: &'a [f64],
-    pub mu: f64,
+    pub mu: &'a [f64],
 }
 
 fn dense_free(A: MatRef<'_, f64>, free: &[usize]) -> Mat<f64> {
@@ -71,7 +71,7 @@ impl Sliding<'_> {
         let speed = self.speeds[c];
         if speed != 0.0 {
             Ok(speed.signum())
-        } else if self.mu == 0.0 {
+        } else if self.mu[c] == 0.0 {
             Ok(0.0)
         } else {
             Err(StageError::new(format!(
@@ -92,7 +92,7 @@ impl Sliding<'_> {
         Ok(self
             .free
             .iter()
-            .map(|&dof| contact.normal[dof] + self.mu * sigma * contact.tangent[dof])
+            .map(|&dof| contact.normal[dof] + self.mu[c] * sigma * contact.tangent[dof])
             .collect())
     }
 
@@ -226,7 +226,7 @@ impl Sliding<'_> {
         for &c in &set {
             if let Some(binormal) = &model.contacts[c].binormal {
                 let b = self.row(binormal);
-                let coefficient = self.mu * equilibrium.r_n[c] / self.speeds[c].abs();
+                let coefficient = self.mu[c] * equilibrium.r_n[c] / self.speeds[c].abs();
                 for i in 0..n {
                     for j in 0..n {
                         C[(i, j)] += coefficient * b[i] * b[j];

@@ -75,7 +75,7 @@ fn hoffmanns_model_on_a_belt_slides_on_hoffmanns_linearised_problem() {
         model: &model,
         free: &free,
         speeds: &speeds,
-        mu: 0.38,
+        mu: &[0.38],
     };
     let load = [0.0, -1e-3, 0.0];
     // The springs carry part of the 1e-3 N load on y_A; the node stays on the belt.
@@ -161,6 +161,48 @@ fn a_spring_driven_at_a_prescribed_velocity_acts_as_the_belt_seen_from_the_mass(
     }
     // 4,500 steps through sticks and slips: the two agree to the contact solves' tolerance.
     assert!(worst < 1e-12, "{worst}");
+}
+
+#[test]
+fn a_contact_given_its_own_surface_speed_and_friction_runs_as_with_the_studys() {
+    // The stick–slip oscillator with μ, μ_s and V in the study, then in its contact.
+    let common = |contacts: Value, overrides: &[(&str, Value)]| {
+        let mut all = vec![
+            ("m_path", file("stick_slip/M.mtx")),
+            ("k_path", file("stick_slip/K.mtx")),
+            ("contacts_path", contacts),
+            ("load", Value::Str("0, -10".into())),
+            ("tau", Value::Float(1.5707963267948966e-4)),
+            ("duration", Value::Float(0.5)),
+            ("tolerance", Value::Float(1e-12)),
+        ];
+        all.extend(overrides.iter().cloned());
+        Params::defaults(&TransientMatrices, &all)
+    };
+    let in_the_study = run(&common(
+        file("stick_slip/contacts.yaml"),
+        &[
+            ("mu", Value::Float(0.4)),
+            ("mu_static", Value::Float(0.5)),
+            ("surface_speed", Value::Float(0.1)),
+        ],
+    ))
+    .unwrap();
+    let (_dir, contacts) = written(
+        "contacts.yaml",
+        "- normal: [0, 1]\n  tangent: [1, 0]\n  surface_speed: 0.1\n  mu: 0.4\n  mu_static: 0.5\n",
+    );
+    let in_the_contact = run(&common(contacts, &[])).unwrap();
+    for name in ["history", "contacts", "energy"] {
+        assert!(
+            in_the_study[name].encode() == in_the_contact[name].encode(),
+            "{name} differs"
+        );
+    }
+    let stuck = table(&in_the_contact, "summary")
+        .quantity("share_stick")
+        .unwrap();
+    assert!(stuck > 0.1, "{stuck}");
 }
 
 #[test]
