@@ -653,16 +653,16 @@ impl<'s> Operators<'s> {
         let mut released = static_friction;
         while released {
             released = false;
-            for p in 0..n_pairs {
-                let state_p = classify(
+            for (p, slot) in work.mu.iter_mut().enumerate() {
+                let slides = classify(
                     &state.r,
                     &work.w_new,
                     p,
                     self.sliding_speed(p),
                     self.speed_scale(),
-                );
-                if work.mu[p] != mu[p] && state_p == PairState::Slide {
-                    work.mu[p] = mu[p];
+                ) == PairState::Slide;
+                if *slot != mu[p] && slides {
+                    *slot = mu[p];
                     released = true;
                 }
             }
