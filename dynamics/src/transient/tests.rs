@@ -186,10 +186,10 @@ fn stage_outputs_do_not_depend_on_the_thread_count() {
 }
 
 /// Checkpoints kept in memory, one due every `every` steps.
-pub(super) struct MemoryCheckpoints {
-    pub(super) saved: std::sync::Mutex<Option<Vec<u8>>>,
-    pub(super) calls: std::sync::atomic::AtomicUsize,
-    pub(super) every: usize,
+struct MemoryCheckpoints {
+    saved: std::sync::Mutex<Option<Vec<u8>>>,
+    calls: std::sync::atomic::AtomicUsize,
+    every: usize,
 }
 
 impl crate::stage::Checkpoints for MemoryCheckpoints {
@@ -205,40 +205,36 @@ impl crate::stage::Checkpoints for MemoryCheckpoints {
     }
 }
 
-#[test]
-fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
-    let inputs = brake_inputs();
-    let params = transient_params(&[
-        ("tau", Value::Float(2e-6)),
-        ("duration", Value::Float(6e-4)),
-        ("amplitude", Value::Float(1e-6)),
-        ("output_every", Value::Int(3)),
-        ("n_snapshots", Value::Int(40)),
-        // The contact solver's memory includes when to try single precision.
-        ("tolerance", Value::Float(1e-8)),
-    ]);
+/// Runs `stage` whole, then stopped at 70 % (a panic out of the progress report, as a kill
+/// would stop it) with a checkpoint due every `every` steps and resumed: the resumed run
+/// starts past half-way and gives the same bytes.
+pub(super) fn assert_resumes_to_the_same_bytes(
+    stage: &dyn Stage,
+    params: &Params,
+    inputs: &Inputs,
+    every: usize,
+) {
     let encode = |outputs: Outputs| -> Vec<(String, Vec<u8>)> {
         outputs
             .iter()
             .map(|(name, artifact)| (name.clone(), artifact.encode()))
             .collect()
     };
-    let uninterrupted = encode(Transient.run(&params, &inputs).unwrap());
+    let uninterrupted = encode(stage.run(params, inputs).unwrap());
     let checkpoints = MemoryCheckpoints {
         saved: std::sync::Mutex::new(None),
         calls: std::sync::atomic::AtomicUsize::new(0),
-        every: 37,
+        every,
     };
-    // Stopped at 70 % (a panic out of the progress report, as a kill would stop it).
     let stopping = crate::stage::Progress::new(|fraction, _| {
         if fraction >= 0.7 {
             panic!("stopped");
         }
     });
     let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        Transient.run_with(
-            &params,
-            &inputs,
+        stage.run_with(
+            params,
+            inputs,
             &RunContext {
                 progress: &stopping,
                 checkpoints: &checkpoints,
@@ -250,7 +246,6 @@ fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
         checkpoints.saved.lock().unwrap().is_some(),
         "a checkpoint was kept"
     );
-    // The resumed run starts where the checkpoint was taken: its first report is past half-way.
     let first_report = std::sync::Arc::new(std::sync::Mutex::new(None));
     let recording = {
         let first_report = first_report.clone();
@@ -258,10 +253,10 @@ fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
             first_report.lock().unwrap().get_or_insert(fraction);
         })
     };
-    let resumed = Transient
+    let resumed = stage
         .run_with(
-            &params,
-            &inputs,
+            params,
+            inputs,
             &RunContext {
                 progress: &recording,
                 checkpoints: &checkpoints,
@@ -271,6 +266,20 @@ fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
     let first = first_report.lock().unwrap().expect("progress was reported");
     assert!(first > 0.5, "the resumed run started at {first}");
     assert!(encode(resumed) == uninterrupted, "the resumed run differs");
+}
+
+#[test]
+fn a_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
+    let params = transient_params(&[
+        ("tau", Value::Float(2e-6)),
+        ("duration", Value::Float(6e-4)),
+        ("amplitude", Value::Float(1e-6)),
+        ("output_every", Value::Int(3)),
+        ("n_snapshots", Value::Int(40)),
+        // The contact solver's memory includes when to try single precision.
+        ("tolerance", Value::Float(1e-8)),
+    ]);
+    assert_resumes_to_the_same_bytes(&Transient, &params, &brake_inputs(), 37);
 }
 
 /// A run at a loose tolerance, its contact iterations in single precision, against one at a

@@ -224,47 +224,12 @@ fn a_lumped_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes()
             ("tolerance", Value::Float(1e-12)),
         ],
     );
-    let encode = |outputs: Outputs| -> Vec<(String, Vec<u8>)> {
-        outputs
-            .iter()
-            .map(|(name, artifact)| (name.clone(), artifact.encode()))
-            .collect()
-    };
-    let uninterrupted = encode(run(&params).unwrap());
-    let checkpoints = super::super::tests::MemoryCheckpoints {
-        saved: std::sync::Mutex::new(None),
-        calls: std::sync::atomic::AtomicUsize::new(0),
-        every: 997,
-    };
-    let stopping = crate::stage::Progress::new(|fraction, _| {
-        if fraction >= 0.7 {
-            panic!("stopped");
-        }
-    });
-    let inputs = Inputs::default();
-    let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        TransientMatrices.run_with(
-            &params,
-            &inputs,
-            &RunContext {
-                progress: &stopping,
-                checkpoints: &checkpoints,
-            },
-        )
-    }));
-    assert!(stopped.is_err(), "the first run was stopped");
-    assert!(checkpoints.saved.lock().unwrap().is_some());
-    let resumed = TransientMatrices
-        .run_with(
-            &params,
-            &inputs,
-            &RunContext {
-                progress: &crate::stage::Progress::new(|_, _| {}),
-                checkpoints: &checkpoints,
-            },
-        )
-        .unwrap();
-    assert!(encode(resumed) == uninterrupted, "the resumed run differs");
+    super::super::tests::assert_resumes_to_the_same_bytes(
+        &TransientMatrices,
+        &params,
+        &Inputs::default(),
+        997,
+    );
 }
 
 #[test]
