@@ -88,7 +88,7 @@ struct IndependentCode {
 
 #[test]
 fn a_second_order_mesh_gives_the_frequencies_of_an_independent_code() {
-    for case in ["scikit_fem_tet10"] {
+    for case in ["scikit_fem_tet10", "scikit_fem_vented_disc"] {
         let case: IndependentCode = reference::load(case);
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../model/tests/data/elements")
