@@ -160,19 +160,30 @@ impl Drawing for HistoryPlot<'_> {
             ],
             false,
         )?;
-        panel(
-            &panels[2],
-            self.history,
-            "Contact states",
-            "fraction of pairs",
-            &[
-                ("open", &|row: &HistoryRow| row.open),
-                ("stick", &|row: &HistoryRow| row.stick),
-                ("slide", &|row: &HistoryRow| row.slide),
-            ],
-            false,
-        )
+        contact_states_panel(&panels[2], self.history, "pairs", "slide")
     }
+}
+
+/// The panel of the shares of the contacts (`what`) open, sticking and sliding (`slide`
+/// names the last) against time.
+pub(super) fn contact_states_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    history: &[HistoryRow],
+    what: &str,
+    slide: &str,
+) -> DrawResult {
+    panel(
+        area,
+        history,
+        "Contact states",
+        &format!("fraction of {what}"),
+        &[
+            ("open", &|row: &HistoryRow| row.open),
+            ("stick", &|row: &HistoryRow| row.stick),
+            (slide, &|row: &HistoryRow| row.slide),
+        ],
+        false,
+    )
 }
 
 struct EnergyPlot<'a> {

@@ -302,11 +302,7 @@ impl Stage for Transient {
                 ArtifactType::Table,
                 "M as COO row, col, value on the snapshot rows (for svd_projection)",
             ),
-            PortSpec::one(
-                "energy",
-                ArtifactType::Table,
-                "t; kinetic, strain, viscous, scheme, drive, friction, normal, loads, balance_error (J)",
-            ),
+            energy_port(),
             PortSpec::one(
                 "summary",
                 ArtifactType::Table,
@@ -317,11 +313,7 @@ impl Stage for Transient {
                 ArtifactType::Figure,
                 "kinetic energy, contact averages and contact states against time",
             ),
-            PortSpec::one(
-                "energy_figure",
-                ArtifactType::Figure,
-                "the energy audit against time",
-            ),
+            energy_figure_port(),
             PortSpec::one(
                 "contact_states",
                 ArtifactType::Table,
@@ -779,6 +771,24 @@ fn outputs(
             Artifact::Figure(contact_states_figure),
         ),
     ]))
+}
+
+/// The `energy` output both transients give.
+pub(crate) fn energy_port() -> PortSpec {
+    PortSpec::one(
+        "energy",
+        ArtifactType::Table,
+        "t; kinetic, strain, viscous, scheme, drive, friction, normal, loads, balance_error (J)",
+    )
+}
+
+/// The `energy_figure` output both transients give.
+pub(crate) fn energy_figure_port() -> PortSpec {
+    PortSpec::one(
+        "energy_figure",
+        ArtifactType::Figure,
+        "the energy audit against time",
+    )
 }
 
 /// The energy audit over time: one row per history row.

@@ -240,10 +240,9 @@ fn h_times_into(H_rows: &[Vec<(usize, f64)>], x: &[f64], out: &mut [f64]) {
 }
 
 fn h_times(H_rows: &[Vec<(usize, f64)>], x: &[f64]) -> Vec<f64> {
-    H_rows
-        .iter()
-        .map(|row| row.iter().map(|&(dof, value)| value * x[dof]).sum())
-        .collect()
+    let mut out = vec![0.0; H_rows.len()];
+    h_times_into(H_rows, x, &mut out);
+    out
 }
 
 /// `J = M/τ + θ C + τθ² K` combined, ordered and analysed, the contact DOFs ordered last.
@@ -554,12 +553,18 @@ impl<'s> Operators<'s> {
                 precision: Precision::Double,
             });
         let finite = work.v_new.iter().all(|value| value.is_finite());
-        if report.precision == Precision::Single && finite {
+        if !finite || self.n_pairs() == 0 {
+            return Ok(report);
+        }
+        // The pairs' velocities from the step's own solution: the solver's `w_free + W r`,
+        // carried from step to step by its warm start, drifts from them by round-off (1e-11 of
+        // the velocity over 10⁴ steps), and the gaps, the slips and the energy audit read them.
+        h_times_into(&self.structure.H_rows, &work.v_new, &mut work.w_new);
+        let problem = self.contact_problem(&work.w_free, &work.w_n_min, &work.mu);
+        if report.precision == Precision::Single {
             // Reactions found with W in single precision: the step is accepted on its own
             // end-of-step velocities, or its contact problem is refined in double precision
             // from there and the step solved again.
-            work.w_new = h_times(&self.structure.H_rows, &work.v_new);
-            let problem = self.contact_problem(&work.w_free, &work.w_n_min, &work.mu);
             match contact_solver.settle(&problem, tolerance, &state.r, &work.w_new) {
                 Ok(residual) => report.residual = residual,
                 Err(_) => {
@@ -574,13 +579,7 @@ impl<'s> Operators<'s> {
                     }
                 }
             }
-        } else if finite && self.n_pairs() > 0 {
-            // The pairs' velocities from the step's own solution: the solver's `w_free + W r`,
-            // carried from step to step by its warm start, drifts from them by round-off
-            // (1e-11 of the velocity over 10⁴ steps), and the gaps, the slips and the energy
-            // audit read them.
-            h_times_into(&self.structure.H_rows, &work.v_new, &mut work.w_new);
-            let problem = self.contact_problem(&work.w_free, &work.w_n_min, &work.mu);
+        } else {
             contact_solver.adopt(&problem, &work.w_new);
         }
         Ok(report)

@@ -58,14 +58,20 @@ fn program() -> PathBuf {
     std::env::var_os("SQUEAL_GMSH").map_or_else(|| PathBuf::from("gmsh"), PathBuf::from)
 }
 
+/// Why `program` could not be started, and how to install Gmsh.
+fn cannot_run(program: &Path, err: std::io::Error) -> String {
+    format!(
+        "cannot run Gmsh (`{}`: {err}): install it with `python3 -m pip install gmsh` (or Debian's `apt-get install gmsh`), or name it in SQUEAL_GMSH",
+        program.display()
+    )
+}
+
 /// The version `program --version` prints; the error says how to install Gmsh.
 fn version_of(program: &Path) -> Result<String, String> {
-    let output = Command::new(program).arg("--version").output().map_err(|err| {
-        format!(
-            "cannot run Gmsh (`{}`: {err}): install it with `python3 -m pip install gmsh` (or Debian's `apt-get install gmsh`), or name it in SQUEAL_GMSH",
-            program.display()
-        )
-    })?;
+    let output = Command::new(program)
+        .arg("--version")
+        .output()
+        .map_err(|err| cannot_run(program, err))?;
     // Gmsh prints its version on stderr or stdout, depending on the build.
     let text = [output.stdout, output.stderr]
         .iter()
@@ -154,12 +160,11 @@ fn mesh_script(
     for (name, value) in numbers {
         command.args(["-setnumber", name, &value.to_string()]);
     }
-    let output = command.arg("-o").arg(out).output().map_err(|err| {
-        StageError::new(format!(
-            "cannot run Gmsh (`{}`: {err}): install it with `python3 -m pip install gmsh` (or Debian's `apt-get install gmsh`), or name it in SQUEAL_GMSH",
-            program.display()
-        ))
-    })?;
+    let output = command
+        .arg("-o")
+        .arg(out)
+        .output()
+        .map_err(|err| StageError::new(cannot_run(&program, err)))?;
     let errors = error_lines(&output);
     if !output.status.success() || !errors.is_empty() || !out.exists() {
         let reason = if errors.is_empty() {
@@ -230,7 +235,6 @@ impl Stage for MeshCad {
         }
         let numbers = numbers(&params.set, &text)?;
         let options = params.reading.options()?;
-        gmsh_version()?;
         let dir = tempfile::tempdir()
             .map_err(|err| StageError::new(format!("a temporary folder for Gmsh: {err}")))?;
         let out = dir.path().join("mesh.msh");

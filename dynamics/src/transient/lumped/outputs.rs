@@ -7,7 +7,7 @@ use plotters::prelude::*;
 use super::super::contact::PairState;
 use super::super::figure::{self, Curve, axis_label, draw_legend, panel, span};
 use super::super::scheme::{HistoryRow, Run, Settings};
-use super::super::{energy_table, run_quantities};
+use super::super::{energy_figure_port, energy_port, energy_table, run_quantities};
 use super::{LumpedParams, LumpedRun};
 use crate::artifact::{Artifact, ArtifactType};
 use crate::plot::{self, DrawResult, Drawing, drawing_error};
@@ -35,11 +35,7 @@ pub(super) fn ports() -> Vec<PortSpec> {
             ArtifactType::Table,
             "one row per contact and time: t, contact, gap, slip_t, slip_b, impulse_n, impulse_t, impulse_b (over the step), state (open, stick, slip)",
         ),
-        PortSpec::one(
-            "energy",
-            ArtifactType::Table,
-            "t; kinetic, strain, viscous, scheme, drive, friction, normal, loads, balance_error (J)",
-        ),
+        energy_port(),
         PortSpec::one(
             "summary",
             ArtifactType::Table,
@@ -55,11 +51,7 @@ pub(super) fn ports() -> Vec<PortSpec> {
             ArtifactType::Figure,
             "phase portrait of phase_dof: velocity against displacement",
         ),
-        PortSpec::one(
-            "energy_figure",
-            ArtifactType::Figure,
-            "the energy audit against time",
-        ),
+        energy_figure_port(),
     ]
 }
 
@@ -296,18 +288,7 @@ impl Drawing for HistoryPlot<'_> {
                 false,
             )?;
         }
-        panel(
-            &panels[2],
-            self.history,
-            "Contact states",
-            "fraction of contacts",
-            &[
-                ("open", &|row: &HistoryRow| row.open),
-                ("stick", &|row: &HistoryRow| row.stick),
-                ("slip", &|row: &HistoryRow| row.slide),
-            ],
-            false,
-        )
+        figure::contact_states_panel(&panels[2], self.history, "contacts", "slip")
     }
 }
 

@@ -17,9 +17,36 @@ fn file(relative: &str) -> Value {
     Value::Str(pipelines().join(relative).display().to_string())
 }
 
+/// The parameters `all`, with `overrides` in place of those of their names.
+fn overridden<'a>(mut all: Vec<(&'a str, Value)>, overrides: &[(&'a str, Value)]) -> Params {
+    for (name, value) in overrides {
+        all.retain(|(other, _)| other != name);
+        all.push((name, value.clone()));
+    }
+    Params::defaults(&TransientMatrices, &all)
+}
+
+/// The stick–slip oscillator on its belt (`pipelines/stick_slip`), static friction 0.5 over
+/// kinetic 0.4, for `duration` s, with `overrides`.
+fn stick_slip(duration: f64, overrides: &[(&str, Value)]) -> Params {
+    let all = vec![
+        ("m_path", file("stick_slip/M.mtx")),
+        ("k_path", file("stick_slip/K.mtx")),
+        ("contacts_path", file("stick_slip/contacts.yaml")),
+        ("load", Value::Str("0, -10".into())),
+        ("mu", Value::Float(0.4)),
+        ("mu_static", Value::Float(0.5)),
+        ("surface_speed", Value::Float(0.1)),
+        ("tau", Value::Float(1.5707963267948966e-4)),
+        ("duration", Value::Float(duration)),
+        ("tolerance", Value::Float(1e-12)),
+    ];
+    overridden(all, overrides)
+}
+
 /// Hoffmann's model on a belt (`pipelines/hoffmann/transient.yaml`), with `overrides`.
 fn hoffmann(overrides: &[(&str, Value)]) -> Params {
-    let mut all = vec![
+    let all = vec![
         ("m_path", file("hoffmann/M_belt.mtx")),
         ("k_path", file("hoffmann/K_belt.mtx")),
         ("contacts_path", file("hoffmann/contacts_belt.yaml")),
@@ -32,11 +59,7 @@ fn hoffmann(overrides: &[(&str, Value)]) -> Params {
         ("duration", Value::Float(20.0)),
         ("tolerance", Value::Float(1e-12)),
     ];
-    for (name, value) in overrides {
-        all.retain(|(other, _)| other != name);
-        all.push((name, value.clone()));
-    }
-    Params::defaults(&TransientMatrices, &all)
+    overridden(all, overrides)
 }
 
 fn run(params: &Params) -> Result<Outputs, StageError> {
@@ -116,35 +139,21 @@ fn a_spring_driven_at_a_prescribed_velocity_acts_as_the_belt_seen_from_the_mass(
     // The stick–slip oscillator both ways (`pipelines/stick_slip`): on a belt at V from rest,
     // and on still ground with its spring's far end driven at V, the mass starting at V too.
     // Mirror images: x_belt = V t − x_pulled.
-    let common = |overrides: &[(&str, Value)]| {
-        let mut all = vec![
-            ("mu", Value::Float(0.4)),
-            ("mu_static", Value::Float(0.5)),
-            ("tau", Value::Float(1.5707963267948966e-4)),
-            ("duration", Value::Float(0.7)),
-            ("tolerance", Value::Float(1e-12)),
-        ];
-        all.extend(overrides.iter().cloned());
-        Params::defaults(&TransientMatrices, &all)
-    };
-    let belt = run(&common(&[
-        ("m_path", file("stick_slip/M.mtx")),
-        ("k_path", file("stick_slip/K.mtx")),
-        ("contacts_path", file("stick_slip/contacts.yaml")),
-        ("load", Value::Str("0, -10".into())),
-        ("surface_speed", Value::Float(0.1)),
-    ]))
-    .unwrap();
-    let pulled = run(&common(&[
-        ("m_path", file("stick_slip/M_pulled.mtx")),
-        ("k_path", file("stick_slip/K_pulled.mtx")),
-        ("contacts_path", file("stick_slip/contacts_pulled.yaml")),
-        ("load", Value::Str("0, -10, 0".into())),
-        ("prescribed_dofs", Value::Str("2".into())),
-        ("prescribed_velocities", Value::Str("0.1".into())),
-        ("initial", Value::Str("given".into())),
-        ("v0", Value::Str("0.1, 0, 0.1".into())),
-    ]))
+    let belt = run(&stick_slip(0.7, &[])).unwrap();
+    let pulled = run(&stick_slip(
+        0.7,
+        &[
+            ("m_path", file("stick_slip/M_pulled.mtx")),
+            ("k_path", file("stick_slip/K_pulled.mtx")),
+            ("contacts_path", file("stick_slip/contacts_pulled.yaml")),
+            ("load", Value::Str("0, -10, 0".into())),
+            ("surface_speed", Value::Float(0.0)),
+            ("prescribed_dofs", Value::Str("2".into())),
+            ("prescribed_velocities", Value::Str("0.1".into())),
+            ("initial", Value::Str("given".into())),
+            ("v0", Value::Str("0.1, 0, 0.1".into())),
+        ],
+    ))
     .unwrap();
     let (belt, pulled) = (table(&belt, "history"), table(&pulled, "history"));
     let t = belt.f64("t").unwrap();
@@ -166,33 +175,21 @@ fn a_spring_driven_at_a_prescribed_velocity_acts_as_the_belt_seen_from_the_mass(
 #[test]
 fn a_contact_given_its_own_surface_speed_and_friction_runs_as_with_the_studys() {
     // The stick–slip oscillator with μ, μ_s and V in the study, then in its contact.
-    let common = |contacts: Value, overrides: &[(&str, Value)]| {
-        let mut all = vec![
-            ("m_path", file("stick_slip/M.mtx")),
-            ("k_path", file("stick_slip/K.mtx")),
-            ("contacts_path", contacts),
-            ("load", Value::Str("0, -10".into())),
-            ("tau", Value::Float(1.5707963267948966e-4)),
-            ("duration", Value::Float(0.5)),
-            ("tolerance", Value::Float(1e-12)),
-        ];
-        all.extend(overrides.iter().cloned());
-        Params::defaults(&TransientMatrices, &all)
-    };
-    let in_the_study = run(&common(
-        file("stick_slip/contacts.yaml"),
-        &[
-            ("mu", Value::Float(0.4)),
-            ("mu_static", Value::Float(0.5)),
-            ("surface_speed", Value::Float(0.1)),
-        ],
-    ))
-    .unwrap();
+    let in_the_study = run(&stick_slip(0.5, &[])).unwrap();
     let (_dir, contacts) = written(
         "contacts.yaml",
         "- normal: [0, 1]\n  tangent: [1, 0]\n  surface_speed: 0.1\n  mu: 0.4\n  mu_static: 0.5\n",
     );
-    let in_the_contact = run(&common(contacts, &[])).unwrap();
+    let in_the_contact = run(&stick_slip(
+        0.5,
+        &[
+            ("contacts_path", contacts),
+            ("mu", Value::Float(0.0)),
+            ("mu_static", Value::Float(0.0)),
+            ("surface_speed", Value::Float(0.0)),
+        ],
+    ))
+    .unwrap();
     for name in ["history", "contacts", "energy"] {
         assert!(
             in_the_study[name].encode() == in_the_contact[name].encode(),
@@ -209,21 +206,7 @@ fn a_contact_given_its_own_surface_speed_and_friction_runs_as_with_the_studys() 
 fn a_lumped_run_stopped_part_way_resumes_from_its_checkpoint_to_the_same_bytes() {
     // The stick–slip oscillator with static friction: the checkpoint carries which contacts
     // stuck, as well as the state and the contact solver's memory.
-    let params = Params::defaults(
-        &TransientMatrices,
-        &[
-            ("m_path", file("stick_slip/M.mtx")),
-            ("k_path", file("stick_slip/K.mtx")),
-            ("contacts_path", file("stick_slip/contacts.yaml")),
-            ("load", Value::Str("0, -10".into())),
-            ("mu", Value::Float(0.4)),
-            ("mu_static", Value::Float(0.5)),
-            ("surface_speed", Value::Float(0.1)),
-            ("tau", Value::Float(1.5707963267948966e-4)),
-            ("duration", Value::Float(1.0)),
-            ("tolerance", Value::Float(1e-12)),
-        ],
-    );
+    let params = stick_slip(1.0, &[]);
     super::super::tests::assert_resumes_to_the_same_bytes(
         &TransientMatrices,
         &params,
